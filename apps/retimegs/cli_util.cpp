@@ -1,0 +1,97 @@
+#include "cli_util.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <string>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs::app {
+
+namespace {
+int parse_int(const std::string& item, const std::string& flag, const std::string& whole) {
+  int value = 0;
+  const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), value);
+  if (ec != std::errc() || end != item.data() + item.size() || item.empty())
+    fail("{}: '{}' is not an integer (in '{}')", flag, item, whole);
+  return value;
+}
+}  // namespace
+
+std::vector<std::string> split_list(const std::string& text, const std::string& flag) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    items.push_back(text.substr(start, comma - start));
+    if (items.back().empty()) fail("{}: empty item in '{}'", flag, text);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return items;
+}
+
+std::pair<int, int> parse_range(const std::string& text, const std::string& flag) {
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos) fail("{}: expected A:B, got '{}'", flag, text);
+  return {parse_int(text.substr(0, colon), flag, text), parse_int(text.substr(colon + 1), flag, text)};
+}
+
+std::vector<int> parse_int_list(const std::string& text, const std::string& flag) {
+  std::vector<int> values;
+  for (const std::string& item : split_list(text, flag)) values.push_back(parse_int(item, flag, text));
+  return values;
+}
+
+}  // namespace retimegs::app
+
+namespace retimegs::app {
+
+namespace {
+double parse_double(const std::string& item, const std::string& flag, const std::string& whole) {
+  std::size_t end = 0;
+  double value = 0;
+  try {
+    value = std::stod(item, &end);
+  } catch (const std::exception&) {
+    end = 0;
+  }
+  if (end != item.size() || item.empty() || !std::isfinite(value))
+    fail("{}: '{}' is not a finite number (in '{}')", flag, item, whole);
+  return value;
+}
+}  // namespace
+
+std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count) {
+  std::vector<float> values;
+  for (const std::string& item : split_list(text, flag))
+    values.push_back(float(parse_double(item, flag, text)));
+  if (int(values.size()) != count) fail("{}: expected {} values, got '{}'", flag, count, text);
+  return values;
+}
+
+std::vector<double> parse_time_range(const std::string& text, const std::string& flag) {
+  std::vector<double> parts;
+  std::size_t start = 0;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t colon = text.find(':', start);
+    if ((i < 2) == (colon == std::string::npos)) fail("{}: expected A:B:STEP, got '{}'", flag, text);
+    parts.push_back(parse_double(text.substr(start, colon - start), flag, text));
+    start = colon + 1;
+  }
+  const double a = parts[0], b = parts[1], step = parts[2];
+  if (!(step > 0) || b < a) fail("{}: need A <= B and STEP > 0, got '{}'", flag, text);
+  if ((b - a) / step > 1e6) fail("{}: more than a million frames in '{}'", flag, text);
+  std::vector<double> times;
+  for (long k = 0; a + k * step <= b + 1e-9; ++k) times.push_back(a + k * step);
+  return times;
+}
+
+std::vector<double> slowmo_times(int num_frames, int factor) {
+  if (factor < 1) fail("--slowmo: must be >= 1, got {}", factor);
+  std::vector<double> times;
+  for (long k = 0; k <= long(num_frames - 1) * factor; ++k) times.push_back(double(k) / factor);
+  return times;
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,31 @@
+#pragma once
+// Small argument parsers shared by the sub-commands.
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace retimegs::app {
+
+// "A:B" -> {A, B} (inclusive); throws retimegs::Error naming `flag` on anything else.
+std::pair<int, int> parse_range(const std::string& text, const std::string& flag);
+
+// "1,4,7" -> {1, 4, 7}.
+std::vector<int> parse_int_list(const std::string& text, const std::string& flag);
+
+// Splits "a,b,c" at commas (empty items refused).
+std::vector<std::string> split_list(const std::string& text, const std::string& flag);
+
+}  // namespace retimegs::app
+
+namespace retimegs::app {
+
+// "r,g,b" -> {r, g, b}: exactly `count` finite numbers.
+std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count);
+
+// "A:B:STEP" -> A, A + STEP, ... up to B (inclusive, with a 1e-9 tolerance); STEP > 0.
+std::vector<double> parse_time_range(const std::string& text, const std::string& flag);
+
+// F frames per scene-frame interval over frames 0 .. num_frames - 1: t = k / F, k = 0 .. (K-1) F.
+std::vector<double> slowmo_times(int num_frames, int factor);
+
+}  // namespace retimegs::app

@@ -1,0 +1,63 @@
+// retimegs export --model MODEL (--time T --out SPLAT.ply | --times A:B:STEP --out DIR)
+#include <fstream>
+#include <memory>
+#include <optional>
+
+#include <spdlog/spdlog.h>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/model/export.hpp"
+
+namespace retimegs::app {
+
+void add_export_command(CLI::App& app) {
+  struct Args {
+    std::string model, times, out;
+    std::optional<double> time;
+    bool force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "export",
+      "Write the 3D Gaussians of a time as a standard 3DGS .ply (Inria layout) that SuperSplat and "
+      "other splat viewers open; --times writes a sequence DIR/<k:05d>.ply with DIR/times.csv.");
+  cmd->add_option("--model", args->model, "4D model (.rgs)")->required();
+  auto* time = cmd->add_option("--time", args->time, "time in scene frame units");
+  auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
+  time->excludes(times);
+  cmd->add_option("--out", args->out, "SPLAT.ply for --time, a folder for --times")->required();
+  cmd->add_flag("--force", args->force, "replace an existing output");
+  cmd->callback([args] {
+    if (!args->time && args->times.empty()) fail("export: give --time or --times");
+    const model::Model m = model::read_model(args->model);
+    const std::filesystem::path out = args->out;
+    if (args->time) {
+      if (out.extension() != ".ply") fail("--out: a single time is written to a .ply file, got '{}'", args->out);
+      if (std::filesystem::exists(out) && !args->force)
+        fail("{}: output already exists (pass --force to replace it)", args->out);
+      const Splats s = model::export_splats(m, *args->time);
+      data::write_splat_ply(out, s);
+      spdlog::info("exported {} Gaussians at t = {} to {}", s.size(), *args->time, args->out);
+      return;
+    }
+    const std::vector<double> ts = parse_time_range(args->times, "--times");
+    AtomicDirectory dir(out, args->force);
+    std::ofstream csv(dir.temp_path() / "times.csv");
+    csv << "file,t\n";
+    for (std::size_t k = 0; k < ts.size(); ++k) {
+      const std::string name = fmt::format("{:05d}.ply", k);
+      data::write_splat_ply(dir.temp_path() / name, model::export_splats(m, ts[k]));
+      csv << name << "," << ts[k] << "\n";
+    }
+    csv.close();
+    if (!csv) fail("{}: cannot write times.csv", args->out);
+    dir.commit();
+    spdlog::info("exported {} times to {}", ts.size(), args->out);
+  });
+}
+
+}  // namespace retimegs::app

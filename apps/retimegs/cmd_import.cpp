@@ -1,0 +1,45 @@
+// retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
+#include <memory>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/data/import.hpp"
+
+namespace retimegs::app {
+
+void add_import_command(CLI::App& app) {
+  struct Args {
+    std::string format, in, out, frames;
+    double downscale = 1.0;
+    int threads = 0;
+    bool force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "import", "Convert a public dataset layout into the scene format (DESIGN.md §4).");
+  cmd->add_option("format", args->format,
+                  "source layout: panoptic (Dynamic3DGaussians train_meta.json/test_meta.json, "
+                  "ims/, seg/)")
+      ->required()
+      ->check(CLI::IsMember({"panoptic"}));
+  cmd->add_option("--in", args->in, "source folder")->required();
+  cmd->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
+      ->required();
+  cmd->add_option("--frames", args->frames, "inclusive frame range A:B of the source (default: all)");
+  cmd->add_option("--downscale", args->downscale, "divide the image size by F (intrinsics follow)")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_flag("--force", args->force, "replace an existing output folder");
+  cmd->callback([args] {
+    set_threads(args->threads);
+    data::ImportOptions options;
+    if (!args->frames.empty())
+      std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
+    options.downscale = args->downscale;
+    options.force = args->force;
+    data::import_panoptic(args->in, args->out, options);
+  });
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,109 @@
+// retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
+//                 --slowmo F | --retime FILE) [--path CAM,CAM,...] --out OUT
+#include <cmath>
+#include <memory>
+#include <optional>
+
+#include <spdlog/spdlog.h>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/core/camera_path.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/core/progress.hpp"
+#include "retimegs/data/frame_writer.hpp"
+#include "retimegs/data/scene.hpp"
+#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/eval/render_model.hpp"
+#include "retimegs/model/model_file.hpp"
+
+namespace retimegs::app {
+
+void add_render_command(CLI::App& app) {
+  struct Args {
+    std::string model, scene, camera, path, times, retime, out, background = "0,0,0";
+    std::optional<double> time;
+    std::optional<int> slowmo;
+    int path_frames = 60, threads = 0;
+    bool force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "render",
+      "Render a model at any real-valued time: one image, a folder of PNGs or a video. MODEL is a "
+      "4D model (.rgs) or a static 3DGS .ply (Inria layout; time is then ignored).");
+  cmd->add_option("--model", args->model, "model file (.rgs or .ply)")->required();
+  cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")->required();
+  auto* camera = cmd->add_option("--camera", args->camera, "camera name in the scene");
+  auto* path = cmd->add_option("--path", args->path,
+                               "cameras CAM,CAM,... to move through (bullet time with --time)");
+  camera->excludes(path);
+  auto* time = cmd->add_option("--time", args->time, "one time, in scene frame units");
+  auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
+  auto* slowmo = cmd->add_option("--slowmo", args->slowmo,
+                                 "F frames per scene-frame interval over the whole clip "
+                                 "(F x slow motion)");
+  auto* retime = cmd->add_option("--retime", args->retime,
+                                 "speed ramp: CSV rows output_frame,t (keyframes, linearly "
+                                 "interpolated)");
+  time->excludes(times)->excludes(slowmo)->excludes(retime);
+  times->excludes(slowmo)->excludes(retime);
+  slowmo->excludes(retime);
+  cmd->add_option("--path-frames", args->path_frames,
+                  "frames of a --path move at a fixed --time (bullet time)")
+      ->capture_default_str();
+  cmd->add_option("--out", args->out,
+                  "output: x.png (one frame), x.mp4 / x.avi (video at the scene's fps) or a folder")
+      ->required();
+  cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_flag("--force", args->force, "replace an existing output");
+  cmd->callback([args] {
+    set_threads(args->threads);
+    const std::vector<float> background = parse_float_list(args->background, "--background", 3);
+    const data::Scene scene = data::read_scene(args->scene, data::SceneCheck::kJson);
+    if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
+
+    std::vector<double> frame_times;
+    if (args->time) frame_times = {*args->time};
+    else if (!args->times.empty()) frame_times = parse_time_range(args->times, "--times");
+    else if (args->slowmo) frame_times = slowmo_times(scene.num_frames, *args->slowmo);
+    else if (!args->retime.empty()) frame_times = data::read_retime_csv(args->retime);
+    else fail("render: give one of --time, --times, --slowmo or --retime");
+    std::vector<Camera> path;
+    if (!args->path.empty()) {
+      for (const auto& name : split_list(args->path, "--path"))
+        path.push_back(scene.cameras[scene.camera_index(name)]);
+      if (frame_times.size() == 1) {
+        if (args->path_frames < 1) fail("--path-frames: must be >= 1, got {}", args->path_frames);
+        frame_times.assign(args->path_frames, frame_times[0]);  // bullet time
+      }
+    } else {
+      path = {scene.cameras[scene.camera_index(args->camera)]};
+    }
+
+    const bool is_ply = std::filesystem::path(args->model).extension() == ".ply";
+    std::optional<model::Model> model4d;
+    std::optional<Splats> splats;
+    if (is_ply) splats = data::read_splat_ply(args->model);
+    else model4d = model::read_model(args->model);
+
+    const int frames = int(frame_times.size());
+    data::FrameWriter writer(args->out, frames, scene.fps, args->force);
+    Progress progress("render", frames, frames > 1);
+    for (int f = 0; f < frames; ++f) {
+      const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
+      const Camera cam = camera_along_path(path, s);
+      writer.write(is_ply ? eval::render_splats(*splats, cam, background.data())
+                          : eval::render_model(*model4d, cam, frame_times[f], background.data()));
+      progress.tick();
+    }
+    progress.finish();
+    writer.finish();
+    spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
+  });
+}
+
+}  // namespace retimegs::app

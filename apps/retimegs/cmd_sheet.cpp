@@ -1,0 +1,39 @@
+// retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST]
+#include <memory>
+
+#include <spdlog/spdlog.h>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/data/contact_sheet.hpp"
+#include "retimegs/data/image_io.hpp"
+
+namespace retimegs::app {
+
+void add_sheet_command(CLI::App& app) {
+  struct Args {
+    std::string scene, out, cameras, frames;
+    int tile_width = 256;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "sheet", "Write a contact sheet PNG of a scene: a row per camera with frames, mask and flow.");
+  cmd->add_option("--scene", args->scene, "scene folder")->required();
+  cmd->add_option("--out", args->out, "PNG file to write")->required();
+  cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: up to 4)");
+  cmd->add_option("--frames", args->frames, "frame numbers, comma-separated (default: first, middle, last)");
+  cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")->capture_default_str();
+  cmd->callback([args] {
+    const data::Scene scene = data::read_scene(args->scene, data::SceneCheck::kJson);
+    data::SheetOptions options;
+    options.tile_width = args->tile_width;
+    if (!args->cameras.empty())
+      for (const auto& name : split_list(args->cameras, "--cameras"))
+        options.cameras.push_back(scene.camera_index(name));
+    if (!args->frames.empty()) options.frames = parse_int_list(args->frames, "--frames");
+    data::write_png(args->out, data::contact_sheet(scene, options));
+    spdlog::info("contact sheet: {}", args->out);
+  });
+}
+
+}  // namespace retimegs::app

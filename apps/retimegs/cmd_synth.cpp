@@ -1,0 +1,70 @@
+// retimegs synth --preset NAME --out SCENE [--cameras N] [--frames K] [--size WxH] [--seed S]
+//                [--threads T] [--force]
+#include <charconv>
+#include <tuple>
+#include <utility>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/data/synth.hpp"
+
+namespace retimegs::app {
+
+namespace {
+
+// "256x192" -> {256, 192}; the sizes themselves are checked by the library.
+std::pair<int, int> parse_size(const std::string& text) {
+  const auto x = text.find('x');
+  int width = 0, height = 0;
+  const char* end = text.data() + text.size();
+  const bool ok = x != std::string::npos &&
+                  std::from_chars(text.data(), text.data() + x, width).ptr == text.data() + x &&
+                  std::from_chars(text.data() + x + 1, end, height).ptr == end && x > 0 &&
+                  x + 1 < text.size();
+  if (!ok) fail("--size: expected WIDTHxHEIGHT (e.g. 256x192), got '{}'", text);
+  return {width, height};
+}
+
+}  // namespace
+
+void add_synth_command(CLI::App& app) {
+  struct Args {
+    data::SynthOptions options;
+    std::string out, size = "256x192";
+    int threads = 0;
+  };
+  auto args = std::make_shared<Args>();
+  std::string presets = "scene preset:";
+  for (const auto& p : data::synth_presets())
+    presets += fmt::format("\n  {}: {}", p.name, p.description);
+
+  CLI::App* cmd = app.add_subcommand(
+      "synth",
+      "Write a procedural multi-view dynamic test scene (images, masks, exact flows for strides 1 "
+      "and 2, per-frame points), rendered by an analytic ray caster.");
+  cmd->add_option("--preset", args->options.preset, presets)->required();
+  cmd->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
+      ->required();
+  cmd->add_option("--cameras", args->options.cameras, "cameras on a ring around the scene")
+      ->capture_default_str();
+  cmd->add_option("--frames", args->options.frames, "number of frames")->capture_default_str();
+  cmd->add_option("--size", args->size, "image size WIDTHxHEIGHT")->capture_default_str();
+  cmd->add_option("--seed", args->options.seed,
+                  "seed of object phases, colours, textures and camera jitter")
+      ->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
+  cmd->add_flag("--force", args->options.force, "replace an existing output folder");
+  cmd->callback([args] {
+    set_threads(args->threads);
+    std::tie(args->options.width, args->options.height) = parse_size(args->size);
+    data::synthesize_scene(args->options, args->out);
+  });
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,14 @@
+#pragma once
+// Each sub-command registers its flags and a callback that calls the library. Apps only parse
+// arguments; all work happens in the libraries.
+#include <CLI/CLI.hpp>
+
+namespace retimegs::app {
+
+void add_synth_command(CLI::App& app);
+void add_import_command(CLI::App& app);
+void add_sheet_command(CLI::App& app);
+void add_render_command(CLI::App& app);
+void add_export_command(CLI::App& app);
+
+}  // namespace retimegs::app

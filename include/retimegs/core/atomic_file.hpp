@@ -1,0 +1,43 @@
+#pragma once
+// Outputs appear whole or not at all: write to a temporary sibling name, then rename.
+#include <filesystem>
+
+namespace retimegs {
+
+// A file written through temp_path() becomes `final_path` on commit(); if the object is destroyed
+// before commit() (an error was thrown), the temporary file is removed.
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::filesystem::path final_path);
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  ~AtomicFile();
+
+  const std::filesystem::path& temp_path() const { return temp_; }
+  const std::filesystem::path& final_path() const { return final_; }
+  void commit();
+
+ private:
+  std::filesystem::path final_, temp_;
+  bool committed_ = false;
+};
+
+// The same for a whole directory tree (a scene, a folder of renders). `final_path` must not exist
+// unless `replace` is set, in which case the old tree is removed at commit time.
+class AtomicDirectory {
+ public:
+  explicit AtomicDirectory(std::filesystem::path final_path, bool replace = false);
+  AtomicDirectory(const AtomicDirectory&) = delete;
+  AtomicDirectory& operator=(const AtomicDirectory&) = delete;
+  ~AtomicDirectory();
+
+  const std::filesystem::path& temp_path() const { return temp_; }
+  const std::filesystem::path& final_path() const { return final_; }
+  void commit();
+
+ private:
+  std::filesystem::path final_, temp_;
+  bool replace_ = false, committed_ = false;
+};
+
+}  // namespace retimegs

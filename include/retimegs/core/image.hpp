@@ -1,0 +1,45 @@
+#pragma once
+// Float images, interleaved channels, row-major: data[(y * width + x) * channels + c].
+// Colour values are linear in the file's 8/16-bit code values, scaled to [0, 1].
+#include <cstddef>
+#include <vector>
+
+namespace retimegs {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<float> data;  // [H, W, C]
+
+  Image() = default;
+  Image(int w, int h, int c, float fill = 0.0f)
+      : width(w), height(h), channels(c), data(std::size_t(w) * h * c, fill) {}
+
+  std::size_t pixels() const { return std::size_t(width) * height; }
+  bool empty() const { return data.empty(); }
+  float& at(int y, int x, int c = 0) { return data[(std::size_t(y) * width + x) * channels + c]; }
+  float at(int y, int x, int c = 0) const {
+    return data[(std::size_t(y) * width + x) * channels + c];
+  }
+  float* pixel(int y, int x) { return &data[(std::size_t(y) * width + x) * channels]; }
+  const float* pixel(int y, int x) const { return &data[(std::size_t(y) * width + x) * channels]; }
+};
+
+// Dense 2-D motion field (Middlebury convention): pixel (x, y) of the source frame moves to
+// (x + u, y + v) in the target frame. Unknown pixels (occluded / out of view; stored as
+// |u| or |v| > 1e9 in .flo files) have valid = 0 and uv = 0.
+struct Flow {
+  int width = 0, height = 0;
+  std::vector<float> uv;         // [H, W, 2]
+  std::vector<unsigned char> valid;  // [H, W] 1 = known
+
+  Flow() = default;
+  Flow(int w, int h) : width(w), height(h), uv(std::size_t(w) * h * 2, 0.0f),
+                       valid(std::size_t(w) * h, 1) {}
+  std::size_t pixels() const { return std::size_t(width) * height; }
+};
+
+// Bilinear sample of channel c at continuous coordinates (u, v) with pixel centres at +0.5;
+// coordinates are clamped to the image.
+float sample_bilinear(const Image& image, double u, double v, int c);
+
+}  // namespace retimegs

@@ -1,0 +1,30 @@
+#pragma once
+// A progress bar on stderr: an updating bar with rate and ETA on a terminal, plain lines
+// (every 10 %) when stderr is not a terminal. Thread-safe tick().
+#include <chrono>
+#include <cstddef>
+#include <mutex>
+#include <string>
+
+namespace retimegs {
+
+class Progress {
+ public:
+  Progress(std::string label, std::size_t total, bool enabled = true);
+  ~Progress();
+  // Advances by n steps; `status` is shown after the counts (e.g. "loss 0.031 psnr 27.4").
+  void tick(std::size_t n = 1, const std::string& status = {});
+  void finish();
+
+ private:
+  void draw(bool final_line);
+
+  std::string label_, status_;
+  std::size_t total_, done_ = 0;
+  int last_decile_ = -1;
+  bool enabled_, tty_, finished_ = false;
+  std::chrono::steady_clock::time_point start_, last_draw_;
+  std::mutex mutex_;
+};
+
+}  // namespace retimegs

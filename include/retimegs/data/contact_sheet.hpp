@@ -1,0 +1,24 @@
+#pragma once
+// A contact sheet of a scene: one row per camera; columns are frames, then the mask and a
+// colour-coded flow (hue = direction, saturation = speed, black = unknown) of the first frame.
+#include <vector>
+
+#include "retimegs/core/image.hpp"
+#include "retimegs/data/scene.hpp"
+
+namespace retimegs::data {
+
+struct SheetOptions {
+  std::vector<int> cameras;  // indices; empty = up to 4 spread over the scene's cameras
+  std::vector<int> frames;   // empty = first, middle and last frame
+  int tile_width = 256;      // every tile is scaled to this width
+  int gap = 4;               // pixels between tiles (white)
+};
+
+Image contact_sheet(const Scene& scene, const SheetOptions& options);
+
+// Colour coding of a flow field: hue = direction, value = 1, saturation = |flow| / max_magnitude
+// (the largest known magnitude when max_magnitude <= 0); unknown pixels are black.
+Image flow_to_color(const Flow& flow, float max_magnitude = 0);
+
+}  // namespace retimegs::data

@@ -1,0 +1,34 @@
+#pragma once
+// The `.rgs` 4D model file: a versioned little-endian binary with a checksum.
+//
+//   bytes 0..7    magic "RETIMEGS"
+//   u32           format version (1)
+//   u32           header length H
+//   H bytes       JSON header: primitive count, time grid, model config, field table
+//                 ([{name, width, dtype "<f4", offset, bytes}], offsets from the data start),
+//                 and the training config (free-form JSON, for provenance)
+//   ...           the fields' raw float32 arrays, row-major, in table order
+//   u64           FNV-1a 64 checksum of every preceding byte
+//
+// Written atomically; a truncated or corrupted file is refused, never half-loaded.
+#include <filesystem>
+#include <string>
+
+#include "retimegs/model/primitives.hpp"
+
+namespace retimegs::model {
+
+struct Model {
+  Primitives primitives;
+  TimeGrid grid;
+  ModelConfig config;
+  std::string training_config = "{}";  // JSON text, stored verbatim
+};
+
+void write_model(const std::filesystem::path& path, const Model& model);
+
+// Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,
+// truncated data, checksum mismatch, non-finite values, an unknown field).
+Model read_model(const std::filesystem::path& path);
+
+}  // namespace retimegs::model

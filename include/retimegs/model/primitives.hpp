@@ -1,0 +1,129 @@
+#pragma once
+// The 4D primitives of RetimeGS (DESIGN.md §2) in a structure of arrays, the training time grid,
+// and the model-level settings that fix how a primitive becomes a 3D Gaussian at time t.
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace retimegs::model {
+
+// The training frames t_1 < ... < t_T, evenly spaced: t_i = first + i * step, i = 0..count-1.
+// Times are in scene frame units (frame k is at t = k).
+struct TimeGrid {
+  double first = 0;
+  double step = 1;  // Δt
+  int count = 2;
+
+  double last() const { return first + step * (count - 1); }
+  double at(int i) const { return first + step * i; }
+  // γ is given in normalised clip time (DESIGN.md §2): γ_frames = γ (t_T - t_1).
+  double to_frames(double normalised) const { return normalised * (last() - first); }
+};
+
+enum class Representation {
+  kRetime,  // boundary-aware sigmoid window, Catmull-Rom (or linear) trajectory
+  kStgs,    // SpacetimeGaussians baseline: 1-D Gaussian window, cubic polynomial motion
+};
+
+enum class TrajectoryKind { kCatmullRom, kLinear };  // kLinear: the "linear" ablation
+
+struct ModelConfig {
+  Representation representation = Representation::kRetime;
+  TrajectoryKind trajectory = TrajectoryKind::kCatmullRom;
+  double gamma = 0.005;     // temporal-opacity sharpness, normalised clip time (paper §A)
+  double epsilon = 1e-3;    // frames: a window edge within ε of the clip end is "open"
+  int sh_degree = 3;        // active SH degree (training raises it gradually)
+};
+
+// One row per primitive. Optimised fields first, then the window that only stretching changes.
+//   Retime: x(t) from μ and v1, v2, v3 (Catmull-Rom control points, DESIGN.md §2),
+//           σ_τ(t) from (μ_τ, τ_l, τ_r).
+//   STGS:   x(t) = μ + b1 Δ + b2 Δ² + b3 Δ³ with Δ = t - μ_τ and (b1, b2, b3) stored in
+//           `velocity`; σ_τ(t) = exp(-((t - μ_τ) / exp(temporal_log_scale))²) with μ_τ learnable.
+// Templated on the scalar so that gradient tests run in double; the model itself is float.
+template <typename T>
+struct PrimitivesT {
+  static constexpr int kShCoeffs = 16;  // degree-3 storage; the active degree is a config choice
+
+  std::vector<T> mu;                  // [N, 3] pseudo-mean
+  std::vector<T> velocity;            // [N, 3, 3] v1, v2, v3 (STGS: b1, b2, b3)
+  std::vector<T> log_scale;           // [N, 3]
+  std::vector<T> q0;                  // [N, 4] (w, x, y, z)
+  std::vector<T> q1;                  // [N, 4] rate: q(t) = normalize(q0 + q1 (t - μ_τ))
+  std::vector<T> sh;                  // [N, 16, 3]
+  std::vector<T> opacity_logit;       // [N] σ = sigmoid
+  std::vector<T> mu_tau;              // [N] temporal centre (optimised only by STGS)
+  std::vector<T> tau_l, tau_r;        // [N] window half-widths (Retime; not optimised)
+  std::vector<T> temporal_log_scale;  // [N] STGS temporal scale (log); unused by Retime
+
+  std::size_t size() const { return opacity_logit.size(); }
+
+  // Every field with its row width, for code that treats all fields alike (resize, copy, I/O).
+  template <typename V>
+  struct FieldT {
+    const char* name;
+    V* values;
+    int width;
+  };
+  using Field = FieldT<std::vector<T>>;
+  using ConstField = FieldT<const std::vector<T>>;
+  static constexpr int kFieldCount = 11;
+
+  std::array<Field, kFieldCount> fields() { return fields_of<Field>(*this); }
+  std::array<ConstField, kFieldCount> fields() const { return fields_of<ConstField>(*this); }
+
+  void resize(std::size_t n) {
+    for (Field f : fields()) f.values->resize(n * f.width, T(0));
+  }
+  // Copies row `from` of `source` into row `to` of this (every field).
+  void copy_row(std::size_t to, const PrimitivesT& source, std::size_t from) {
+    const auto src = source.fields();
+    const auto dst = fields();
+    for (int i = 0; i < kFieldCount; ++i)
+      std::copy_n(src[i].values->data() + from * src[i].width, src[i].width,
+                  dst[i].values->data() + to * dst[i].width);
+  }
+
+ private:
+  template <typename F, typename Self>
+  static std::array<F, kFieldCount> fields_of(Self& p) {
+    return {{{"mu", &p.mu, 3},
+             {"velocity", &p.velocity, 9},
+             {"log_scale", &p.log_scale, 3},
+             {"q0", &p.q0, 4},
+             {"q1", &p.q1, 4},
+             {"sh", &p.sh, 3 * kShCoeffs},
+             {"opacity_logit", &p.opacity_logit, 1},
+             {"mu_tau", &p.mu_tau, 1},
+             {"tau_l", &p.tau_l, 1},
+             {"tau_r", &p.tau_r, 1},
+             {"temporal_log_scale", &p.temporal_log_scale, 1}}};
+  }
+};
+using Primitives = PrimitivesT<float>;
+
+// Gradients of the optimised fields (same shapes). STGS also optimises mu_tau and
+// temporal_log_scale; Retime leaves them zero.
+template <typename T>
+struct PrimitiveGradsT {
+  std::vector<T> v_mu, v_velocity, v_log_scale, v_q0, v_q1, v_sh, v_opacity_logit, v_mu_tau,
+      v_temporal_log_scale;
+
+  PrimitiveGradsT() = default;
+  explicit PrimitiveGradsT(std::size_t n) { resize(n); }
+  void resize(std::size_t n) {
+    v_mu.assign(3 * n, T(0)), v_velocity.assign(9 * n, T(0)), v_log_scale.assign(3 * n, T(0));
+    v_q0.assign(4 * n, T(0)), v_q1.assign(4 * n, T(0));
+    v_sh.assign(3 * PrimitivesT<T>::kShCoeffs * n, T(0)), v_opacity_logit.assign(n, T(0));
+    v_mu_tau.assign(n, T(0)), v_temporal_log_scale.assign(n, T(0));
+  }
+};
+using PrimitiveGrads = PrimitiveGradsT<float>;
+
+// Throws Error naming `what`, the field and the row of the first size mismatch or non-finite value.
+void check_primitives(const Primitives& primitives, const std::string& what);
+
+}  // namespace retimegs::model

@@ -1,0 +1,60 @@
+#pragma once
+// Temporal opacity σ_τ(t) (DESIGN.md §2, paper Eq. 4-5) and the STGS baseline's Gaussian window.
+// Times in scene frame units.
+#include <cmath>
+
+namespace retimegs::model {
+
+template <typename T>
+T sigmoid(T x) {
+  return T(1) / (T(1) + std::exp(-x));
+}
+
+// The RetimeGS window of one primitive: support [μ_τ - τ_l, μ_τ + τ_r], edges softened by a
+// sigmoid of width γ (frames); an edge within ε of the clip's first / last training time is
+// open (ψ ≡ 1) so that end primitives do not fade out at the clip ends.
+template <typename T>
+struct RetimeWindow {
+  T mu_tau, tau_l, tau_r;
+  T t_first, t_last;  // the clip's first and last training times
+  T gamma, epsilon;   // frames
+
+  bool open_left() const { return mu_tau - tau_l <= t_first + epsilon; }
+  bool open_right() const { return mu_tau + tau_r >= t_last - epsilon; }
+  // Whether the support covers [a, b] (up to ε): the group membership test of DESIGN.md §2.
+  bool covers(T a, T b) const {
+    return mu_tau - tau_l <= a + epsilon && mu_tau + tau_r >= b - epsilon;
+  }
+
+  T operator()(T t) const {
+    const T left = open_left() ? T(1) : sigmoid((t - (mu_tau - tau_l)) / gamma);
+    const T right = open_right() ? T(1) : sigmoid(((mu_tau + tau_r) - t) / gamma);
+    return left * right;
+  }
+  // d σ_τ / d t (the window itself is not optimised).
+  T d_dt(T t) const {
+    const T left = open_left() ? T(1) : sigmoid((t - (mu_tau - tau_l)) / gamma);
+    const T right = open_right() ? T(1) : sigmoid(((mu_tau + tau_r) - t) / gamma);
+    const T d_left = open_left() ? T(0) : left * (1 - left) / gamma;
+    const T d_right = open_right() ? T(0) : -right * (1 - right) / gamma;
+    return d_left * right + left * d_right;
+  }
+};
+
+// SpacetimeGaussians: σ_τ(t) = exp(-((t - μ_τ) / s)²), s = exp(log_scale); gradients with
+// respect to μ_τ and log_scale are accumulated into v_mu_tau, v_log_scale (scaled by v).
+template <typename T>
+T stgs_temporal_opacity(T mu_tau, T log_scale, T t) {
+  const T d = (t - mu_tau) * std::exp(-log_scale);
+  return std::exp(-d * d);
+}
+template <typename T>
+void stgs_temporal_opacity_vjp(T mu_tau, T log_scale, T t, T v, T& v_mu_tau, T& v_log_scale) {
+  const T d = (t - mu_tau) * std::exp(-log_scale);
+  const T value = std::exp(-d * d);
+  // dσ/dd = -2 d σ;  dd/dμ_τ = -1/s;  dd/dlog_scale = -d
+  v_mu_tau += v * (-2 * d * value) * (-std::exp(-log_scale));
+  v_log_scale += v * (-2 * d * value) * (-d);
+}
+
+}  // namespace retimegs::model

@@ -1,0 +1,48 @@
+#pragma once
+// Stage 3: front-to-back alpha compositing of the binned 2-D Gaussians, per 16x16 tile, and its
+// back-to-front vector-Jacobian product. Float only (the fast path); see reference.hpp for the
+// double-precision per-pixel version.
+#include <cstdint>
+#include <vector>
+
+#include "retimegs/core/gaussians.hpp"
+#include "retimegs/core/image.hpp"
+#include "retimegs/render/bin_tiles.hpp"
+#include "retimegs/render/options.hpp"
+#include "retimegs/render/project.hpp"
+
+namespace retimegs::render {
+
+// What the compositing reads besides the bins. Pointers are borrowed, not owned.
+struct BlendInputs {
+  const Projected* projected = nullptr;
+  const float* opacities = nullptr;   // [N]
+  const float* features = nullptr;    // [N, C]
+  int channels = 0;                   // C
+  const float* background = nullptr;  // [C]; nullptr = black
+  int width = 0, height = 0;
+};
+
+struct BlendOutput {
+  Image image;                        // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
+  std::vector<float> alpha;           // [H, W] 1 - T_final
+  std::vector<float> depth;           // [H, W] sum_i z_i alpha_i T_i; empty unless render_depth
+  // Saved for the backward.
+  std::vector<float> final_T;         // [H, W] transmittance left after compositing
+  std::vector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
+                                               // Gaussian composited; 0 = none
+  std::vector<std::int32_t> n_contrib;  // [H, W] how many Gaussians were composited
+};
+
+BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
+                          const RenderOptions& options);
+
+// Upstream gradients v_image [H, W, C] (required), v_alpha [H, W] and v_depth [H, W] (nullptr =
+// zero; v_depth requires options.render_depth). Sets grads.v_means2d, v_conics, v_opacities,
+// v_features and v_depths. Per-thread gradient buffers over a static tile schedule, summed in
+// thread order: deterministic for a given thread count.
+void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
+                    const BlendOutput& forward, const float* v_image, const float* v_alpha,
+                    const float* v_depth, GaussianGrads& grads);
+
+}  // namespace retimegs::render

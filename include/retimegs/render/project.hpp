@@ -1,0 +1,77 @@
+#pragma once
+// Stage 1: EWA projection of 3D Gaussians to 2-D image-space Gaussians (gsplat's
+// project_gaussians / fully_fused_projection), with culling, and its vector-Jacobian product.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "retimegs/core/camera.hpp"
+#include "retimegs/core/gaussians.hpp"
+#include "retimegs/render/options.hpp"
+
+namespace retimegs::render {
+
+// A Camera's numbers in the scalar type of the pipeline.
+template <typename T>
+struct PinholeT {
+  std::array<T, 9> rotation{};  // [3, 3] world -> camera, row-major
+  std::array<T, 3> translation{};
+  T fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+
+  PinholeT() = default;
+  explicit PinholeT(const Camera& camera);
+};
+
+// 2-D Gaussians, one row per input Gaussian. Culled rows have radius 0 and all-zero values.
+template <typename T>
+struct ProjectedT {
+  std::vector<T> means2d;       // [N, 2] pixel coordinates (u, v), pixel centres at +0.5
+  std::vector<T> conics;        // [N, 3] (a, b, c) of the inverse 2-D covariance [[a, b], [b, c]]
+  std::vector<T> depths;        // [N] camera z
+  std::vector<std::int32_t> radii;  // [N] ceil(3 sigma_max) in pixels; 0 = culled
+
+  std::size_t size() const { return radii.size(); }
+};
+using Projected = ProjectedT<float>;
+
+// Tiles [x0, x1) x [y0, y1) that a 2-D Gaussian is binned into.
+struct TileRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int area() const { return (x1 - x0) * (y1 - y0); }
+  bool contains(int tx, int ty) const { return tx >= x0 && tx < x1 && ty >= y0 && ty < y1; }
+};
+
+// The radius rule of gsplat v0.1.13 (get_tile_bbox): tiles within `radius` pixels of the centre,
+// truncating toward zero, so that a Gaussian just left of or above the image still reaches tile 0.
+template <typename T>
+TileRect radius_tile_rect(T u, T v, int radius, int tiles_x, int tiles_y);
+
+// radius_tile_rect, and with options.tight_tile_bounds also only the tiles that the
+// alpha >= min_alpha ellipse of the Gaussian reaches. This rect defines which (pixel, Gaussian)
+// pairs are composited, in the fast path and the reference alike.
+template <typename T>
+TileRect blend_tile_rect(const T* mean2d, const T* conic, int radius, T opacity, int tiles_x,
+                         int tiles_y, const RenderOptions& options);
+
+// Half-extents (pixels) of the region where opacity * exp(-sigma) >= min_alpha, with a margin for
+// rounding; +infinity when min_alpha <= 0.
+template <typename T>
+std::array<T, 2> alpha_extent(const T* conic, T opacity, const RenderOptions& options);
+
+// Culls a Gaussian (radius 0) when: camera z < near_plane, the blurred 2-D covariance is
+// singular, opacity <= 0 or < min_alpha (it could never be composited), or the radius rule's tile
+// rectangle is empty (off image).
+template <typename T>
+ProjectedT<T> project_forward(const GaussiansT<T>& gaussians, const PinholeT<T>& camera,
+                              const RenderOptions& options);
+
+// Given grads.v_means2d, v_conics, v_depths (for rows with radius > 0), sets grads.v_means,
+// v_log_scales and v_quats (zero for culled rows). Clamped directions of the field-of-view guard
+// get zero gradient, as in gsplat.
+template <typename T>
+void project_backward(const GaussiansT<T>& gaussians, const PinholeT<T>& camera,
+                      const ProjectedT<T>& projected, const RenderOptions& options,
+                      GaussianGradsT<T>& grads);
+
+}  // namespace retimegs::render

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs every Debian package retimegs needs (non-interactive, idempotent) and builds it in
+# build/ (Release, -O3, native SIMD). Safe to re-run. Extra arguments go to CMake's configure
+# step, e.g. scripts/setup.sh -DRETIMEGS_NATIVE=OFF
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+packages=(
+  g++ cmake ninja-build pkg-config
+  libeigen3-dev            # small dense math
+  libopencv-dev            # images, flow I/O and estimation, video (FFmpeg backend)
+  libopencv-contrib-dev    # DeepFlow / TV-L1 flow (optflow)
+  nlohmann-json3-dev libcli11-dev libfmt-dev libspdlog-dev
+  libnanoflann-dev         # nearest neighbours (initialisation, stretching)
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  echo "setup: installing ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+cmake -S "$root" -B "$root/build" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" > /dev/null
+cmake --build "$root/build" -j "$(nproc)"

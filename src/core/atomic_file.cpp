@@ -1,0 +1,75 @@
+#include "retimegs/core/atomic_file.hpp"
+
+#include <unistd.h>
+
+#include <system_error>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs {
+namespace fs = std::filesystem;
+
+namespace {
+fs::path temp_sibling(const fs::path& final_path) {
+  fs::path name = final_path.filename();
+  // Keep the extension last so that writers choosing a codec by extension (OpenCV) still work.
+  const std::string stem = name.stem().string(), ext = name.extension().string();
+  return final_path.parent_path() / fmt::format(".{}.tmp{}{}", stem, ::getpid(), ext);
+}
+
+void ensure_parent(const fs::path& path) {
+  const fs::path parent = path.parent_path();
+  if (parent.empty()) return;
+  std::error_code ec;
+  fs::create_directories(parent, ec);
+  if (ec) fail("{}: cannot create directory: {}", parent.string(), ec.message());
+}
+}  // namespace
+
+AtomicFile::AtomicFile(fs::path final_path)
+    : final_(std::move(final_path)), temp_(temp_sibling(final_)) {
+  ensure_parent(final_);
+}
+
+AtomicFile::~AtomicFile() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove(temp_, ec);
+  }
+}
+
+void AtomicFile::commit() {
+  std::error_code ec;
+  fs::rename(temp_, final_, ec);
+  if (ec) fail("{}: cannot move finished file into place: {}", final_.string(), ec.message());
+  committed_ = true;
+}
+
+AtomicDirectory::AtomicDirectory(fs::path final_path, bool replace)
+    : final_(std::move(final_path)), temp_(temp_sibling(final_)), replace_(replace) {
+  if (fs::exists(final_) && !replace_)
+    fail("{}: output already exists (pass --force to replace it)", final_.string());
+  ensure_parent(final_);
+  std::error_code ec;
+  fs::remove_all(temp_, ec);
+  fs::create_directories(temp_, ec);
+  if (ec) fail("{}: cannot create directory: {}", temp_.string(), ec.message());
+}
+
+AtomicDirectory::~AtomicDirectory() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(temp_, ec);
+  }
+}
+
+void AtomicDirectory::commit() {
+  std::error_code ec;
+  if (replace_ && fs::exists(final_)) fs::remove_all(final_, ec);
+  if (ec) fail("{}: cannot remove the old output: {}", final_.string(), ec.message());
+  fs::rename(temp_, final_, ec);
+  if (ec) fail("{}: cannot move finished output into place: {}", final_.string(), ec.message());
+  committed_ = true;
+}
+
+}  // namespace retimegs

@@ -1,0 +1,246 @@
+#include "retimegs/model/evaluate.hpp"
+
+#include <cmath>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/model/sh.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/model/trajectory.hpp"
+
+namespace retimegs::model {
+
+namespace {
+
+constexpr double kFlowNearZ = 1e-2;  // camera z floor for projecting control points (render near plane)
+
+// The camera's numbers in T.
+template <typename T>
+struct CameraT {
+  T r[9], tr[3], fx, fy, cx, cy, eye[3];
+  explicit CameraT(const Camera& c) {
+    for (int i = 0; i < 9; ++i) r[i] = T(c.world_to_camera(i / 3, i % 3));
+    for (int i = 0; i < 3; ++i) tr[i] = T(c.world_to_camera(i, 3));
+    fx = T(c.fx), fy = T(c.fy), cx = T(c.cx), cy = T(c.cy);
+    const Eigen::Vector3d e = c.center();
+    for (int i = 0; i < 3; ++i) eye[i] = T(e[i]);
+  }
+  // Pixel coordinates of world point p and, when jacobian != nullptr, d(u, v)/dp [2, 3].
+  void project(const T p[3], T uv[2], T* jacobian) const {
+    T x[3];
+    for (int a = 0; a < 3; ++a) x[a] = r[3 * a] * p[0] + r[3 * a + 1] * p[1] + r[3 * a + 2] * p[2] + tr[a];
+    const bool clamped = x[2] < T(kFlowNearZ);
+    const T z = clamped ? T(kFlowNearZ) : x[2], iz = T(1) / z;
+    uv[0] = fx * x[0] * iz + cx;
+    uv[1] = fy * x[1] * iz + cy;
+    if (!jacobian) return;
+    const T dz = clamped ? T(0) : T(1);
+    for (int a = 0; a < 3; ++a) {
+      jacobian[a] = fx * (r[a] * iz - dz * x[0] * r[6 + a] * iz * iz);
+      jacobian[3 + a] = fy * (r[3 + a] * iz - dz * x[1] * r[6 + a] * iz * iz);
+    }
+  }
+};
+
+// Index of training time t, or -1 when t is not on the grid.
+int grid_index(const TimeGrid& grid, double t) {
+  const double i = std::round((t - grid.first) / grid.step);
+  if (i < 0 || i >= grid.count || std::abs(grid.at(int(i)) - t) > 1e-6) return -1;
+  return int(i);
+}
+
+template <typename T>
+RetimeWindow<T> window_of(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+                          const TimeGrid& grid) {
+  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i], T(grid.first), T(grid.last()),
+          T(grid.to_frames(config.gamma)), T(config.epsilon)};
+}
+
+template <typename T>
+T temporal_opacity(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+                   const TimeGrid& grid, T t) {
+  if (config.representation == Representation::kStgs)
+    return stgs_temporal_opacity(p.mu_tau[i], p.temporal_log_scale[i], t);
+  return window_of(p, i, config, grid)(t);
+}
+
+// Flow rule of DESIGN.md §2: at t >= μ_τ the primitive sits at p2 (L rule: forward to p3,
+// backward to p1); before, at p1 (R rule: forward to p2, backward to p0).
+struct FlowRule {
+  int base, forward, backward;
+};
+template <typename T>
+FlowRule flow_rule(T mu_tau, T t) {
+  return t >= mu_tau ? FlowRule{2, 3, 1} : FlowRule{1, 2, 0};
+}
+
+template <typename T>
+void control_point_position(int k, T step, const T* mu, const T* v, T p[3]) {
+  apply_trajectory(control_point<T>(k, step), mu, v, p);
+}
+
+}  // namespace
+
+template <typename T>
+bool in_group(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+              const TimeGrid& grid, double t, Group group) {
+  if (group == Group::kAll) return true;
+  if (config.representation == Representation::kStgs)
+    fail("group renders are not defined for the STGS baseline");
+  const int index = grid_index(grid, t);
+  const RetimeWindow<T> w = window_of(p, i, config, grid);
+  if (group == Group::kLeft) return w.covers(T(grid.at(index - 1)), T(t));
+  return w.covers(T(t), T(grid.at(index + 1)));
+}
+
+template <typename T>
+EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
+                       double t_in, const Camera& camera, const EvaluateOptions& options) {
+  if (!std::isfinite(t_in)) fail("evaluate: time {} is not finite", t_in);
+  if (options.group != Group::kAll) {
+    const int index = grid_index(grid, t_in);
+    if (index < 0 || (options.group == Group::kLeft && index == 0) ||
+        (options.group == Group::kRight && index == grid.count - 1))
+      fail("evaluate: the {} group is not defined at t = {} (training times {}..{} step {})",
+           options.group == Group::kLeft ? "left" : "right", t_in, grid.first, grid.last(),
+           grid.step);
+  }
+  const T t = T(t_in), step = T(grid.step);
+  const std::size_t n = p.size();
+  const int channels = 3 + (options.flow_features ? kFlowChannels : 0);
+
+  // Select the rows in primitive order (deterministic), then fill them in parallel.
+  std::vector<T> temporal(n);
+  std::vector<std::int32_t> selected;
+  selected.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!in_group(p, i, config, grid, t_in, options.group)) continue;
+    temporal[i] = options.compensate ? T(1) : temporal_opacity(p, i, config, grid, t);
+    if (sigmoid(p.opacity_logit[i]) * temporal[i] >= T(options.min_opacity) &&
+        (options.min_opacity > 0 || temporal[i] > T(0)))
+      selected.push_back(std::int32_t(i));
+  }
+
+  EvaluatedT<T> out;
+  const std::size_t m = selected.size();
+  out.gaussians = GaussiansT<T>(m, channels);
+  out.temporal.resize(m);
+  const CameraT<T> cam(camera);
+  GaussiansT<T>& g = out.gaussians;
+#pragma omp parallel for schedule(static)
+  for (std::size_t row = 0; row < m; ++row) {
+    const std::size_t i = selected[row];
+    const T* mu = &p.mu[3 * i];
+    const T* v = &p.velocity[9 * i];
+    out.temporal[row] = temporal[i];
+    g.opacities[row] = sigmoid(p.opacity_logit[i]) * temporal[i];
+    T* x = &g.means[3 * row];
+    apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step),
+                     mu, v, x);
+    for (int a = 0; a < 3; ++a) g.log_scales[3 * row + a] = p.log_scale[3 * i + a];
+    const T dt = t - p.mu_tau[i];
+    for (int a = 0; a < 4; ++a) g.quats[4 * row + a] = p.q0[4 * i + a] + p.q1[4 * i + a] * dt;
+    const T dir[3] = {x[0] - cam.eye[0], x[1] - cam.eye[1], x[2] - cam.eye[2]};
+    T* features = &g.features[channels * row];
+    sh_color(config.sh_degree, &p.sh[3 * PrimitivesT<T>::kShCoeffs * i], dir, features);
+    if (options.flow_features) {
+      const FlowRule rule = flow_rule(p.mu_tau[i], t);
+      T pb[3], pf[3], pk[3], uv_b[2], uv_f[2], uv_k[2];
+      control_point_position(rule.base, step, mu, v, pb);
+      control_point_position(rule.forward, step, mu, v, pf);
+      control_point_position(rule.backward, step, mu, v, pk);
+      cam.project(pb, uv_b, nullptr);
+      cam.project(pf, uv_f, nullptr);
+      cam.project(pk, uv_k, nullptr);
+      features[3] = uv_f[0] - uv_b[0], features[4] = uv_f[1] - uv_b[1];
+      features[5] = uv_k[0] - uv_b[0], features[6] = uv_k[1] - uv_b[1];
+    }
+  }
+  out.primitive_from_gaussian = std::move(selected);
+  return out;
+}
+
+template <typename T>
+void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
+                       double t_in, const Camera& camera, const EvaluateOptions& options,
+                       const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
+                       PrimitiveGradsT<T>& grads) {
+  const T t = T(t_in), step = T(grid.step);
+  const int channels = evaluated.gaussians.channels;
+  const CameraT<T> cam(camera);
+  const bool stgs = config.representation == Representation::kStgs;
+  constexpr int kSh = PrimitivesT<T>::kShCoeffs;
+  const std::size_t m = evaluated.primitive_from_gaussian.size();
+  // Every primitive appears at most once in a batch: rows write disjoint gradient slots.
+#pragma omp parallel for schedule(static)
+  for (std::size_t row = 0; row < m; ++row) {
+    const std::size_t i = evaluated.primitive_from_gaussian[row];
+    const T* mu = &p.mu[3 * i];
+    const T* v = &p.velocity[9 * i];
+    T* v_mu = &grads.v_mu[3 * i];
+    T* v_v = &grads.v_velocity[9 * i];
+    T v_mu_tau = 0;
+
+    // Opacity σ · σ_τ.
+    const T s = sigmoid(p.opacity_logit[i]);
+    const T v_opacity = vg.v_opacities[row];
+    grads.v_opacity_logit[i] += v_opacity * evaluated.temporal[row] * s * (1 - s);
+    if (stgs && !options.compensate)
+      stgs_temporal_opacity_vjp(p.mu_tau[i], p.temporal_log_scale[i], t, v_opacity * s, v_mu_tau,
+                                grads.v_temporal_log_scale[i]);
+    // Scale and rotation.
+    for (int a = 0; a < 3; ++a) grads.v_log_scale[3 * i + a] += vg.v_log_scales[3 * row + a];
+    const T dt = t - p.mu_tau[i];
+    for (int a = 0; a < 4; ++a) {
+      const T vq = vg.v_quats[4 * row + a];
+      grads.v_q0[4 * i + a] += vq;
+      grads.v_q1[4 * i + a] += vq * dt;
+      v_mu_tau -= vq * p.q1[4 * i + a];
+    }
+    // Position: directly and through the view direction of the SH colour.
+    const auto coefficients = trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
+    T x[3];
+    apply_trajectory(coefficients, mu, v, x);
+    T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
+    const T dir[3] = {x[0] - cam.eye[0], x[1] - cam.eye[1], x[2] - cam.eye[2]};
+    sh_color_vjp(config.sh_degree, &p.sh[3 * kSh * i], dir, &vg.v_features[channels * row],
+                 &grads.v_sh[3 * kSh * i], v_x);
+    apply_trajectory_vjp(config.representation, coefficients, v, v_x, v_mu, v_v, v_mu_tau);
+    // Flow features: differences of projected control points.
+    if (options.flow_features) {
+      const FlowRule rule = flow_rule(p.mu_tau[i], t);
+      const T* v_flow = &vg.v_features[channels * row + 3];
+      const int points[3] = {rule.base, rule.forward, rule.backward};
+      // d feature / d point: forward = π(pf) - π(pb), backward = π(pk) - π(pb).
+      const T v_uv[3][2] = {{-v_flow[0] - v_flow[2], -v_flow[1] - v_flow[3]},
+                            {v_flow[0], v_flow[1]},
+                            {v_flow[2], v_flow[3]}};
+      for (int q = 0; q < 3; ++q) {
+        T point[3], uv[2], jac[6];
+        control_point_position(points[q], step, mu, v, point);
+        cam.project(point, uv, jac);
+        const T v_point[3] = {jac[0] * v_uv[q][0] + jac[3] * v_uv[q][1],
+                              jac[1] * v_uv[q][0] + jac[4] * v_uv[q][1],
+                              jac[2] * v_uv[q][0] + jac[5] * v_uv[q][1]};
+        T unused = 0;
+        apply_trajectory_vjp(Representation::kRetime, control_point<T>(points[q], step), v,
+                             v_point, v_mu, v_v, unused);
+      }
+    }
+    if (stgs) grads.v_mu_tau[i] += v_mu_tau;
+  }
+}
+
+#define RETIMEGS_INSTANTIATE(T)                                                                  \
+  template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,              \
+                            const TimeGrid&, double, Group);                                     \
+  template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
+                                     double, const Camera&, const EvaluateOptions&);             \
+  template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
+                                     double, const Camera&, const EvaluateOptions&,              \
+                                     const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
+                                     PrimitiveGradsT<T>&);
+RETIMEGS_INSTANTIATE(float)
+RETIMEGS_INSTANTIATE(double)
+#undef RETIMEGS_INSTANTIATE
+
+}  // namespace retimegs::model

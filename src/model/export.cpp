@@ -1,0 +1,42 @@
+#include "retimegs/model/export.hpp"
+
+#include <cmath>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/model/sh.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/model/trajectory.hpp"
+
+namespace retimegs::model {
+
+Splats export_splats(const Model& model, double t, double min_opacity) {
+  if (!std::isfinite(t)) fail("export: time {} is not finite", t);
+  const Primitives& p = model.primitives;
+  const ModelConfig& config = model.config;
+  const int k = sh_coeffs(config.sh_degree);
+  Splats s;
+  s.sh_degree = config.sh_degree;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double temporal =
+        config.representation == Representation::kStgs
+            ? stgs_temporal_opacity<double>(p.mu_tau[i], p.temporal_log_scale[i], t)
+            : RetimeWindow<double>{p.mu_tau[i], p.tau_l[i], p.tau_r[i], model.grid.first,
+                                   model.grid.last(), model.grid.to_frames(config.gamma),
+                                   config.epsilon}(t);
+    const double opacity = sigmoid<double>(p.opacity_logit[i]) * temporal;
+    if (opacity < min_opacity || !(opacity > 0)) continue;
+    float x[3];
+    apply_trajectory(trajectory_at<float>(config.representation, config.trajectory, p.mu_tau[i],
+                                          float(t), float(model.grid.step)),
+                     &p.mu[3 * i], &p.velocity[9 * i], x);
+    s.means.insert(s.means.end(), x, x + 3);
+    s.log_scales.insert(s.log_scales.end(), &p.log_scale[3 * i], &p.log_scale[3 * i + 3]);
+    const float dt = float(t - p.mu_tau[i]);
+    for (int a = 0; a < 4; ++a) s.quats.push_back(p.q0[4 * i + a] + p.q1[4 * i + a] * dt);
+    s.opacity_logits.push_back(float(std::log(opacity) - std::log1p(-std::min(opacity, 1 - 1e-7))));
+    s.sh.insert(s.sh.end(), &p.sh[48 * i], &p.sh[48 * i + 3 * k]);
+  }
+  return s;
+}
+
+}  // namespace retimegs::model

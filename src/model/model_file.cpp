@@ -1,0 +1,168 @@
+#include "retimegs/model/model_file.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#include <nlohmann/json.hpp>
+
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+
+namespace retimegs::model {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "the .rgs writer assumes little-endian");
+
+constexpr char kMagic[8] = {'R', 'E', 'T', 'I', 'M', 'E', 'G', 'S'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::size_t kPrefix = sizeof kMagic + 2 * sizeof(std::uint32_t);
+
+std::uint64_t fnv1a64(const char* data, std::size_t size) {
+  std::uint64_t hash = 0xcbf29ce484222325ull;  // FNV offset basis
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= static_cast<unsigned char>(data[i]);
+    hash *= 0x100000001b3ull;  // FNV prime
+  }
+  return hash;
+}
+
+template <typename U>
+void put(std::string& out, U value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+const char* name_of(Representation r) { return r == Representation::kStgs ? "stgs" : "retime"; }
+const char* name_of(TrajectoryKind k) { return k == TrajectoryKind::kLinear ? "linear" : "catmull-rom"; }
+
+}  // namespace
+
+void write_model(const fs::path& path, const Model& model) {
+  check_primitives(model.primitives, path.string());
+  const std::size_t n = model.primitives.size();
+  json fields = json::array();
+  std::size_t offset = 0;
+  for (const auto& f : model.primitives.fields()) {
+    const std::size_t bytes = f.values->size() * sizeof(float);
+    fields.push_back({{"name", f.name}, {"width", f.width}, {"dtype", "<f4"}, {"offset", offset},
+                      {"bytes", bytes}});
+    offset += bytes;
+  }
+  json training;
+  try {
+    training = json::parse(model.training_config);
+  } catch (const json::exception& e) {
+    fail("{}: training config is not valid JSON: {}", path.string(), e.what());
+  }
+  const json header = {
+      {"count", n},
+      {"time_grid",
+       {{"first", model.grid.first}, {"step", model.grid.step}, {"count", model.grid.count}}},
+      {"model",
+       {{"representation", name_of(model.config.representation)},
+        {"trajectory", name_of(model.config.trajectory)},
+        {"gamma", model.config.gamma},
+        {"epsilon", model.config.epsilon},
+        {"sh_degree", model.config.sh_degree}}},
+      {"fields", fields},
+      {"training_config", training}};
+  const std::string header_text = header.dump();
+
+  std::string bytes(kMagic, sizeof kMagic);
+  put(bytes, kVersion);
+  put(bytes, std::uint32_t(header_text.size()));
+  bytes += header_text;
+  for (const auto& f : model.primitives.fields())
+    bytes.append(reinterpret_cast<const char*>(f.values->data()), f.values->size() * sizeof(float));
+  put(bytes, fnv1a64(bytes.data(), bytes.size()));
+
+  AtomicFile out(path);
+  {
+    std::ofstream o(out.temp_path(), std::ios::binary);
+    o.write(bytes.data(), std::streamsize(bytes.size()));
+    if (!o) fail("{}: write failed", out.temp_path().string());
+  }
+  out.commit();
+}
+
+Model read_model(const fs::path& path) {
+  const std::string file = path.string();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("{}: cannot open model file", file);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (bytes.size() < kPrefix + sizeof(std::uint64_t) || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    fail("{}: not a retimegs model (.rgs) file", file);
+  std::uint32_t version = 0, header_size = 0;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  std::memcpy(&header_size, bytes.data() + 12, 4);
+  if (version != kVersion)
+    fail("{}: model format version {} is not supported (this build reads {})", file, version,
+         kVersion);
+  if (kPrefix + std::size_t(header_size) + sizeof(std::uint64_t) > bytes.size())
+    fail("{}: truncated model file (header)", file);
+  json header;
+  try {
+    header = json::parse(bytes.substr(kPrefix, header_size));
+  } catch (const json::exception& e) {
+    fail("{}: malformed model header: {}", file, e.what());
+  }
+
+  Model model;
+  std::size_t n = 0;
+  try {
+    n = header.at("count").get<std::size_t>();
+    const json& grid = header.at("time_grid");
+    model.grid = {grid.at("first").get<double>(), grid.at("step").get<double>(),
+                  grid.at("count").get<int>()};
+    const json& m = header.at("model");
+    model.config.representation =
+        m.at("representation") == "stgs" ? Representation::kStgs : Representation::kRetime;
+    model.config.trajectory =
+        m.at("trajectory") == "linear" ? TrajectoryKind::kLinear : TrajectoryKind::kCatmullRom;
+    model.config.gamma = m.at("gamma").get<double>();
+    model.config.epsilon = m.at("epsilon").get<double>();
+    model.config.sh_degree = m.at("sh_degree").get<int>();
+    model.training_config = header.value("training_config", json::object()).dump();
+  } catch (const json::exception& e) {
+    fail("{}: malformed model header: {}", file, e.what());
+  }
+  if (!(model.grid.step > 0) || model.grid.count < 1 || model.config.sh_degree < 0 ||
+      model.config.sh_degree > 3 || !(model.config.gamma > 0))
+    fail("{}: model header has an invalid time grid or config", file);
+
+  const std::size_t data_start = kPrefix + header_size;
+  const std::size_t data_size = bytes.size() - data_start - sizeof(std::uint64_t);
+  model.primitives.resize(n);
+  std::size_t expected = 0;
+  for (const auto& f : model.primitives.fields()) expected += f.values->size() * sizeof(float);
+  if (data_size != expected)
+    fail("{}: truncated or padded model file ({} data bytes for {} primitives, expected {})", file,
+         data_size, n, expected);
+  std::uint64_t stored = 0;
+  std::memcpy(&stored, bytes.data() + bytes.size() - sizeof stored, sizeof stored);
+  if (stored != fnv1a64(bytes.data(), bytes.size() - sizeof stored))
+    fail("{}: checksum mismatch: the model file is corrupted", file);
+
+  const json& table = header.value("fields", json::array());
+  for (const auto& f : model.primitives.fields()) {
+    const auto it = std::find_if(table.begin(), table.end(),
+                                 [&](const json& e) { return e.value("name", "") == f.name; });
+    if (it == table.end()) fail("{}: model file lacks field '{}'", file, f.name);
+    const std::size_t offset = it->value("offset", std::size_t(0));
+    const std::size_t size = f.values->size() * sizeof(float);
+    if (it->value("width", 0) != f.width || it->value("dtype", "") != "<f4" ||
+        it->value("bytes", std::size_t(0)) != size || offset + size > data_size)
+      fail("{}: field '{}' has an unexpected layout", file, f.name);
+    std::memcpy(f.values->data(), bytes.data() + data_start + offset, size);
+  }
+  check_primitives(model.primitives, file);
+  return model;
+}
+
+}  // namespace retimegs::model

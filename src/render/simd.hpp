@@ -1,0 +1,156 @@
+#pragma once
+// 16-lane float vectors for the per-pixel loops: one lane per pixel of a 16-pixel tile row.
+// Values are GCC/Clang vector extensions, so arithmetic compiles for any instruction set; lane
+// masks are AVX-512 mask registers where available (comparisons, blends and masked updates are
+// then one instruction each), and all-ones/all-zeros integer lanes elsewhere.
+#include <cstdint>
+#include <cstring>
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
+#include "retimegs/render/options.hpp"
+
+namespace retimegs::render::simd {
+
+constexpr int kLanes = kTileSize;
+using vf = float __attribute__((vector_size(kLanes * sizeof(float))));
+using vi = std::int32_t __attribute__((vector_size(kLanes * sizeof(std::int32_t))));
+
+inline vf splat(float x) { return vf{} + x; }
+inline vi splat_int(std::int32_t x) { return vi{} + x; }
+
+#if defined(__AVX512F__)
+using mask = __mmask16;
+inline mask lanes_below(int n) { return mask((1u << n) - 1u); }  // lanes [0, n), n <= 16
+inline mask less(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
+inline mask less_equal(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+inline mask greater_equal(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
+inline mask less(vi a, vi b) { return _mm512_cmplt_epi32_mask((__m512i)a, (__m512i)b); }
+inline mask and_not(mask a, mask b) { return mask(a & ~b); }
+inline bool any(mask m) { return m != 0; }
+// m ? a : b, lane-wise.
+inline vf select(mask m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
+inline vi select(mask m, vi a, vi b) {
+  return (vi)_mm512_mask_blend_epi32(m, (__m512i)b, (__m512i)a);
+}
+// m ? a * b : 0.
+inline vf mul_or_zero(mask m, vf a, vf b) { return _mm512_maskz_mul_ps(m, a, b); }
+// c + (m ? 1 : 0).
+inline vi count_if(vi c, mask m) {
+  return (vi)_mm512_mask_add_epi32((__m512i)c, m, (__m512i)c, _mm512_set1_epi32(1));
+}
+#else
+using mask = vi;
+inline mask lanes_below(int n) {
+  vi m;
+  for (int l = 0; l < kLanes; ++l) m[l] = l < n ? -1 : 0;
+  return m;
+}
+inline mask less(vf a, vf b) { return a < b; }
+inline mask less_equal(vf a, vf b) { return a <= b; }
+inline mask greater_equal(vf a, vf b) { return a >= b; }
+inline mask less(vi a, vi b) { return a < b; }
+inline mask and_not(mask a, mask b) { return a & ~b; }
+inline bool any(mask m) {
+  std::int32_t r = 0;
+  for (int l = 0; l < kLanes; ++l) r |= m[l];
+  return r != 0;
+}
+inline vf select(mask m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
+inline vi select(mask m, vi a, vi b) { return (a & m) | (b & ~m); }
+inline vf mul_or_zero(mask m, vf a, vf b) { return (vf)((vi)(a * b) & m); }
+inline vi count_if(vi c, mask m) { return c - m; }  // m is -1 where set
+#endif
+
+inline vf min(vf a, vf b) { return select(less(a, b), a, b); }
+
+// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and e^x by
+// its degree-6 Taylor polynomial (relative remainder (ln(2) / 2)^7 / 7! = 1.2e-7).
+inline vf exp2_fraction(vf f) {
+  constexpr float kLn2 = 0.693147180559945f, kSqrt2 = 1.41421356237310f;
+  const vf x = (f - 0.5f) * kLn2;
+  vf p = splat(1.0f / 720);
+  p = p * x + 1.0f / 120;
+  p = p * x + 1.0f / 24;
+  p = p * x + 1.0f / 6;
+  p = p * x + 0.5f;
+  p = p * x + 1.0f;
+  p = p * x + 1.0f;
+  return p * kSqrt2;
+}
+
+// opacity * exp(-sigma) = 2^y, y = log2(opacity) - sigma log2(e), for finite sigma >= 0, as
+// 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under 2^-126 are ~0.
+inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
+  constexpr float kLog2e = 1.44269504088896341f;
+#if defined(__AVX512F__)
+  const vf y = log2_opacity - sigma * kLog2e;
+  const vf n = _mm512_roundscale_ps(y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  return _mm512_scalef_ps(exp2_fraction(y - n), n);
+#else
+  constexpr float kMinExponent = -126.0f;  // below: 2^y would be denormal; flush to ~1e-38
+  const vf y_raw = log2_opacity - sigma * kLog2e;
+  const vf y = select(less(y_raw, splat(kMinExponent)), splat(kMinExponent), y_raw);
+  vf n;
+  for (int l = 0; l < kLanes; ++l) n[l] = __builtin_floorf(y[l]);
+  const vi bits = (__builtin_convertvector(n, vi) + 127) << 23;
+  return exp2_fraction(y - n) * (vf)bits;
+#endif
+}
+
+// 1 / x for x in [0.001, 1] (one minus a clamped alpha): rcp14 and one Newton step on AVX-512
+// (relative error ~1e-7, a rounding or two from the quotient), a division elsewhere.
+inline vf reciprocal(vf x) {
+#if defined(__AVX512F__)
+  const vf r = (vf)_mm512_rcp14_ps((__m512)x);
+  return r * (2.0f - x * r);
+#else
+  return 1.0f / x;
+#endif
+}
+
+// Sum of the lanes by pairwise halving, in registers (the same order on every instruction set).
+inline float sum(vf v) {
+  using vf8 = float __attribute__((vector_size(8 * sizeof(float))));
+  using vf4 = float __attribute__((vector_size(4 * sizeof(float))));
+  const vf8 s8 = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) +
+                 __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
+  const vf4 s4 = __builtin_shufflevector(s8, s8, 0, 1, 2, 3) +
+                 __builtin_shufflevector(s8, s8, 4, 5, 6, 7);
+  return (s4[0] + s4[2]) + (s4[1] + s4[3]);
+}
+
+// Starts loading the cache line at p. An asm statement, because GCC 12 drops __builtin_prefetch
+// when the address comes from an indexed load (as in `base + stride * ids[k]`).
+inline void prefetch(const void* p) {
+#if defined(__x86_64__)
+  asm volatile("prefetcht0 %0" : : "m"(*static_cast<const char*>(p)));
+#else
+  __builtin_prefetch(p);
+#endif
+}
+
+// Flushes denormal results and operands to zero on this thread while in scope. Far from its
+// centre a Gaussian's alpha (and alpha * T) underflows into the denormal range, where x86
+// arithmetic takes a microcode assist of ~100 cycles per instruction; values that small are far
+// below every threshold of the blend.
+class FlushDenormals {
+ public:
+#if defined(__SSE__)
+  static constexpr unsigned kFlushToZero = 0x8000, kDenormalsAreZero = 0x0040;  // MXCSR bits
+  FlushDenormals() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero); }
+  ~FlushDenormals() { _mm_setcsr(saved_); }
+  FlushDenormals(const FlushDenormals&) = delete;
+  FlushDenormals& operator=(const FlushDenormals&) = delete;
+
+ private:
+  unsigned saved_;
+#endif
+};
+
+}  // namespace retimegs::render::simd

@@ -1,0 +1,182 @@
+// `retimegs render` / `retimegs export` on a 4D model (.rgs): any time, slow motion, speed ramps,
+// bullet time, video output, and the exported Inria .ply re-rendering to the same image.
+#include <cmath>
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/videoio.hpp>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/data/image_io.hpp"
+#include "retimegs/data/ply.hpp"
+#include "retimegs/data/scene.hpp"
+#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/eval/render_model.hpp"
+#include "retimegs/model/export.hpp"
+#include "retimegs/model/model_file.hpp"
+#include "test_util.hpp"
+
+namespace retimegs {
+namespace {
+namespace fs = std::filesystem;
+
+// A 9-frame, 2-camera scene (JSON only) and a model of moving primitives trained on even frames.
+struct Fixture {
+  data::Scene scene;
+  model::Model model;
+  explicit Fixture(const fs::path& root) {
+    scene.root = root / "scene";
+    scene.num_frames = 9;
+    scene.fps = 24;
+    for (int c = 0; c < 2; ++c) {
+      Camera cam;
+      cam.name = "cam0" + std::to_string(c);
+      cam.width = 64, cam.height = 48;
+      cam.fx = cam.fy = 60, cam.cx = 32, cam.cy = 24;
+      cam.world_to_camera = look_at({2.0 * c - 1.0, -0.5, -4.0}, {0, 0, 0}, {0, -1, 0});
+      scene.cameras.push_back(cam);
+    }
+    data::write_scene_json(scene);
+    model.grid = {0.0, 2.0, 5};
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<float> u(-1, 1);
+    model::Primitives& p = model.primitives;
+    const int n = 200;
+    p.resize(n);
+    for (int i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = u(rng);
+      for (int k = 0; k < 9; ++k) p.velocity[9 * i + k] = (k % 3 == 0 ? 0.3f : 0.05f * u(rng));
+      for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.08f + 0.04f * u(rng));
+      p.q0[4 * i] = 1, p.q0[4 * i + 1] = 0.3f * u(rng);
+      p.q1[4 * i + 2] = 0.1f * u(rng);
+      for (int k = 0; k < 48; ++k) p.sh[48 * i + k] = (k < 3 ? 1.0f : 0.1f) * u(rng);
+      p.opacity_logit[i] = 1.0f + u(rng);
+      p.mu_tau[i] = 1.0f + 2.0f * (i % 4);
+      p.tau_l[i] = p.tau_r[i] = 1.0f;
+    }
+    model::write_model(root / "model.rgs", model);
+  }
+};
+
+std::string run(const std::string& args) {
+  const auto r = test::run_cli(args);
+  EXPECT_EQ(r.status, 0) << args << "\n" << r.err;
+  return r.err;
+}
+
+double mean_abs_diff(const Image& a, const Image& b) {
+  double sum = 0;
+  for (std::size_t i = 0; i < a.data.size(); ++i) sum += std::abs(a.data[i] - b.data[i]);
+  return sum / double(a.data.size());
+}
+
+TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string model = (dir / "model.rgs").string();
+  for (double t : {3.0, 4.5}) {
+    const std::string ply = (dir / ("t" + std::to_string(int(t * 10)) + ".ply")).string();
+    run("export --model " + model + " --time " + std::to_string(t) + " --out " + ply);
+    // Exact Inria property list.
+    const auto table = data::read_ply(ply);
+    ASSERT_EQ(table.names.size(), 62u);
+    EXPECT_EQ(table.names.front(), "x");
+    EXPECT_EQ(table.names[6], "f_dc_0");
+    EXPECT_EQ(table.names[9], "f_rest_0");
+    EXPECT_EQ(table.names[54], "opacity");
+    EXPECT_EQ(table.names.back(), "rot_3");
+    // Only the primitives alive at t (about a quarter of them) are exported.
+    EXPECT_GT(table.count, 30u);
+    EXPECT_LT(table.count, 120u);
+    const float background[3] = {0.1f, 0.2f, 0.3f};
+    for (const Camera& cam : f.scene.cameras) {
+      const Image from_ply = eval::render_splats(data::read_splat_ply(ply), cam, background);
+      const Image from_rgs = eval::render_model(f.model, cam, t, background);
+      double max_diff = 0;
+      for (std::size_t i = 0; i < from_ply.data.size(); ++i)
+        max_diff = std::max(max_diff, double(std::abs(from_ply.data[i] - from_rgs.data[i])));
+      EXPECT_LT(max_diff, 1e-4) << "t " << t << " camera " << cam.name;
+      EXPECT_GT(mean_abs_diff(from_rgs, Image(cam.width, cam.height, 3, 0.2f)), 0.05) << "blank";
+    }
+  }
+  // A sequence: DIR/00000.ply ... and times.csv.
+  run("export --model " + model + " --times 0:1:0.5 --out " + (dir / "seq").string());
+  EXPECT_TRUE(fs::exists(dir / "seq" / "00002.ply"));
+  EXPECT_EQ(test::read_text(dir / "seq" / "times.csv"), "file,t\n00000.ply,0\n00001.ply,0.5\n00002.ply,1\n");
+}
+
+TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string base =
+      "render --model " + (dir / "model.rgs").string() + " --scene " + f.scene.root.string();
+  // One in-between time to a PNG equals the library render.
+  run(base + " --camera cam01 --time 2.5 --out " + (dir / "one.png").string());
+  const float black[3] = {0, 0, 0};
+  const Image lib = eval::render_model(f.model, f.scene.cameras[1], 2.5, black);
+  EXPECT_LT(mean_abs_diff(data::read_image(dir / "one.png"), lib), 1.0 / 255);
+  // 4x slow motion over 9 frames: 8 * 4 + 1 frames; consecutive frames differ (motion).
+  run(base + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string());
+  int count = 0;
+  for (const auto& e : fs::directory_iterator(dir / "slow")) count += e.path().extension() == ".png";
+  EXPECT_EQ(count, 33);
+  EXPECT_GT(mean_abs_diff(data::read_image(dir / "slow" / "00005.png"),
+                          data::read_image(dir / "slow" / "00006.png")), 1e-3);
+  // Frame 10 of the 4x slow motion is t = 2.5 from cam00.
+  EXPECT_LT(mean_abs_diff(data::read_image(dir / "slow" / "00010.png"),
+                          eval::render_model(f.model, f.scene.cameras[0], 2.5, black)),
+            1.0 / 255);
+  // A speed ramp: keyframes (0, 0), (4, 1), (6, 5) -> times 0, .25, .5, .75, 1, 3, 5.
+  test::write_text(dir / "ramp.csv", "output_frame,t\n0,0\n4,1\n6,5\n");
+  run(base + " --camera cam00 --retime " + (dir / "ramp.csv").string() + " --out " +
+      (dir / "ramp").string());
+  EXPECT_TRUE(fs::exists(dir / "ramp" / "00006.png"));
+  EXPECT_FALSE(fs::exists(dir / "ramp" / "00007.png"));
+  EXPECT_LT(mean_abs_diff(data::read_image(dir / "ramp" / "00005.png"),
+                          eval::render_model(f.model, f.scene.cameras[0], 3.0, black)),
+            1.0 / 255);
+  // Bullet time: fixed time, the camera moves from cam00 to cam01.
+  run(base + " --path cam00,cam01 --time 3 --path-frames 5 --out " + (dir / "bullet").string());
+  EXPECT_LT(mean_abs_diff(data::read_image(dir / "bullet" / "00004.png"),
+                          eval::render_model(f.model, f.scene.cameras[1], 3.0, black)),
+            1.0 / 255);
+  EXPECT_GT(mean_abs_diff(data::read_image(dir / "bullet" / "00000.png"),
+                          data::read_image(dir / "bullet" / "00004.png")), 1e-3);
+  // Video at the scene's fps.
+  run(base + " --camera cam00 --times 0:8:0.5 --out " + (dir / "clip.mp4").string());
+  cv::VideoCapture video((dir / "clip.mp4").string());
+  ASSERT_TRUE(video.isOpened());
+  EXPECT_EQ(int(video.get(cv::CAP_PROP_FRAME_COUNT)), 17);
+  EXPECT_NEAR(video.get(cv::CAP_PROP_FPS), 24.0, 1e-3);
+}
+
+TEST(ModelCli, BadInputExitsTwoWithoutOutput) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string bytes = test::read_text(dir / "model.rgs");
+  test::write_text(dir / "cut.rgs", bytes.substr(0, bytes.size() - 50));
+  test::write_text(dir / "ramp.csv", "0,0\n3,abc\n");
+  const std::string scene = " --scene " + f.scene.root.string();
+  const std::string model = " --model " + (dir / "model.rgs").string();
+  struct Case {
+    std::string args, fragment;
+  };
+  for (const Case& c : {
+           Case{"render --model " + (dir / "cut.rgs").string() + scene + " --camera cam00 --time 1 --out " + (dir / "o.png").string(), "cut.rgs"},
+           Case{"render" + model + scene + " --camera cam00 --slowmo 2 --out " + (dir / "o.png").string(), ".png output holds one frame"},
+           Case{"render" + model + scene + " --camera camXX --time 1 --out " + (dir / "o.png").string(), "camXX"},
+           Case{"render" + model + scene + " --camera cam00 --retime " + (dir / "ramp.csv").string() + " --out " + (dir / "o").string(), "ramp.csv:2"},
+           Case{"render" + model + scene + " --camera cam00 --times 3:1:1 --out " + (dir / "o").string(), "--times"},
+           Case{"export --model " + (dir / "cut.rgs").string() + " --time 1 --out " + (dir / "o.ply").string(), "cut.rgs"},
+       }) {
+    const auto r = test::run_cli(c.args);
+    EXPECT_EQ(r.status, 2) << c.args;
+    EXPECT_NE(r.err.find(c.fragment), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  for (const char* name : {"o.png", "o", "o.ply"}) EXPECT_FALSE(fs::exists(dir / name)) << name;
+}
+
+}  // namespace
+}  // namespace retimegs

@@ -1,0 +1,268 @@
+// evaluate(t, camera) and its backward against central finite differences in double precision:
+// temporal opacity, trajectory, rotation, SH colour, flow features, compensation, STGS, and the
+// whole evaluate -> rasterise chain.
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/sh.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/render/reference.hpp"
+
+namespace retimegs::model {
+namespace {
+
+using P = PrimitivesT<double>;
+using G = PrimitiveGradsT<double>;
+
+const TimeGrid kGrid{0.0, 2.0, 5};  // training times 0, 2, 4, 6, 8
+
+Camera small_camera(int width = 24, int height = 20) {
+  Camera cam;
+  cam.name = "c";
+  cam.width = width, cam.height = height;
+  cam.fx = 22, cam.fy = 21, cam.cx = width / 2.0 + 0.3, cam.cy = height / 2.0 - 0.2;
+  cam.world_to_camera = look_at({0.4, -0.3, -5.0}, {0, 0, 0}, {0, -1, 0});
+  return cam;
+}
+
+// Primitives of every interval (μ_τ = 1, 3, 5, 7), one stretched over [2, 6], near the origin.
+P random_primitives(Representation rep, unsigned seed, int n = 6) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  P p;
+  p.resize(n);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.8 * u(rng);
+    for (int k = 0; k < 9; ++k) p.velocity[9 * i + k] = 0.15 * u(rng);
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.25 + 0.1 * u(rng));
+    for (int a = 0; a < 4; ++a) p.q0[4 * i + a] = u(rng) + (a == 0 ? 1.5 : 0.0);
+    for (int a = 0; a < 4; ++a) p.q1[4 * i + a] = 0.2 * u(rng);
+    for (int k = 0; k < 48; ++k) p.sh[48 * i + k] = (k < 3 ? 0.8 : 0.2) * u(rng);
+    p.opacity_logit[i] = 0.5 * u(rng);
+    p.mu_tau[i] = 1.0 + 2.0 * (i % 4);
+    p.tau_l[i] = p.tau_r[i] = 1.0;
+    p.temporal_log_scale[i] = std::log(1.5 + 0.3 * u(rng));
+  }
+  if (n > 4) p.mu_tau[4] = 5.0, p.tau_l[4] = 3.0;  // stretched: support [2, 6]
+  if (rep == Representation::kStgs)
+    for (int i = 0; i < n; ++i) p.mu_tau[i] = 4.0 + 2.0 * u(rng);
+  return p;
+}
+
+// Every optimised scalar of the model, by name, for finite differences.
+std::vector<std::pair<std::string, double*>> parameters(P& p, Representation rep, int sh_degree) {
+  std::vector<std::pair<std::string, double*>> out;
+  auto add = [&](const std::string& name, std::vector<double>& v, int width, int used) {
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (int(i % width) < used) out.push_back({name + "[" + std::to_string(i) + "]", &v[i]});
+  };
+  add("mu", p.mu, 3, 3);
+  add("velocity", p.velocity, 9, 9);
+  add("log_scale", p.log_scale, 3, 3);
+  add("q0", p.q0, 4, 4);
+  add("q1", p.q1, 4, 4);
+  add("sh", p.sh, 48, 3 * sh_coeffs(sh_degree));
+  add("opacity_logit", p.opacity_logit, 1, 1);
+  if (rep == Representation::kStgs) {
+    add("mu_tau", p.mu_tau, 1, 1);
+    add("temporal_log_scale", p.temporal_log_scale, 1, 1);
+  }
+  return out;
+}
+
+std::vector<double*> gradients(G& g, Representation rep, int sh_degree) {
+  std::vector<double*> out;
+  auto add = [&](std::vector<double>& v, int width, int used) {
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (int(i % width) < used) out.push_back(&v[i]);
+  };
+  add(g.v_mu, 3, 3);
+  add(g.v_velocity, 9, 9);
+  add(g.v_log_scale, 3, 3);
+  add(g.v_q0, 4, 4);
+  add(g.v_q1, 4, 4);
+  add(g.v_sh, 48, 3 * sh_coeffs(sh_degree));
+  add(g.v_opacity_logit, 1, 1);
+  if (rep == Representation::kStgs) {
+    add(g.v_mu_tau, 1, 1);
+    add(g.v_temporal_log_scale, 1, 1);
+  }
+  return out;
+}
+
+void expect_gradients_match(P& p, Representation rep, int sh_degree, G& analytic,
+                            const std::function<double()>& loss, double eps, double tol) {
+  const auto params = parameters(p, rep, sh_degree);
+  const auto grads = gradients(analytic, rep, sh_degree);
+  ASSERT_EQ(params.size(), grads.size());
+  int nonzero = 0;
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    double& x = *params[k].second;
+    const double keep = x;
+    x = keep + eps;
+    const double up = loss();
+    x = keep - eps;
+    const double down = loss();
+    x = keep;
+    const double fd = (up - down) / (2 * eps);
+    EXPECT_NEAR(*grads[k], fd, tol * (1 + std::abs(fd))) << params[k].first;
+    nonzero += std::abs(fd) > 1e-6;
+  }
+  EXPECT_GT(nonzero, int(params.size()) / 4) << "the loss should depend on many parameters";
+}
+
+struct Case {
+  Representation rep;
+  TrajectoryKind trajectory;
+  double t;
+  EvaluateOptions options;
+  const char* name;
+};
+
+// Loss = Σ W ⊙ (every field of the evaluated batch), W fixed random weights per row.
+TEST(Evaluate, BackwardMatchesFiniteDifferences) {
+  const Camera cam = small_camera();
+  std::vector<Case> cases;
+  EvaluateOptions plain, flow, left, right;
+  plain.min_opacity = flow.min_opacity = left.min_opacity = right.min_opacity = 0;
+  flow.flow_features = true;
+  left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
+  right.group = Group::kRight, right.compensate = true, right.flow_features = true;
+  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.7, plain, "in-between"});
+  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, plain, "at edge"});
+  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, flow, "all + flow"});
+  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, left, "left group"});
+  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, right, "right group"});
+  cases.push_back({Representation::kRetime, TrajectoryKind::kLinear, 5.3, flow, "linear"});
+  cases.push_back({Representation::kStgs, TrajectoryKind::kCatmullRom, 3.4, plain, "stgs"});
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    ModelConfig config;
+    config.representation = c.rep;
+    config.trajectory = c.trajectory;
+    config.sh_degree = 3;
+    P p = random_primitives(c.rep, 17);
+    const auto fwd = evaluate(p, config, kGrid, c.t, cam, c.options);
+    ASSERT_GT(fwd.gaussians.size(), 0u);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> normal;
+    GaussianGradsT<double> w(fwd.gaussians.size(), fwd.gaussians.channels);
+    for (auto* v : {&w.v_means, &w.v_log_scales, &w.v_quats, &w.v_opacities, &w.v_features})
+      for (double& x : *v) x = normal(rng);
+    auto loss = [&] {
+      const auto e = evaluate(p, config, kGrid, c.t, cam, c.options);
+      double sum = 0;
+      auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
+        for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
+      };
+      dot(e.gaussians.means, w.v_means), dot(e.gaussians.log_scales, w.v_log_scales);
+      dot(e.gaussians.quats, w.v_quats), dot(e.gaussians.opacities, w.v_opacities);
+      dot(e.gaussians.features, w.v_features);
+      return sum;
+    };
+    G grads(p.size());
+    evaluate_backward(p, config, kGrid, c.t, cam, c.options, fwd, w, grads);
+    expect_gradients_match(p, c.rep, config.sh_degree, grads, loss, 1e-6, 1e-6);
+  }
+}
+
+TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
+  const Camera cam = small_camera();
+  ModelConfig config;
+  P p = random_primitives(Representation::kRetime, 3);
+  EvaluateOptions all, left, right;
+  left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
+  right.group = Group::kRight, right.compensate = true, right.flow_features = true;
+  const auto at4 = evaluate(p, config, kGrid, 4.0, cam, all);
+  const auto l = evaluate(p, config, kGrid, 4.0, cam, left);
+  const auto r = evaluate(p, config, kGrid, 4.0, cam, right);
+  // Group L at t = 4: intervals [2, 4] (μ_τ = 3) and the stretched one; R: [4, 6] and it.
+  std::vector<int> expect_l, expect_r;
+  for (int i = 0; i < int(p.size()); ++i) {
+    if (p.mu_tau[i] == 3.0 || i == 4) expect_l.push_back(i);
+    if (p.mu_tau[i] == 5.0) expect_r.push_back(i);
+  }
+  EXPECT_EQ(std::vector<int>(l.primitive_from_gaussian.begin(), l.primitive_from_gaussian.end()), expect_l);
+  EXPECT_EQ(std::vector<int>(r.primitive_from_gaussian.begin(), r.primitive_from_gaussian.end()), expect_r);
+  // All-primitives render at a training time: each non-stretched neighbour at half opacity
+  // (σ_τ = ½ at its own edge); compensated group renders use the full σ.
+  for (std::size_t row = 0; row < at4.gaussians.size(); ++row) {
+    const int i = at4.primitive_from_gaussian[row];
+    const double sigma = sigmoid(double(p.opacity_logit[i]));
+    if (p.mu_tau[i] == 3.0 || (p.mu_tau[i] == 5.0 && i != 4))
+      EXPECT_NEAR(at4.gaussians.opacities[row], 0.5 * sigma, 1e-6) << i;
+  }
+  for (std::size_t row = 0; row < l.gaussians.size(); ++row) {
+    const int i = l.primitive_from_gaussian[row];
+    EXPECT_NEAR(l.gaussians.opacities[row], sigmoid(double(p.opacity_logit[i])), 1e-6);
+    EXPECT_EQ(l.gaussians.channels, 7);
+  }
+  // Flow features of group R at t = 4 (at p1): forward = π(p2) - π(p1).
+  const int i = expect_r[0];
+  const std::size_t row = 0;
+  auto project = [&](double s) {  // control point p1 (s = -1) or p2 (s = +1): μ ± ½Δt v2
+    Eigen::Vector3d x;
+    for (int a = 0; a < 3; ++a) x[a] = p.mu[3 * i + a] + s * 1.0 * p.velocity[9 * i + 3 + a];
+    return cam.project(x);
+  };
+  const Eigen::Vector2d fwd = project(1) - project(-1);
+  EXPECT_NEAR(r.gaussians.features[7 * row + 3], fwd.x(), 1e-9);
+  EXPECT_NEAR(r.gaussians.features[7 * row + 4], fwd.y(), 1e-9);
+  // The primitive is rendered at p1 = x(t_i).
+  const Eigen::Vector2d rendered = cam.project(Eigen::Vector3d(
+      r.gaussians.means[0], r.gaussians.means[1], r.gaussians.means[2]));
+  EXPECT_LT((rendered - project(-1)).norm(), 1e-9);
+  // Groups exist only at training times, and not beyond the clip ends.
+  EXPECT_THROW(evaluate(p, config, kGrid, 4.5, cam, left), Error);
+  EXPECT_THROW(evaluate(p, config, kGrid, 0.0, cam, left), Error);
+  EXPECT_THROW(evaluate(p, config, kGrid, 8.0, cam, right), Error);
+}
+
+// The whole chain: evaluate -> reference rasteriser (double) -> Σ W ⊙ image, with RGB + flow.
+TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
+  const Camera cam = small_camera(20, 16);
+  render::RenderOptions ro;
+  ro.min_alpha = 0;          // smooth alpha cut-off (finite-difference test only)
+  ro.min_transmittance = 0;  // no early stop
+  ro.alpha_clamp = 1;
+  for (const auto& [rep, group, t] :
+       {std::tuple{Representation::kRetime, Group::kRight, 4.0},
+        std::tuple{Representation::kRetime, Group::kAll, 4.6},
+        std::tuple{Representation::kStgs, Group::kAll, 4.6}}) {
+    ModelConfig config;
+    config.representation = rep;
+    config.sh_degree = 2;
+    P p = random_primitives(rep, 29, 8);
+    EvaluateOptions options;
+    options.min_opacity = 0;
+    options.group = group;
+    options.compensate = group != Group::kAll;
+    options.flow_features = rep == Representation::kRetime;
+    const int channels = options.flow_features ? 7 : 3;
+    std::mt19937 rng(9);
+    std::normal_distribution<double> normal;
+    std::vector<double> w(std::size_t(cam.width) * cam.height * channels), background(channels, 0.2);
+    for (double& x : w) x = normal(rng);
+    auto loss = [&] {
+      const auto e = evaluate(p, config, kGrid, t, cam, options);
+      const auto img = render::reference_forward(e.gaussians, cam, background.data(), ro);
+      double sum = 0;
+      for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
+      return sum;
+    };
+    const auto e = evaluate(p, config, kGrid, t, cam, options);
+    const auto v_gaussians =
+        render::reference_backward(e.gaussians, cam, background.data(), ro, w.data(), nullptr, nullptr);
+    G grads(p.size());
+    evaluate_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
+    expect_gradients_match(p, rep, config.sh_degree, grads, loss, 1e-6, 2e-5);
+  }
+}
+
+}  // namespace
+}  // namespace retimegs::model

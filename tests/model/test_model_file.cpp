@@ -1,0 +1,110 @@
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/model/model_file.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::model {
+namespace {
+namespace fs = std::filesystem;
+
+Model random_model(std::size_t n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> normal;
+  Model m;
+  m.primitives.resize(n);
+  for (auto f : m.primitives.fields())
+    for (float& v : *f.values) v = normal(rng);
+  for (std::size_t i = 0; i < n; ++i) m.primitives.tau_l[i] = m.primitives.tau_r[i] = 1.0f + i;
+  m.grid = {0.0, 2.0, 9};
+  m.config.representation = Representation::kStgs;
+  m.config.trajectory = TrajectoryKind::kLinear;
+  m.config.gamma = 0.007;
+  m.config.sh_degree = 2;
+  m.training_config = R"({"iters":1234,"ablate":["no-stretch"]})";
+  return m;
+}
+
+void expect_refused(const fs::path& path, const std::string& fragment) {
+  try {
+    read_model(path);
+    FAIL() << "accepted " << path;
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModelFile, RoundTripIsExact) {
+  test::TempDir dir;
+  const Model m = random_model(37, 1);
+  write_model(dir / "m.rgs", m);
+  const Model r = read_model(dir / "m.rgs");
+  const auto a = m.primitives.fields(), b = r.primitives.fields();
+  for (int i = 0; i < Primitives::kFieldCount; ++i) EXPECT_EQ(*a[i].values, *b[i].values) << a[i].name;
+  EXPECT_EQ(r.grid.first, 0.0);
+  EXPECT_EQ(r.grid.step, 2.0);
+  EXPECT_EQ(r.grid.count, 9);
+  EXPECT_EQ(r.config.representation, Representation::kStgs);
+  EXPECT_EQ(r.config.trajectory, TrajectoryKind::kLinear);
+  EXPECT_EQ(r.config.gamma, 0.007);
+  EXPECT_EQ(r.config.sh_degree, 2);
+  EXPECT_EQ(r.training_config, R"({"ablate":["no-stretch"],"iters":1234})");
+  // Only the model file is left in the folder (the temporary was renamed).
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
+TEST(ModelFile, EmptyModelRoundTrips) {
+  test::TempDir dir;
+  write_model(dir / "e.rgs", random_model(0, 2));
+  EXPECT_EQ(read_model(dir / "e.rgs").primitives.size(), 0u);
+}
+
+TEST(ModelFile, TruncatedOrCorruptedFilesAreRefused) {
+  test::TempDir dir;
+  write_model(dir / "m.rgs", random_model(20, 3));
+  const std::string bytes = test::read_text(dir / "m.rgs");
+  // Cut anywhere: inside the prefix, the header, the data, the checksum.
+  for (std::size_t keep : {std::size_t(5), std::size_t(14), std::size_t(60), bytes.size() / 2,
+                           bytes.size() - 9, bytes.size() - 1}) {
+    test::write_text(dir / "cut.rgs", bytes.substr(0, keep));
+    EXPECT_THROW(read_model(dir / "cut.rgs"), Error) << "kept " << keep << " bytes";
+  }
+  test::write_text(dir / "cut.rgs", bytes.substr(0, bytes.size() - 400));
+  expect_refused(dir / "cut.rgs", "truncated");
+  // One flipped bit in the data.
+  std::string flipped = bytes;
+  flipped[bytes.size() - 100] ^= 0x10;
+  test::write_text(dir / "flip.rgs", flipped);
+  expect_refused(dir / "flip.rgs", "checksum");
+  // Wrong magic, future version.
+  std::string magic = bytes;
+  magic[0] = 'X';
+  test::write_text(dir / "magic.rgs", magic);
+  expect_refused(dir / "magic.rgs", "not a retimegs model");
+  std::string version = bytes;
+  version[8] = 9;
+  test::write_text(dir / "version.rgs", version);
+  expect_refused(dir / "version.rgs", "version 9");
+  expect_refused(dir / "missing.rgs", "cannot open");
+}
+
+TEST(ModelFile, NonFiniteParametersAreNotWritten) {
+  test::TempDir dir;
+  Model m = random_model(4, 4);
+  m.primitives.velocity[13] = std::numeric_limits<float>::quiet_NaN();
+  try {
+    write_model(dir / "nan.rgs", m);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("velocity"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("primitive 1"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "nan.rgs"));
+}
+
+}  // namespace
+}  // namespace retimegs::model

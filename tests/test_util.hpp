@@ -1,0 +1,77 @@
+#pragma once
+// Shared helpers for the test suites: the reference data folder, scratch folders, running the CLI.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace retimegs::test {
+
+inline std::filesystem::path shared_data() { return RETIMEGS_SHARED_DATA; }
+
+// Skips the current test when a reference data folder is missing (e.g. no ../shared beside the
+// checkout); CI always has it.
+#define RETIMEGS_REQUIRE_DATA(rel)                                                   \
+  do {                                                                               \
+    if (!std::filesystem::exists(::retimegs::test::shared_data() / (rel)))           \
+      GTEST_SKIP() << "reference data missing: " << (::retimegs::test::shared_data() / (rel)); \
+  } while (0)
+
+// A fresh scratch folder removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("retimegs-test-" + std::to_string(rd()) + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+struct CommandResult {
+  int status = -1;
+  std::string err;  // stderr
+};
+
+// Runs the retimegs binary with `args`; captures stderr and the exit status.
+inline CommandResult run_cli(const std::string& args) {
+  TempDir scratch;
+  const auto err_file = scratch / "stderr.txt";
+  const std::string command =
+      std::string(RETIMEGS_BINARY) + " " + args + " >/dev/null 2>" + err_file.string();
+  const int raw = std::system(command.c_str());
+  CommandResult result;
+  result.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  std::ifstream in(err_file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  result.err = ss.str();
+  return result;
+}
+
+inline void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace retimegs::test
