@@ -33,7 +33,8 @@ struct BenchScene {
 const BenchScene& load_scene(char name) {
   static std::map<char, BenchScene> cache;
   if (auto it = cache.find(name); it != cache.end()) return it->second;
-  const fs::path dir = fs::path(RETIMEGS_SHARED_DATA) / "bench-scenes" / (std::string("scene_") + name);
+  const fs::path dir =
+      fs::path(RETIMEGS_SHARED_DATA) / "bench-scenes" / (std::string("scene_") + name);
   BenchScene s;
   const auto floats = [&](const char* file) { return data::read_npy(dir / file).to_float(); };
   s.gaussians.channels = 3;
@@ -74,7 +75,9 @@ void set_counters(benchmark::State& state, double pairs, int threads) {
       benchmark::Counter(pairs * 1e-9 / threads, benchmark::Counter::kIsIterationInvariantRate);
 }
 
-char scene_of(const benchmark::State& state) { return char('a' + state.range(0)); }
+char scene_of(const benchmark::State& state) {
+  return char('a' + state.range(0));
+}
 
 void BM_Forward(benchmark::State& state) {
   const BenchScene& s = load_scene(scene_of(state));

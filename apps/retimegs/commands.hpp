@@ -10,5 +10,7 @@ void add_import_command(CLI::App& app);
 void add_sheet_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_export_command(CLI::App& app);
+void add_train_command(CLI::App& app);
+void add_eval_command(CLI::App& app);
 
 }  // namespace retimegs::app

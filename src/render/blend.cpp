@@ -1,9 +1,14 @@
 // Stage 3: tile-based front-to-back compositing and its back-to-front vector-Jacobian product.
 //
-// Each tile row of 16 pixels is one simd::vf. The forward walks each row over the tile's
-// depth-ordered list with the row's state (transmittance, channel sums) in registers; the
-// backward walks the list back to front, each Gaussian over the rows it can reach, with its
-// gradient sums in registers, then adds them to the thread's gradient buffer.
+// Each tile row of 16 pixels is one simd::vf; a tile's per-pixel state (16 vectors per quantity)
+// stays in L1. The forward walks the tile's depth-ordered list front to back and updates, per
+// Gaussian, only the rows that its alpha >= min_alpha ellipse reaches; the backward walks it back
+// to front from the last contributor, accumulating each Gaussian's gradient in registers over
+// those rows, then adds it to the thread's gradient buffer.
+//
+// Threads: tiles are independent in the forward (dynamic schedule). The backward uses a static
+// round-robin tile schedule and one gradient buffer per thread, summed in thread order, so that
+// a given thread count always gives the same bits.
 #include "retimegs/render/blend.hpp"
 
 #include <omp.h>
@@ -11,6 +16,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "retimegs/core/error.hpp"
@@ -26,6 +32,7 @@ static_assert(kLanes == kTileSize, "one vector per tile row");
 constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
 
 // One 2-D Gaussian packed for the blend: header, then its features (+ depth).
+// kExtentV: half-height of the region where alpha >= min_alpha (alpha_extent).
 enum Field { kU, kV, kHalfA, kB, kHalfC, kOpacity, kLog2Opacity, kExtentV, kHeader };
 
 // The blend's view of the inputs, shared by forward and backward.
@@ -82,7 +89,7 @@ constexpr int kPrefetchDistance = 32;
 // A tile and its depth-ordered list of Gaussians.
 struct TileList {
   int x0 = 0, y0 = 0, rows = 0, count = 0;
-  vf px;                           // pixel-centre u of each lane
+  vf px;                                   // pixel-centre u of each lane
   const std::int32_t* gaussian = nullptr;  // [count] Gaussian index of each list entry
   const Context* ctx = nullptr;
 
@@ -112,17 +119,17 @@ struct TileList {
   }
 };
 
-// Compositing rule constants as vectors.
+// Compositing rule constants as vectors. Both stop rules become one `<` comparison:
+// T' <= t  <=>  T' < nextafter(t, +inf) for floats.
 struct Rule {
-  vf alpha_clamp, min_alpha, min_transmittance;
-  bool stop_at_or_below;
+  vf alpha_clamp, min_alpha, stop_below;
   explicit Rule(const RenderOptions& o)
       : alpha_clamp(simd::splat(o.alpha_clamp)),
         min_alpha(simd::splat(o.min_alpha)),
-        min_transmittance(simd::splat(o.min_transmittance)),
-        stop_at_or_below(o.stop_rule == StopRule::kAtOrBelow) {}
+        stop_below(simd::splat(o.stop_rule == StopRule::kAtOrBelow
+                                   ? std::nextafter(o.min_transmittance, INFINITY)
+                                   : o.min_transmittance)) {}
 };
-
 
 // sigma = 0.5 (a dx^2 + c dy^2) + b dx dy with dx = u - px, dy = v - py (gsplat's convention),
 // split into the part that is the same for every row of a tile and the per-row rest. sigma >= 0
@@ -190,9 +197,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       const simd::mask composite = st.alive[row] & simd::greater_equal(alpha, rule.min_alpha);
       const vf t = st.transmittance[row];
       const vf next_t = t * (1.0f - alpha);
-      const simd::mask stop =
-          composite & (rule.stop_at_or_below ? simd::less_equal(next_t, rule.min_transmittance)
-                                             : simd::less(next_t, rule.min_transmittance));
+      const simd::mask stop = composite & simd::less(next_t, rule.stop_below);
       const simd::mask add = simd::and_not(composite, stop);
       const vf weight = simd::mul_or_zero(add, alpha, t);
       for (int c = 0; c < channels; ++c) acc[c * kTileSize + row] += weight * s[kHeader + c];
@@ -204,19 +209,29 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       live_rows &= ~(std::uint32_t(!simd::any(still_alive)) << row);
     }
   }
+  const int lanes = std::min(kLanes, width - list.x0);
   for (int row = 0; row < list.rows; ++row) {
-    const int y = list.y0 + row;
-    for (int l = 0; l < kLanes && list.x0 + l < width; ++l) {
-      const std::size_t pixel = std::size_t(y) * width + list.x0 + l;
-      const float t = st.transmittance[row][l];
-      float* rgb = &out.image.data[pixel * c_image];
-      for (int c = 0; c < c_image; ++c)
-        rgb[c] = acc[c * kTileSize + row][l] + t * ctx.background[c];
-      if (ctx.options->render_depth) out.depth[pixel] = acc[c_image * kTileSize + row][l];
-      out.final_T[pixel] = t;
-      out.alpha[pixel] = 1.0f - t;
-      out.last_contributor[pixel] = st.last[row][l];
-      out.n_contrib[pixel] = st.count[row][l];
+    const std::size_t first = std::size_t(list.y0 + row) * width + list.x0;  // lane 0's pixel
+    const vf t = st.transmittance[row];
+    if (lanes == kLanes) {  // whole row inside the image: contiguous in the [H, W] planes
+      simd::store(&out.final_T[first], t);
+      simd::store(&out.alpha[first], 1.0f - t);
+      simd::store(&out.last_contributor[first], st.last[row]);
+      simd::store(&out.n_contrib[first], st.count[row]);
+      if (ctx.options->render_depth) simd::store(&out.depth[first], acc[c_image * kTileSize + row]);
+    } else {
+      for (int l = 0; l < lanes; ++l) {
+        out.final_T[first + l] = t[l];
+        out.alpha[first + l] = 1.0f - t[l];
+        out.last_contributor[first + l] = st.last[row][l];
+        out.n_contrib[first + l] = st.count[row][l];
+        if (ctx.options->render_depth) out.depth[first + l] = acc[c_image * kTileSize + row][l];
+      }
+    }
+    for (int c = 0; c < c_image; ++c) {
+      const vf value = acc[c * kTileSize + row] + t * ctx.background[c];
+      float* dst = &out.image.data[first * c_image + c];
+      for (int l = 0; l < lanes; ++l) dst[std::size_t(l) * c_image] = value[l];
     }
   }
 }
@@ -234,8 +249,11 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   const int c_image = ctx.in->channels, width = ctx.in->width;
   const int grad_stride = kGradHeader + ctx.channels_ext;
   st.reset(channels);
-  vf* behind = st.channel_a.data();  // [C', 16] f alpha T of the Gaussians behind + background
-  vf* v_out = st.channel_b.data();   // [C', 16] upstream gradient
+  vf* v_out = st.channel_b.data();  // [C', 16] upstream gradient of each channel
+  // v_behind = sum_c v_out_c behind_c, with behind_c = what the Gaussians behind the current one
+  // and the background add to channel c. Kept as one dot product per pixel: compositing a
+  // Gaussian adds weight * sum_c v_out_c f_c to it.
+  vf* v_behind = st.channel_a.data();     // [16]
   std::int32_t row_last[kTileSize] = {};  // max last contributor of each row
   for (int row = 0; row < list.rows; ++row) {
     const int y = list.y0 + row;
@@ -243,10 +261,13 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
       const std::size_t pixel = std::size_t(y) * width + list.x0 + l;
       const float t = fwd.final_T[pixel];
       st.transmittance[row][l] = t;
+      float v_bg = 0.0f;
       for (int c = 0; c < c_image; ++c) {
-        behind[c * kTileSize + row][l] = t * ctx.background[c];
-        v_out[c * kTileSize + row][l] = v_image[pixel * c_image + c];
+        const float v = v_image[pixel * c_image + c];
+        v_out[c * kTileSize + row][l] = v;
+        v_bg += v * ctx.background[c];
       }
+      v_behind[row][l] = t * v_bg;
       if (ctx.options->render_depth && v_depth)
         v_out[c_image * kTileSize + row][l] = v_depth[pixel];
       st.v_alpha_final_t[row][l] = v_alpha ? v_alpha[pixel] * t : 0.0f;
@@ -259,11 +280,18 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   vf v_feat_fixed[kC > 0 ? kC : 1];
   std::vector<vf> v_feat_dynamic(kC > 0 ? 0 : channels);
   vf* v_feat = kC > 0 ? v_feat_fixed : v_feat_dynamic.data();
-  for (int k = max_last - 1; k >= max_last - 1 - kPrefetchDistance; --k) list.prefetch(k);
+  // The Gaussian's record and its row of the gradient buffer are both scattered in memory.
+  const auto prefetch = [&](int k) {
+    if (k < 0) return;
+    list.prefetch(k);
+    simd::prefetch(grad_buffer + std::size_t(list.gaussian[k]) * grad_stride);
+  };
+  for (int k = max_last - 1; k >= max_last - 1 - kPrefetchDistance; --k) prefetch(k);
   for (int k = max_last - 1; k >= 0; --k) {
-    list.prefetch(k - kPrefetchDistance);
+    prefetch(k - kPrefetchDistance);
     std::uint32_t active_rows = 0;
-    for (int row = 0; row < kTileSize; ++row) active_rows |= std::uint32_t(k < row_last[row]) << row;
+    for (int row = 0; row < kTileSize; ++row)
+      active_rows |= std::uint32_t(k < row_last[row]) << row;
     const float* s = list.splat(k);
     std::uint32_t todo = active_rows & list.row_mask(s);
     if (!todo) continue;
@@ -283,26 +311,25 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
           simd::less(index, st.last[row]) & simd::greater_equal(alpha, rule.min_alpha);
       const vf inv_one_minus = simd::reciprocal(1.0f - alpha);
       // T in front of this Gaussian, recovered from T behind it.
-      const vf t = simd::select(composite, st.transmittance[row] * inv_one_minus,
-                                st.transmittance[row]);
+      const vf t =
+          simd::select(composite, st.transmittance[row] * inv_one_minus, st.transmittance[row]);
       st.transmittance[row] = t;
       const vf weight = simd::mul_or_zero(composite, alpha, t);
-      // d out_c / d alpha = f_c T - behind_c / (1 - alpha); d alpha_out / d alpha = T_f / (1-alpha)
-      vf v_alpha_px = st.v_alpha_final_t[row] * inv_one_minus;
+      vf v_out_dot_f{};  // sum_c v_out_c f_c
       for (int c = 0; c < channels; ++c) {
-        const float f = s[kHeader + c];
         const vf v_o = v_out[c * kTileSize + row];
-        vf& behind_c = behind[c * kTileSize + row];
         v_feat[c] += weight * v_o;
-        v_alpha_px += v_o * (f * t - behind_c * inv_one_minus);
-        behind_c += weight * f;
+        v_out_dot_f += v_o * s[kHeader + c];
       }
+      // d out_c / d alpha = f_c T - behind_c / (1 - alpha); d alpha_out / d alpha = T_f / (1-alpha)
+      vf v_alpha_px = v_out_dot_f * t + (st.v_alpha_final_t[row] - v_behind[row]) * inv_one_minus;
+      v_behind[row] += weight * v_out_dot_f;
       // alpha = opacity * G unless clamped (then no gradient flows), G = exp(-sigma):
       // d alpha / d opacity = G, d alpha / d sigma = -alpha.
       const simd::mask unclamped = composite & simd::less_equal(alpha_raw, rule.alpha_clamp);
       v_alpha_px = simd::select(unclamped, v_alpha_px, vf{});
       const vf v_alpha_raw = alpha_raw * v_alpha_px;
-      v_opacity += v_alpha_raw;  // times 1 / opacity below
+      v_opacity += v_alpha_raw;                                     // times 1 / opacity below
       const vf g_dx = -v_alpha_raw * dx, g_dy = -v_alpha_raw * dy;  // v_sigma * (dx, dy)
       v_a += half_dx * g_dx;
       v_b += dx * g_dy;
@@ -326,28 +353,38 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
 template <typename F>
 void dispatch_channels(int channels, F&& f) {
   switch (channels) {
-    case 1: return f.template operator()<1>();
-    case 2: return f.template operator()<2>();
-    case 3: return f.template operator()<3>();
-    case 4: return f.template operator()<4>();
-    case 5: return f.template operator()<5>();
-    case 6: return f.template operator()<6>();
-    case 7: return f.template operator()<7>();
-    case 8: return f.template operator()<8>();
-    default: return f.template operator()<0>();
+    case 1:
+      return f.template operator()<1>();
+    case 2:
+      return f.template operator()<2>();
+    case 3:
+      return f.template operator()<3>();
+    case 4:
+      return f.template operator()<4>();
+    case 5:
+      return f.template operator()<5>();
+    case 6:
+      return f.template operator()<6>();
+    case 7:
+      return f.template operator()<7>();
+    case 8:
+      return f.template operator()<8>();
+    default:
+      return f.template operator()<0>();
   }
 }
 static_assert(kMaxStaticChannels == 8, "dispatch_channels lists 1..kMaxStaticChannels");
 
 void check_inputs(const BlendInputs& in, const TileBins& bins) {
-  if (!in.projected || !in.opacities || (!in.features && in.projected->size() > 0))
-    fail("blend: projected Gaussians, opacities and features are required");
+  if (!in.projected) fail("blend: projected Gaussians are required");
+  if (in.projected->size() > 0 && (!in.opacities || !in.features))
+    fail("blend: opacities and features are required");
   if (in.channels < 1) fail("blend: channel count must be >= 1, got {}", in.channels);
   if (in.width < 1 || in.height < 1) fail("blend: image size {}x{} is empty", in.width, in.height);
   if (bins.tiles_x != (in.width + kTileSize - 1) / kTileSize ||
       bins.tiles_y != (in.height + kTileSize - 1) / kTileSize)
-    fail("blend: tile bins ({}x{} tiles) do not match the {}x{} image", bins.tiles_x,
-         bins.tiles_y, in.width, in.height);
+    fail("blend: tile bins ({}x{} tiles) do not match the {}x{} image", bins.tiles_x, bins.tiles_y,
+         in.width, in.height);
 }
 
 }  // namespace
@@ -395,26 +432,32 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
   const int threads = omp_get_max_threads();
   // [threads, N, grad_stride]: each thread owns the tiles of a static schedule and sums into its
   // own rows, so the order of every sum is fixed by the thread count alone.
-  std::vector<float> buffers(std::size_t(threads) * n * grad_stride, 0.0f);
+  // Left uninitialised here and zeroed by its own thread (in parallel, and first touch puts the
+  // pages near that thread).
+  const std::size_t buffer_size = n * grad_stride;
+  const std::unique_ptr<float[]> buffers(new float[threads * buffer_size]);
   dispatch_channels(ctx.channels_ext, [&]<int kC>() {
 #pragma omp parallel num_threads(threads)
     {
       const simd::FlushDenormals flush;
       TileState state;
-      float* buffer = &buffers[std::size_t(omp_get_thread_num()) * n * grad_stride];
+      float* buffer = &buffers[omp_get_thread_num() * buffer_size];
+      std::fill(buffer, buffer + buffer_size, 0.0f);
 #pragma omp for schedule(static, 1)
       for (int tile = 0; tile < bins.num_tiles(); ++tile) {
-        backward_tile<kC>(ctx, rule, TileList(ctx, tile), forward, v_image, v_alpha, v_depth, state, buffer);
+        backward_tile<kC>(ctx, rule, TileList(ctx, tile), forward, v_image, v_alpha, v_depth, state,
+                          buffer);
       }
     }
   });
 
   grads.channels = c;
-  grads.v_means2d.assign(2 * n, 0.0f);
-  grads.v_conics.assign(3 * n, 0.0f);
-  grads.v_opacities.assign(n, 0.0f);
-  grads.v_features.assign(n * c, 0.0f);
-  grads.v_depths.assign(n, 0.0f);
+  // Every row is written below.
+  grads.v_means2d.resize(2 * n);
+  grads.v_conics.resize(3 * n);
+  grads.v_opacities.resize(n);
+  grads.v_features.resize(n * c);
+  grads.v_depths.resize(n);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(n); ++g) {
     float sum[kGradHeader + kMaxStaticChannels + 1];
@@ -422,7 +465,7 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
     float* total = sum_dynamic.empty() ? sum : sum_dynamic.data();
     std::fill(total, total + grad_stride, 0.0f);
     for (int t = 0; t < threads; ++t) {
-      const float* row = &buffers[(std::size_t(t) * n + g) * grad_stride];
+      const float* row = &buffers[t * buffer_size + g * grad_stride];
       for (int k = 0; k < grad_stride; ++k) total[k] += row[k];
     }
     grads.v_means2d[2 * g] = total[kGradU];
@@ -432,7 +475,7 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
     grads.v_conics[3 * g + 2] = total[kGradC];
     grads.v_opacities[g] = total[kGradOpacity];
     std::copy(total + kGradHeader, total + kGradHeader + c, &grads.v_features[g * c]);
-    if (options.render_depth) grads.v_depths[g] = total[kGradHeader + c];
+    grads.v_depths[g] = options.render_depth ? total[kGradHeader + c] : 0.0f;
   }
 }
 

@@ -59,17 +59,17 @@ std::array<T, 4> quat_to_rotation_vjp(T w, T x, T y, T z, const Mat3<T>& v) {
 // Everything the forward computes for one Gaussian that the backward needs again.
 template <typename T>
 struct Geometry {
-  Vec3<T> p;        // camera-space mean
-  T qnorm;          // |q|
-  T qw, qx, qy, qz; // normalised quaternion
-  Mat3<T> rq;       // rotation of the Gaussian
-  Vec3<T> scale;    // exp(log_scale)
-  Mat3<T> m;        // rq * diag(scale)
-  Mat3<T> cov_cam;  // camera-space 3-D covariance
-  Mat23<T> jac;     // d pixel / d camera point, at the guarded point
+  Vec3<T> p;         // camera-space mean
+  T qnorm;           // |q|
+  T qw, qx, qy, qz;  // normalised quaternion
+  Mat3<T> rq;        // rotation of the Gaussian
+  Vec3<T> scale;     // exp(log_scale)
+  Mat3<T> m;         // rq * diag(scale)
+  Mat3<T> cov_cam;   // camera-space 3-D covariance
+  Mat23<T> jac;      // d pixel / d camera point, at the guarded point
   T tx_over_z, ty_over_z;
   bool clamped_x, clamped_y;
-  Mat2<T> cov2d;    // blurred 2-D covariance
+  Mat2<T> cov2d;  // blurred 2-D covariance
 };
 
 template <typename T>
@@ -191,10 +191,12 @@ ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
     const std::size_t i = std::size_t(ii);
     const T opacity = g.opacities[i];
     if (!(opacity > 0) || opacity < min_opacity) continue;
-    const T z = g.means[3 * i] * camera.rotation[6] + g.means[3 * i + 1] * camera.rotation[7] +
-                g.means[3 * i + 2] * camera.rotation[8] + camera.translation[2];
-    if (!(z >= T(options.near_plane))) continue;
+    const T z_early = g.means[3 * i] * camera.rotation[6] +
+                      g.means[3 * i + 1] * camera.rotation[7] +
+                      g.means[3 * i + 2] * camera.rotation[8] + camera.translation[2];
+    if (!(z_early >= T(options.near_plane))) continue;  // before the costlier geometry
     const Geometry<T> geo = geometry(g, i, camera, rv, T(options.low_pass));
+    const T z = geo.p.z();
     const Mat2<T>& cov = geo.cov2d;
     const T det = cov(0, 0) * cov(1, 1) - cov(0, 1) * cov(0, 1);
     if (!(det > 0)) continue;
@@ -220,15 +222,21 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
                       const ProjectedT<T>& projected, const RenderOptions& options,
                       GaussianGradsT<T>& grads) {
   const std::size_t n = g.size();
-  grads.v_means.assign(3 * n, T(0));
-  grads.v_log_scales.assign(3 * n, T(0));
-  grads.v_quats.assign(4 * n, T(0));
+  // Every row is written below.
+  grads.v_means.resize(3 * n);
+  grads.v_log_scales.resize(3 * n);
+  grads.v_quats.resize(4 * n);
   const Mat3<T> rv = rotation_of(camera);
 
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(n); ++ii) {
     const std::size_t i = std::size_t(ii);
-    if (projected.radii[i] <= 0) continue;
+    if (projected.radii[i] <= 0) {
+      std::fill_n(&grads.v_means[3 * i], 3, T(0));
+      std::fill_n(&grads.v_log_scales[3 * i], 3, T(0));
+      std::fill_n(&grads.v_quats[4 * i], 4, T(0));
+      continue;
+    }
     const Geometry<T> geo = geometry(g, i, camera, rv, T(options.low_pass));
     const T z = geo.p.z(), x = geo.p.x(), y = geo.p.y();
 
@@ -253,8 +261,8 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
     }
     const auto v_qhat = quat_to_rotation_vjp(geo.qw, geo.qx, geo.qy, geo.qz, v_rq);
     const T qhat[4] = {geo.qw, geo.qx, geo.qy, geo.qz};
-    const T dot = qhat[0] * v_qhat[0] + qhat[1] * v_qhat[1] + qhat[2] * v_qhat[2] +
-                  qhat[3] * v_qhat[3];
+    const T dot =
+        qhat[0] * v_qhat[0] + qhat[1] * v_qhat[1] + qhat[2] * v_qhat[2] + qhat[3] * v_qhat[3];
     for (int k = 0; k < 4; ++k) grads.v_quats[4 * i + k] = (v_qhat[k] - qhat[k] * dot) / geo.qnorm;
 
     // Camera-space mean: through the pixel centre, the Jacobian and the depth.
@@ -283,16 +291,17 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
   }
 }
 
-#define RETIMEGS_INSTANTIATE_PROJECT(T)                                                         \
-  template struct PinholeT<T>;                                                                  \
-  template TileRect radius_tile_rect<T>(T, T, int, int, int);                                   \
-  template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);                 \
-  template TileRect blend_tile_rect<T>(const T*, const T*, int, T, int, int,                    \
-                                       const RenderOptions&);                                   \
-  template ProjectedT<T> project_forward<T>(const GaussiansT<T>&, const PinholeT<T>&,           \
-                                            const RenderOptions&);                              \
-  template void project_backward<T>(const GaussiansT<T>&, const PinholeT<T>&,                   \
-                                    const ProjectedT<T>&, const RenderOptions&, GaussianGradsT<T>&);
+#define RETIMEGS_INSTANTIATE_PROJECT(T)                                               \
+  template struct PinholeT<T>;                                                        \
+  template TileRect radius_tile_rect<T>(T, T, int, int, int);                         \
+  template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);       \
+  template TileRect blend_tile_rect<T>(const T*, const T*, int, T, int, int,          \
+                                       const RenderOptions&);                         \
+  template ProjectedT<T> project_forward<T>(const GaussiansT<T>&, const PinholeT<T>&, \
+                                            const RenderOptions&);                    \
+  template void project_backward<T>(const GaussiansT<T>&, const PinholeT<T>&,         \
+                                    const ProjectedT<T>&, const RenderOptions&,       \
+                                    GaussianGradsT<T>&);
 RETIMEGS_INSTANTIATE_PROJECT(float)
 RETIMEGS_INSTANTIATE_PROJECT(double)
 #undef RETIMEGS_INSTANTIATE_PROJECT

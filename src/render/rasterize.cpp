@@ -10,7 +10,8 @@ namespace retimegs::render {
 namespace {
 
 template <typename T>
-void check_size(const std::vector<T>& v, std::size_t expected, const char* field, const char* shape) {
+void check_size(const std::vector<T>& v, std::size_t expected, const char* field,
+                const char* shape) {
   if (v.size() != expected)
     fail("gaussians.{}: has {} values, expected {} ({})", field, v.size(), expected, shape);
 }
@@ -80,13 +81,14 @@ RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,
   check_camera(camera);
   if (background)
     for (int c = 0; c < gaussians.channels; ++c)
-      if (!std::isfinite(background[c])) fail("background[{}] is {} (must be finite)", c, background[c]);
+      if (!std::isfinite(background[c]))
+        fail("background[{}] is {} (must be finite)", c, background[c]);
   RenderOutput out;
   out.projected = project_forward(gaussians, PinholeT<float>(camera), options);
-  out.bins = bin_tiles(out.projected, gaussians.opacities.data(), camera.width, camera.height,
-                       options);
-  out.blend = blend_forward(blend_inputs(gaussians, camera, out.projected, background), out.bins,
-                            options);
+  out.bins =
+      bin_tiles(out.projected, gaussians.opacities.data(), camera.width, camera.height, options);
+  out.blend =
+      blend_forward(blend_inputs(gaussians, camera, out.projected, background), out.bins, options);
   return out;
 }
 
@@ -97,7 +99,8 @@ GaussianGrads rasterize_backward(const Gaussians& gaussians, const Camera& camer
   if (forward.projected.size() != gaussians.size() ||
       forward.blend.final_T.size() != std::size_t(camera.width) * camera.height)
     fail("rasterize_backward: the saved forward does not match these Gaussians and camera");
-  GaussianGrads grads(gaussians.size(), gaussians.channels);
+  GaussianGrads grads;  // each stage sizes (and fills) its own fields
+  grads.channels = gaussians.channels;
   blend_backward(blend_inputs(gaussians, camera, forward.projected, background), forward.bins,
                  options, forward.blend, v_image, v_alpha, v_depth, grads);
   project_backward(gaussians, PinholeT<float>(camera), forward.projected, options, grads);

@@ -14,11 +14,11 @@ namespace {
 // One Gaussian composited into one pixel.
 struct Contribution {
   std::int32_t gaussian;
-  double dx, dy;      // mean2d - pixel centre
-  double gauss;       // exp(-sigma)
-  double alpha_raw;   // opacity * gauss
-  double alpha;       // min(alpha_clamp, alpha_raw)
-  double t;           // transmittance in front of it
+  double dx, dy;     // mean2d - pixel centre
+  double gauss;      // exp(-sigma)
+  double alpha_raw;  // opacity * gauss
+  double alpha;      // min(alpha_clamp, alpha_raw)
+  double t;          // transmittance in front of it
 };
 
 struct Scene {
@@ -29,24 +29,24 @@ struct Scene {
   std::vector<double> background;         // [C'] (depth composites over 0)
 };
 
-Scene prepare(const GaussiansT<double>& g, const Camera& camera, const double* background,
-              const RenderOptions& options) {
-  check_gaussians(g);
-  check_camera(camera);
+Scene prepare(const ProjectedT<double>& projected, const GaussiansT<double>& g, int width,
+              int height, const double* background, const RenderOptions& options) {
+  if (projected.size() != g.size())
+    fail("reference: {} projected Gaussians for a batch of {}", projected.size(), g.size());
   Scene s;
-  s.width = camera.width;
-  s.height = camera.height;
+  s.width = width;
+  s.height = height;
   s.channels = g.channels;
   s.channels_ext = g.channels + (options.render_depth ? 1 : 0);
   s.tiles_x = (s.width + kTileSize - 1) / kTileSize;
   s.tiles_y = (s.height + kTileSize - 1) / kTileSize;
-  s.projected = project_forward(g, PinholeT<double>(camera), options);
+  s.projected = projected;
   s.rects.resize(g.size());
   for (std::size_t i = 0; i < g.size(); ++i) {
     if (s.projected.radii[i] <= 0) continue;
-    s.rects[i] = blend_tile_rect(&s.projected.means2d[2 * i], &s.projected.conics[3 * i],
-                                 s.projected.radii[i], g.opacities[i], s.tiles_x, s.tiles_y,
-                                 options);
+    s.rects[i] =
+        blend_tile_rect(&s.projected.means2d[2 * i], &s.projected.conics[3 * i],
+                        s.projected.radii[i], g.opacities[i], s.tiles_x, s.tiles_y, options);
     if (s.rects[i].area() > 0) s.depth_order.push_back(std::int32_t(i));
   }
   std::stable_sort(s.depth_order.begin(), s.depth_order.end(), [&](std::int32_t a, std::int32_t b) {
@@ -74,7 +74,6 @@ double composite_pixel(const GaussiansT<double>& g, const Scene& s, const Render
     const double* conic = &s.projected.conics[3 * i];
     const double dx = s.projected.means2d[2 * i] - px, dy = s.projected.means2d[2 * i + 1] - py;
     const double sigma = 0.5 * (conic[0] * dx * dx + conic[2] * dy * dy) + conic[1] * dx * dy;
-    if (sigma < 0) continue;
     const double gauss = std::exp(-sigma);
     const double alpha_raw = g.opacities[i] * gauss;
     const double alpha = std::min(double(options.alpha_clamp), alpha_raw);
@@ -92,9 +91,10 @@ double composite_pixel(const GaussiansT<double>& g, const Scene& s, const Render
 
 }  // namespace
 
-ReferenceOutput reference_forward(const GaussiansT<double>& g, const Camera& camera,
-                                  const double* background, const RenderOptions& options) {
-  const Scene s = prepare(g, camera, background, options);
+ReferenceOutput reference_blend_forward(const ProjectedT<double>& projected,
+                                        const GaussiansT<double>& g, int width, int height,
+                                        const double* background, const RenderOptions& options) {
+  const Scene s = prepare(projected, g, width, height, background, options);
   ReferenceOutput out;
   out.width = s.width;
   out.height = s.height;
@@ -126,13 +126,20 @@ ReferenceOutput reference_forward(const GaussiansT<double>& g, const Camera& cam
   return out;
 }
 
-GaussianGradsT<double> reference_backward(const GaussiansT<double>& g, const Camera& camera,
-                                          const double* background, const RenderOptions& options,
-                                          const double* v_image, const double* v_alpha,
-                                          const double* v_depth) {
-  if (!v_image) fail("reference_backward: v_image is required");
-  const Scene s = prepare(g, camera, background, options);
-  GaussianGradsT<double> grads(g.size(), g.channels);
+void reference_blend_backward(const ProjectedT<double>& projected, const GaussiansT<double>& g,
+                              int width, int height, const double* background,
+                              const RenderOptions& options, const double* v_image,
+                              const double* v_alpha, const double* v_depth,
+                              GaussianGradsT<double>& grads) {
+  if (!v_image) fail("reference_blend_backward: v_image is required");
+  const Scene s = prepare(projected, g, width, height, background, options);
+  const std::size_t n = g.size();
+  grads.channels = g.channels;
+  grads.v_means2d.assign(2 * n, 0.0);
+  grads.v_conics.assign(3 * n, 0.0);
+  grads.v_opacities.assign(n, 0.0);
+  grads.v_features.assign(n * g.channels, 0.0);
+  grads.v_depths.assign(n, 0.0);
   std::vector<Contribution> contributions;
   std::vector<double> v_out(s.channels_ext), behind(s.channels_ext);
   for (int y = 0; y < s.height; ++y)
@@ -171,7 +178,28 @@ GaussianGradsT<double> reference_backward(const GaussiansT<double>& g, const Cam
         grads.v_means2d[2 * i + 1] += (conic[1] * k->dx + conic[2] * k->dy) * v_sigma;
       }
     }
-  project_backward(g, PinholeT<double>(camera), s.projected, options, grads);
+}
+
+ReferenceOutput reference_forward(const GaussiansT<double>& g, const Camera& camera,
+                                  const double* background, const RenderOptions& options) {
+  check_gaussians(g);
+  check_camera(camera);
+  return reference_blend_forward(project_forward(g, PinholeT<double>(camera), options), g,
+                                 camera.width, camera.height, background, options);
+}
+
+GaussianGradsT<double> reference_backward(const GaussiansT<double>& g, const Camera& camera,
+                                          const double* background, const RenderOptions& options,
+                                          const double* v_image, const double* v_alpha,
+                                          const double* v_depth) {
+  check_gaussians(g);
+  check_camera(camera);
+  const PinholeT<double> pinhole(camera);
+  const ProjectedT<double> projected = project_forward(g, pinhole, options);
+  GaussianGradsT<double> grads(g.size(), g.channels);
+  reference_blend_backward(projected, g, camera.width, camera.height, background, options, v_image,
+                           v_alpha, v_depth, grads);
+  project_backward(g, pinhole, projected, options, grads);
   return grads;
 }
 

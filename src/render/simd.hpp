@@ -15,31 +15,63 @@
 
 #include "retimegs/render/options.hpp"
 
+// Without AVX-512, GCC notes that 64-byte vector arguments change the calling convention; these
+// helpers are all inline, so no such call remains.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
 namespace retimegs::render::simd {
 
 constexpr int kLanes = kTileSize;
 using vf = float __attribute__((vector_size(kLanes * sizeof(float))));
 using vi = std::int32_t __attribute__((vector_size(kLanes * sizeof(std::int32_t))));
 
-inline vf splat(float x) { return vf{} + x; }
-inline vi splat_int(std::int32_t x) { return vi{} + x; }
+inline vf splat(float x) {
+  return vf{} + x;
+}
+inline vi splat_int(std::int32_t x) {
+  return vi{} + x;
+}
+inline void store(float* p, vf v) {
+  std::memcpy(p, &v, sizeof(v));
+}
+inline void store(std::int32_t* p, vi v) {
+  std::memcpy(p, &v, sizeof(v));
+}
 
 #if defined(__AVX512F__)
 using mask = __mmask16;
-inline mask lanes_below(int n) { return mask((1u << n) - 1u); }  // lanes [0, n), n <= 16
-inline mask less(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
-inline mask less_equal(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
-inline mask greater_equal(vf a, vf b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
-inline mask less(vi a, vi b) { return _mm512_cmplt_epi32_mask((__m512i)a, (__m512i)b); }
-inline mask and_not(mask a, mask b) { return mask(a & ~b); }
-inline bool any(mask m) { return m != 0; }
+inline mask lanes_below(int n) {
+  return mask((1u << n) - 1u);
+}  // lanes [0, n), n <= 16
+inline mask less(vf a, vf b) {
+  return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ);
+}
+inline mask less_equal(vf a, vf b) {
+  return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ);
+}
+inline mask greater_equal(vf a, vf b) {
+  return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ);
+}
+inline mask less(vi a, vi b) {
+  return _mm512_cmplt_epi32_mask((__m512i)a, (__m512i)b);
+}
+inline mask and_not(mask a, mask b) {
+  return mask(a & ~b);
+}
+inline bool any(mask m) {
+  return m != 0;
+}
 // m ? a : b, lane-wise.
-inline vf select(mask m, vf a, vf b) { return _mm512_mask_blend_ps(m, b, a); }
+inline vf select(mask m, vf a, vf b) {
+  return _mm512_mask_blend_ps(m, b, a);
+}
 inline vi select(mask m, vi a, vi b) {
   return (vi)_mm512_mask_blend_epi32(m, (__m512i)b, (__m512i)a);
 }
 // m ? a * b : 0.
-inline vf mul_or_zero(mask m, vf a, vf b) { return _mm512_maskz_mul_ps(m, a, b); }
+inline vf mul_or_zero(mask m, vf a, vf b) {
+  return _mm512_maskz_mul_ps(m, a, b);
+}
 // c + (m ? 1 : 0).
 inline vi count_if(vi c, mask m) {
   return (vi)_mm512_mask_add_epi32((__m512i)c, m, (__m512i)c, _mm512_set1_epi32(1));
@@ -51,23 +83,43 @@ inline mask lanes_below(int n) {
   for (int l = 0; l < kLanes; ++l) m[l] = l < n ? -1 : 0;
   return m;
 }
-inline mask less(vf a, vf b) { return a < b; }
-inline mask less_equal(vf a, vf b) { return a <= b; }
-inline mask greater_equal(vf a, vf b) { return a >= b; }
-inline mask less(vi a, vi b) { return a < b; }
-inline mask and_not(mask a, mask b) { return a & ~b; }
+inline mask less(vf a, vf b) {
+  return a < b;
+}
+inline mask less_equal(vf a, vf b) {
+  return a <= b;
+}
+inline mask greater_equal(vf a, vf b) {
+  return a >= b;
+}
+inline mask less(vi a, vi b) {
+  return a < b;
+}
+inline mask and_not(mask a, mask b) {
+  return a & ~b;
+}
 inline bool any(mask m) {
   std::int32_t r = 0;
   for (int l = 0; l < kLanes; ++l) r |= m[l];
   return r != 0;
 }
-inline vf select(mask m, vf a, vf b) { return (vf)(((vi)a & m) | ((vi)b & ~m)); }
-inline vi select(mask m, vi a, vi b) { return (a & m) | (b & ~m); }
-inline vf mul_or_zero(mask m, vf a, vf b) { return (vf)((vi)(a * b) & m); }
-inline vi count_if(vi c, mask m) { return c - m; }  // m is -1 where set
+inline vf select(mask m, vf a, vf b) {
+  return (vf)(((vi)a & m) | ((vi)b & ~m));
+}
+inline vi select(mask m, vi a, vi b) {
+  return (a & m) | (b & ~m);
+}
+inline vf mul_or_zero(mask m, vf a, vf b) {
+  return (vf)((vi)(a * b) & m);
+}
+inline vi count_if(vi c, mask m) {
+  return c - m;
+}  // m is -1 where set
 #endif
 
-inline vf min(vf a, vf b) { return select(less(a, b), a, b); }
+inline vf min(vf a, vf b) {
+  return select(less(a, b), a, b);
+}
 
 // 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and e^x by
 // its degree-6 Taylor polynomial (relative remainder (ln(2) / 2)^7 / 7! = 1.2e-7).
@@ -120,8 +172,8 @@ inline float sum(vf v) {
   using vf4 = float __attribute__((vector_size(4 * sizeof(float))));
   const vf8 s8 = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) +
                  __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
-  const vf4 s4 = __builtin_shufflevector(s8, s8, 0, 1, 2, 3) +
-                 __builtin_shufflevector(s8, s8, 4, 5, 6, 7);
+  const vf4 s4 =
+      __builtin_shufflevector(s8, s8, 0, 1, 2, 3) + __builtin_shufflevector(s8, s8, 4, 5, 6, 7);
   return (s4[0] + s4[2]) + (s4[1] + s4[3]);
 }
 
@@ -143,8 +195,12 @@ class FlushDenormals {
  public:
 #if defined(__SSE__)
   static constexpr unsigned kFlushToZero = 0x8000, kDenormalsAreZero = 0x0040;  // MXCSR bits
-  FlushDenormals() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero); }
-  ~FlushDenormals() { _mm_setcsr(saved_); }
+  FlushDenormals() : saved_(_mm_getcsr()) {
+    _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero);
+  }
+  ~FlushDenormals() {
+    _mm_setcsr(saved_);
+  }
   FlushDenormals(const FlushDenormals&) = delete;
   FlushDenormals& operator=(const FlushDenormals&) = delete;
 

@@ -18,8 +18,8 @@ TEST_P(RenderGsplat, ProjectionMatchesV0113) {
   RETIMEGS_REQUIRE_DATA("gsplat-reference");
   const GsplatCase k = load_gsplat_case(GetParam());
   const auto options = gsplat_v0_1_13();
-  const render::Projected p = render::project_forward(
-      k.gaussians, render::PinholeT<float>(k.camera), options);
+  const render::Projected p =
+      render::project_forward(k.gaussians, render::PinholeT<float>(k.camera), options);
   const auto xys = npy_floats(k.dir / "xys.npy");
   const auto depths = npy_floats(k.dir / "depths.npy");
   const auto conics = npy_floats(k.dir / "conics.npy");
@@ -36,15 +36,18 @@ TEST_P(RenderGsplat, ProjectionMatchesV0113) {
     if (p.radii[i] == 0) continue;
     ++compared;
     EXPECT_EQ(p.radii[i], radii[i]) << "Gaussian " << i;
-    for (int d = 0; d < 2; ++d) max_xy = std::max(max_xy, double(std::abs(p.means2d[2 * i + d] - xys[2 * i + d])));
+    for (int d = 0; d < 2; ++d)
+      max_xy = std::max(max_xy, double(std::abs(p.means2d[2 * i + d] - xys[2 * i + d])));
     max_depth_rel = std::max(max_depth_rel, double(std::abs(p.depths[i] - depths[i]) / depths[i]));
     const double conic_scale = std::max(std::abs(conics[3 * i]), std::abs(conics[3 * i + 2]));
     for (int d = 0; d < 3; ++d)
-      max_conic_rel = std::max(max_conic_rel, std::abs(p.conics[3 * i + d] - conics[3 * i + d]) / conic_scale);
+      max_conic_rel =
+          std::max(max_conic_rel, std::abs(p.conics[3 * i + d] - conics[3 * i + d]) / conic_scale);
   }
   EXPECT_GT(compared, int(n) / 4);
   EXPECT_LE(opacity_culled, int(n) / 100);
-  // Float round-off: v0.1.13 builds the covariance as (J W) Sigma (J W)^T, we as J (W Sigma W^T) J^T.
+  // Float round-off: v0.1.13 builds the covariance as (J W) Sigma (J W)^T, we as J (W Sigma W^T)
+  // J^T.
   EXPECT_LT(max_xy, 1e-4);
   EXPECT_LT(max_depth_rel, 1e-6);
   EXPECT_LT(max_conic_rel, 3e-5);
@@ -57,10 +60,10 @@ TEST_P(RenderGsplat, BinningMatchesV0113) {
   const GsplatCase k = load_gsplat_case(GetParam());
   auto options = gsplat_v0_1_13();
   options.tight_tile_bounds = false;  // gsplat bins by the radius square alone
-  const render::Projected p = render::project_forward(
-      k.gaussians, render::PinholeT<float>(k.camera), options);
-  const render::TileBins bins = render::bin_tiles(p, k.gaussians.opacities.data(),
-                                                  k.camera.width, k.camera.height, options);
+  const render::Projected p =
+      render::project_forward(k.gaussians, render::PinholeT<float>(k.camera), options);
+  const render::TileBins bins =
+      render::bin_tiles(p, k.gaussians.opacities.data(), k.camera.width, k.camera.height, options);
   const auto ids = npy_ints(k.dir / "gaussian_ids_sorted.npy");
   const auto tile_bins = npy_ints(k.dir / "tile_bins.npy");  // [T, 2]
   ASSERT_EQ(std::size_t(bins.num_tiles()) * 2, tile_bins.size());

@@ -9,12 +9,12 @@ namespace retimegs {
 
 template <typename T>
 struct GaussiansT {
-  int channels = 3;            // C: feature channels per Gaussian (RGB = 3, RGB + 2 flows = 7)
-  std::vector<T> means;        // [N, 3] world space
-  std::vector<T> log_scales;   // [N, 3] natural log of the standard deviations on the local axes
-  std::vector<T> quats;        // [N, 4] (w, x, y, z), any non-zero norm; normalised inside
-  std::vector<T> opacities;    // [N] activated, in [0, 1]
-  std::vector<T> features;     // [N, C] composited as they are (no activation, no SH)
+  int channels = 3;           // C: feature channels per Gaussian (RGB = 3, RGB + 2 flows = 7)
+  std::vector<T> means;       // [N, 3] world space
+  std::vector<T> log_scales;  // [N, 3] natural log of the standard deviations on the local axes
+  std::vector<T> quats;       // [N, 4] (w, x, y, z), any non-zero norm; normalised inside
+  std::vector<T> opacities;   // [N] activated, in [0, 1]
+  std::vector<T> features;    // [N, C] composited as they are (no activation, no SH)
 
   GaussiansT() = default;
   GaussiansT(std::size_t n, int c)

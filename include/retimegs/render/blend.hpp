@@ -24,14 +24,14 @@ struct BlendInputs {
 };
 
 struct BlendOutput {
-  Image image;                        // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
-  std::vector<float> alpha;           // [H, W] 1 - T_final
-  std::vector<float> depth;           // [H, W] sum_i z_i alpha_i T_i; empty unless render_depth
+  Image image;               // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
+  std::vector<float> alpha;  // [H, W] 1 - T_final
+  std::vector<float> depth;  // [H, W] sum_i z_i alpha_i T_i; empty unless render_depth
   // Saved for the backward.
-  std::vector<float> final_T;         // [H, W] transmittance left after compositing
+  std::vector<float> final_T;                  // [H, W] transmittance left after compositing
   std::vector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
                                                // Gaussian composited; 0 = none
-  std::vector<std::int32_t> n_contrib;  // [H, W] how many Gaussians were composited
+  std::vector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
 };
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,

@@ -1,0 +1,105 @@
+// retimegs eval (--model MODEL | --baseline crossfade|nearest) --scene SCENE [--frames odd|all|LIST]
+//               [--cameras LIST] [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <spdlog/spdlog.h>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/eval/protocol.hpp"
+#include "retimegs/eval/render_model.hpp"
+#include "retimegs/model/model_file.hpp"
+
+namespace retimegs::app {
+namespace fs = std::filesystem;
+
+void add_eval_command(CLI::App& app) {
+  struct Args {
+    std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out, train_frames = "even";
+    int threads = 0;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "eval", "Render held-out frames and score them against the ground truth (PSNR, SSIM, "
+              "LPIPS; inside the masks when the scene has them) as JSON.");
+  auto* model = cmd->add_option("--model", args->model, "model (.rgs, or a static .ply)");
+  auto* baseline = cmd->add_option("--baseline", args->baseline,
+                                   "score a trivial in-betweening instead: crossfade (blend of the "
+                                   "neighbouring training frames) or nearest (copy of the closer)")
+                       ->check(CLI::IsMember({"crossfade", "nearest"}));
+  model->excludes(baseline);
+  cmd->add_option("--scene", args->scene, "scene folder")->required();
+  cmd->add_option("--frames", args->frames, "odd, all, or a list like 1,3,5")->capture_default_str();
+  cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: every camera)");
+  cmd->add_option("--train-frames", args->train_frames,
+                  "the training frames the baselines blend: even or all")
+      ->check(CLI::IsMember({"even", "all"}))
+      ->capture_default_str();
+  cmd->add_option("--lpips-weights", args->lpips,
+                  "LPIPS-squeeze weights folder (default: ../shared/data/metrics/lpips_squeeze/"
+                  "weights when present; otherwise lpips is null)");
+  cmd->add_option("--save-renders", args->save, "also write DIR/<camera>/<frame:05d>.png");
+  cmd->add_option("--out", args->out, "metrics JSON to write")->required();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->callback([args] {
+    set_threads(args->threads);
+    if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
+    const data::Scene scene = data::read_scene(args->scene);
+    eval::EvalOptions options;
+    options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
+    if (args->cameras.empty())
+      for (int c = 0; c < int(scene.cameras.size()); ++c) options.cameras.push_back(c);
+    else
+      for (const auto& name : split_list(args->cameras, "--cameras"))
+        options.cameras.push_back(scene.camera_index(name));
+    if (!args->lpips.empty()) {
+      if (!fs::is_directory(args->lpips)) fail("--lpips-weights: {}: no such folder", args->lpips);
+      options.lpips_weights = fs::path(args->lpips);
+    } else if (fs::is_directory(RETIMEGS_DEFAULT_LPIPS_WEIGHTS)) {
+      options.lpips_weights = fs::path(RETIMEGS_DEFAULT_LPIPS_WEIGHTS);
+    }
+    if (!args->save.empty()) options.save_renders = fs::path(args->save);
+
+    eval::FrameRenderer renderer;
+    std::shared_ptr<model::Model> model4d;
+    std::shared_ptr<Splats> splats;
+    const float black[3] = {0, 0, 0};
+    if (!args->baseline.empty()) {
+      std::vector<int> train;
+      for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1) train.push_back(k);
+      renderer = eval::baseline_renderer(scene, train, args->baseline == "crossfade"
+                                                           ? eval::Baseline::kCrossfade
+                                                           : eval::Baseline::kNearest);
+    } else if (fs::path(args->model).extension() == ".ply") {
+      splats = std::make_shared<Splats>(data::read_splat_ply(args->model));
+      renderer = [&scene, splats, &black](int c, int) {
+        return eval::render_splats(*splats, scene.cameras[c], black);
+      };
+    } else {
+      model4d = std::make_shared<model::Model>(model::read_model(args->model));
+      renderer = [&scene, model4d, &black](int c, int k) {
+        return eval::render_model(*model4d, scene.cameras[c], double(k), black);
+      };
+    }
+    const eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
+    AtomicFile out(args->out);
+    {
+      std::ofstream o(out.temp_path());
+      o << eval::to_json(result) << "\n";
+      if (!o) fail("{}: write failed", args->out);
+    }
+    out.commit();
+    if (!result.note.empty()) spdlog::info("{}", result.note);
+    spdlog::info("psnr {:.3f}  ssim {:.4f}  lpips {}  ({} views{}) -> {}", result.psnr, result.ssim,
+                 result.lpips ? fmt::format("{:.4f}", *result.lpips) : "null",
+                 result.per_view.size(), result.masked ? ", masked" : "", args->out);
+  });
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,80 @@
+// retimegs train --scene SCENE --out RUN [--train-frames even|all] [--iters N] [--config FILE]
+//                [--ablate LIST] [--baseline stgs] [--cap N] [--seed S] [--threads T] [--resume]
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/data/scene.hpp"
+#include "retimegs/train/trainer.hpp"
+
+namespace retimegs::app {
+
+void add_train_command(CLI::App& app) {
+  struct Args {
+    std::string scene, out, frames = "even", config, ablate, baseline;
+    std::optional<int> iters;
+    std::optional<std::size_t> cap;
+    std::optional<std::uint64_t> seed;
+    int threads = 0;
+    bool resume = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "train", "Optimise the 4D model of a scene: RUN/model.rgs, RUN/config.json, RUN/log.jsonl, "
+               "RUN/checkpoints/.");
+  cmd->add_option("--scene", args->scene, "scene folder")->required();
+  cmd->add_option("--out", args->out, "run folder")->required();
+  cmd->add_option("--train-frames", args->frames,
+                  "even: train on frames 0, 2, 4, ... (odd frames held out); all: every frame")
+      ->check(CLI::IsMember({"even", "all"}))
+      ->capture_default_str();
+  cmd->add_option("--iters", args->iters, "iterations (default 20000; milestones scale with it)");
+  cmd->add_option("--config", args->config, "JSON file overriding any hyper-parameter");
+  cmd->add_option("--ablate", args->ablate,
+                  "comma-separated: no-flow-init, no-flow-loss, no-triple, no-stretch, linear");
+  cmd->add_option("--baseline", args->baseline, "stgs: the SpacetimeGaussians representation")
+      ->check(CLI::IsMember({"stgs"}));
+  cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap, default 50000)");
+  cmd->add_option("--seed", args->seed, "random seed (default 0)");
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
+  cmd->callback([args] {
+    set_threads(args->threads);
+    train::TrainRun run;
+    run.out = args->out;
+    run.resume = args->resume;
+    run.frames = args->frames == "all" ? train::TrainFrames::kAll : train::TrainFrames::kEven;
+    train::TrainConfig& config = run.config;
+    if (!args->config.empty()) {
+      std::ifstream in(args->config);
+      if (!in) fail("{}: cannot open config file", args->config);
+      std::stringstream text;
+      text << in.rdbuf();
+      config = train::config_from_json(text.str(), config, args->config);
+    }
+    if (args->iters) config.iters = *args->iters;
+    if (args->cap) config.cap = *args->cap;
+    if (args->seed) config.seed = *args->seed;
+    if (config.iters < 1) fail("--iters: must be >= 1, got {}", config.iters);
+    if (config.cap < 1) fail("--cap: must be >= 1");
+    if (!args->baseline.empty()) config.stgs_baseline = true;
+    if (!args->ablate.empty())
+      for (const std::string& a : split_list(args->ablate, "--ablate")) {
+        if (a == "no-flow-init") config.ablate.no_flow_init = true;
+        else if (a == "no-flow-loss") config.ablate.no_flow_loss = true;
+        else if (a == "no-triple") config.ablate.no_triple = true;
+        else if (a == "no-stretch") config.ablate.no_stretch = true;
+        else if (a == "linear") config.ablate.linear = true;
+        else fail("--ablate: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear)", a);
+      }
+    const data::Scene scene = data::read_scene(args->scene);
+    train::train(scene, run);
+  });
+}
+
+}  // namespace retimegs::app

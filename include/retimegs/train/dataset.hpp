@@ -1,0 +1,37 @@
+#pragma once
+// What training reads from a scene, loaded once: the training cameras and frames, their images,
+// masks, the flows between consecutive training frames, and the per-frame point clouds.
+#include <optional>
+#include <vector>
+
+#include "retimegs/core/image.hpp"
+#include "retimegs/data/scene.hpp"
+#include "retimegs/model/primitives.hpp"
+
+namespace retimegs::train {
+
+enum class TrainFrames { kEven, kAll };
+
+struct TrainingSet {
+  data::Scene scene;
+  std::vector<int> cameras;  // indices of the training cameras (split "train")
+  std::vector<int> frames;   // scene frames used for training: t_i = frames[i]
+  model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
+
+  // Indexed [camera slot][frame slot], slots as in `cameras` / `frames`.
+  std::vector<std::vector<Image>> images;                 // RGB [H, W, 3]
+  std::vector<std::vector<std::optional<Image>>> masks;   // [H, W, 1] when the scene has them
+  std::vector<std::vector<std::optional<Flow>>> forward;  // t_i -> t_{i+1}
+  std::vector<std::vector<std::optional<Flow>>> backward; // t_i -> t_{i-1}
+  std::vector<std::optional<data::PointCloud>> points;    // per frame slot
+
+  // Radius of the training cameras' centres about their mean, x 1.1 (gsplat's scene scale).
+  double scene_extent = 1.0;
+  std::size_t flow_files() const;
+};
+
+// Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
+// the wrong size, ...). Needs at least 2 training frames and 1 training camera.
+TrainingSet load_training_set(const data::Scene& scene, TrainFrames which);
+
+}  // namespace retimegs::train

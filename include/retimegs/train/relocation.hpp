@@ -1,0 +1,38 @@
+#pragma once
+// MCMC relocation and growth (3DGS-MCMC Eq. 9 as gsplat's MCMCStrategy implements it, DESIGN.md
+// §7) adapted to 4D primitives: dead slots (σ <= min_opacity) take copies of live primitives drawn
+// ∝ the sampling score σ / (τ_l + τ_r) (σ for the STGS baseline), with the opacity / scale
+// correction that keeps the rendered image unchanged to first order; every parameter is copied,
+// the temporal ones too.
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "retimegs/model/primitives.hpp"
+
+namespace retimegs::train {
+
+constexpr int kMaxCopies = 51;  // gsplat n_max: ratios are clamped to [1, 51]
+
+struct Relocation {
+  std::vector<std::int32_t> touched;  // rows whose parameters changed (sources and targets)
+  std::size_t moved = 0;              // dead rows that received a copy
+  std::size_t added = 0;              // rows appended by growth
+};
+
+// σ_new = 1 - (1 - σ)^(1/n) and the scale factor σ / D (DESIGN.md §7) for a source drawn so that
+// it and its copies number n in total.
+void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_factor);
+
+// Moves every dead primitive (σ <= min_opacity) onto a live one sampled with replacement ∝ score.
+Relocation relocate(model::Primitives& primitives, model::Representation representation,
+                    double min_opacity, std::mt19937_64& rng);
+
+// Appends copies so that the count becomes min(cap, floor(growth · N)), sources sampled ∝ score.
+Relocation grow(model::Primitives& primitives, model::Representation representation,
+                std::size_t cap, double growth, double min_opacity, std::mt19937_64& rng);
+
+// 3DGS-MCMC noise: μ += Σ ε · sigmoid(-100 (σ - 0.005)) · lr_means · 5e5, Σ = R diag(e^s)² Rᵀ.
+void inject_noise(model::Primitives& primitives, double lr_means, std::mt19937_64& rng);
+
+}  // namespace retimegs::train

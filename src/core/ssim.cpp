@@ -1,0 +1,312 @@
+#include "retimegs/core/ssim.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <omp.h>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs {
+namespace {
+
+constexpr int kRadius = 5;  // 11×11 window, as 3DGS (conv2d padding = 5)
+constexpr int kTaps = 2 * kRadius + 1;
+constexpr double kSigma = 1.5;       // Wang et al. 2004, 3DGS
+constexpr double kC1 = 0.01 * 0.01;  // (K1·L)², K1 = 0.01, data range L = 1
+constexpr double kC2 = 0.03 * 0.03;  // (K2·L)², K2 = 0.03
+constexpr int kMoments = 5;          // μ_a, μ_b, E[a²], E[b²], E[ab]
+constexpr int kCoefficients = 3;     // dS/dμ_a, dS/dE[a²], dS/dE[ab]
+// Below this many values (~128×128) waking the threads costs more than the passes.
+constexpr std::size_t kParallelMin = std::size_t(1) << 14;
+
+using Window = std::array<double, kTaps>;
+
+// w(k) ∝ exp(−(k − 5)² / (2σ²)), normalised to sum 1; the 2-D window is w(dy)·w(dx).
+const Window& window() {
+  static const Window w = [] {
+    Window g;
+    double sum = 0;
+    for (int k = 0; k < kTaps; ++k) {
+      const double d = k - kRadius;
+      sum += g[k] = std::exp(-d * d / (2 * kSigma * kSigma));
+    }
+    for (double& v : g) v /= sum;
+    return g;
+  }();
+  return w;
+}
+
+void check_same_size(const Image& a, const Image& b, const char* what) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+    fail("{}: images differ in size ({}x{}x{} vs {}x{}x{})", what, a.width, a.height, a.channels,
+         b.width, b.height, b.channels);
+  if (a.empty()) fail("{}: images are empty", what);
+}
+
+// SSIM of one window from its moments, and its partial derivatives with respect to the moments
+// of a; σ_a² = E[a²] − μ_a² and σ_ab = E[ab] − μ_a·μ_b, so d_mu_a is the total derivative
+// through them as well. The moments of b are constants.
+struct LocalSsim {
+  double s, d_mu_a, d_e_aa, d_e_ab;
+};
+
+inline LocalSsim local_ssim(double mu_a, double mu_b, double e_aa, double e_bb, double e_ab) {
+  const double var_a = e_aa - mu_a * mu_a, var_b = e_bb - mu_b * mu_b;
+  const double cov = e_ab - mu_a * mu_b;
+  const double num_mu = 2 * mu_a * mu_b + kC1, num_sigma = 2 * cov + kC2;
+  const double den_mu = mu_a * mu_a + mu_b * mu_b + kC1, den_sigma = var_a + var_b + kC2;
+  const double inv_den = 1 / (den_mu * den_sigma);
+  const double s = num_mu * num_sigma * inv_den;
+  const double d_e_ab = 2 * num_mu * inv_den;  // = dS/dσ_ab
+  const double d_e_aa = -s / den_sigma;        // = dS/dσ_a²
+  const double d_mu_a =
+      2 * mu_b * num_sigma * inv_den - 2 * mu_a * s / den_mu - mu_b * d_e_ab - 2 * mu_a * d_e_aa;
+  return {s, d_mu_a, d_e_aa, d_e_ab};
+}
+
+// Pass along x: out[j] = Σ_k w[k]·src[j + k·c] for j < n, where src is an interleaved row of c
+// channels with kRadius pixels of zeros on either side (the zero padding).
+inline void correlate_x(const double* src, int c, std::size_t n, double* out) {
+  const Window w = window();  // a local copy: provably not aliased by out
+#pragma omp simd
+  for (std::size_t j = 0; j < n; ++j) {
+    double sum = 0;
+    for (int k = 0; k < kTaps; ++k) sum += w[k] * src[j + k * std::size_t(c)];
+    out[j] = sum;
+  }
+}
+
+// Rows are streamed through rings of kTaps rows: image row r lives in slot r mod kTaps.
+inline int slot(int row) {
+  return (row % kTaps + kTaps) % kTaps;
+}
+
+// Pass along y: out[j] = Σ_k w[k]·row(y − r + k)[j], the rows taken from a ring [kTaps, n].
+inline void correlate_y(const double* ring, std::size_t n, int y, double* out) {
+  const Window w = window();
+  std::array<const double*, kTaps> rows;
+  for (int k = 0; k < kTaps; ++k) rows[k] = ring + slot(y - kRadius + k) * n;
+#pragma omp simd
+  for (std::size_t j = 0; j < n; ++j) {
+    double sum = 0;
+    for (int k = 0; k < kTaps; ++k) sum += w[k] * rows[k][j];
+    out[j] = sum;
+  }
+}
+
+// One row of the SSIM map from the moments [5, n] (μ_a, μ_b, E[a²], E[b²], E[ab]): its sum, the
+// map row with kWithMap, and with kBackward the coefficients scale · dS/d(μ_a, E[a²], E[ab]).
+template <bool kWithMap, bool kBackward>
+double ssim_row(const double* moments, std::size_t n, double scale, float* map_row,
+                std::array<double*, kCoefficients> coefficients) {
+  const double* mu_a = moments;
+  const double *mu_b = mu_a + n, *e_aa = mu_b + n, *e_bb = e_aa + n, *e_ab = e_bb + n;
+  double sum = 0;
+#pragma omp simd reduction(+ : sum)
+  for (std::size_t j = 0; j < n; ++j) {
+    const LocalSsim l = local_ssim(mu_a[j], mu_b[j], e_aa[j], e_bb[j], e_ab[j]);
+    sum += l.s;
+    if constexpr (kWithMap) map_row[j] = float(l.s);
+    if constexpr (kBackward) {
+      coefficients[0][j] = scale * l.d_mu_a;
+      coefficients[1][j] = scale * l.d_e_aa;
+      coefficients[2][j] = scale * l.d_e_ab;
+    }
+  }
+  return sum;
+}
+
+// The separable fast path. Each thread owns a band of output rows and streams the image through
+// it, top to bottom, so that its working set is a few rings of 11 rows (cache resident):
+//   pass 1  row r1: the moment rows a, b, a², b², ab correlated along x → ring `along_x`;
+//   pass 2  row r2 = r1 − r: along y → moments → map row, and (backward) the coefficient row
+//           scale · dS/d(μ_a, E[a²], E[ab]) → ring `coefficient`;
+//   backward row r3 = r2 − r: the transpose, along y then x, and the chain rule through a, a², ab:
+//           v_a(q) = Σ_p w(p − q)·(c_μ(p) + 2·a(q)·c_aa(p) + b(q)·c_ab(p)).
+// A band recomputes the r (forward) or 2r (backward) rows of pass 1 beyond its edges; rows
+// outside the image are zero (the zero padding).
+double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim, Image* v_a) {
+  const int height = a.height, c = a.channels;
+  const std::size_t n = std::size_t(a.width) * c;                 // values in one row
+  const std::size_t padded_n = n + 2 * std::size_t(kRadius) * c;  // with r zero pixels each side
+  const double scale = v_ssim / (double(height) * double(n));     // d mean / d S(p) · upstream
+  const bool backward = v_a != nullptr;
+  const int halo = backward ? 2 * kRadius : kRadius;  // rows of pass 1 beyond a band's edges
+  if (map) *map = Image(a.width, height, c);
+  if (v_a) *v_a = Image(a.width, height, c);
+  const auto inside = [height](int row) { return row >= 0 && row < height; };
+
+  std::vector<double> row_sums(height);  // [H] of the map, summed in row order below
+#pragma omp parallel if (std::size_t(height) * n >= kParallelMin)
+  {
+    const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
+    const int begin = int(std::int64_t(height) * thread / threads);
+    const int end = int(std::int64_t(height) * (thread + 1) / threads);
+    std::vector<double> src(kMoments * padded_n, 0.0);  // [5, W·C + 2r·C] zero-padded rows
+    std::vector<double> along_x(kMoments * kTaps * n);  // [5, 11, W·C] ring of pass 1
+    std::vector<double> moments(kMoments * n);          // [5, W·C] one row of pass 2
+    std::vector<double> coefficient(backward ? kCoefficients * kTaps * n : 0);  // [3, 11, W·C]
+
+    for (int r1 = begin - halo; r1 < end + halo; ++r1) {
+      const std::size_t s1 = slot(r1) * n;
+      if (!inside(r1)) {
+        for (int m = 0; m < kMoments; ++m) std::fill_n(&along_x[(m * kTaps) * n + s1], n, 0.0);
+      } else {
+        const float* row_a = a.data.data() + r1 * n;
+        const float* row_b = b.data.data() + r1 * n;
+        double* s = src.data() + kRadius * c;
+        for (std::size_t j = 0; j < n; ++j) {
+          const double va = row_a[j], vb = row_b[j];
+          s[j] = va;
+          s[padded_n + j] = vb;
+          s[2 * padded_n + j] = va * va;
+          s[3 * padded_n + j] = vb * vb;
+          s[4 * padded_n + j] = va * vb;
+        }
+        for (int m = 0; m < kMoments; ++m)
+          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kTaps) * n + s1]);
+      }
+
+      const int r2 = r1 - kRadius;
+      if (r2 - kRadius < begin - halo) continue;  // its rows of pass 1 are not all there yet
+      const std::size_t s2 = slot(r2) * n;
+      const std::array<double*, kCoefficients> coefficient_row =
+          backward
+              ? std::array<double*, kCoefficients>{&coefficient[s2], &coefficient[kTaps * n + s2],
+                                                   &coefficient[2 * kTaps * n + s2]}
+              : std::array<double*, kCoefficients>{};
+      if (!inside(r2)) {
+        for (double* row : coefficient_row)
+          if (row) std::fill_n(row, n, 0.0);
+      } else {
+        for (int m = 0; m < kMoments; ++m)
+          correlate_y(&along_x[m * kTaps * n], n, r2, &moments[m * n]);
+        const bool own = r2 >= begin && r2 < end;  // halo rows belong to the neighbour band
+        double sum;
+        if (backward)
+          sum = ssim_row<false, true>(moments.data(), n, scale, nullptr, coefficient_row);
+        else if (map)
+          sum = ssim_row<true, false>(moments.data(), n, scale, map->data.data() + r2 * n, {});
+        else
+          sum = ssim_row<false, false>(moments.data(), n, scale, nullptr, {});
+        if (own) row_sums[r2] = sum;
+      }
+
+      const int r3 = r2 - kRadius;
+      if (!backward || r3 < begin) continue;
+      for (int m = 0; m < kCoefficients; ++m)
+        correlate_y(&coefficient[m * kTaps * n], n, r3, src.data() + m * padded_n + kRadius * c);
+      const double* c_mu = src.data();
+      const double *c_aa = c_mu + padded_n, *c_ab = c_aa + padded_n;
+      const float* row_a = a.data.data() + r3 * n;
+      const float* row_b = b.data.data() + r3 * n;
+      float* out = v_a->data.data() + r3 * n;
+      const Window w = window();
+#pragma omp simd
+      for (std::size_t j = 0; j < n; ++j) {
+        double g_mu = 0, g_aa = 0, g_ab = 0;
+        for (int k = 0; k < kTaps; ++k) {
+          const std::size_t at = j + k * std::size_t(c);
+          g_mu += w[k] * c_mu[at];
+          g_aa += w[k] * c_aa[at];
+          g_ab += w[k] * c_ab[at];
+        }
+        out[j] = float(g_mu + 2.0 * row_a[j] * g_aa + double(row_b[j]) * g_ab);
+      }
+    }
+  }
+  double total = 0;  // summed in row order: the same value for any thread count
+  for (const double s : row_sums) total += s;
+  return total / (double(height) * double(n));
+}
+
+// The moments of the window centred on (y, x) in channel ch, zero outside the image.
+std::array<double, kMoments> window_moments(const Image& a, const Image& b, int y, int x, int ch) {
+  const Window& w = window();
+  std::array<double, kMoments> m{};
+  for (int dy = -kRadius; dy <= kRadius; ++dy) {
+    for (int dx = -kRadius; dx <= kRadius; ++dx) {
+      const int yy = y + dy, xx = x + dx;
+      if (yy < 0 || yy >= a.height || xx < 0 || xx >= a.width) continue;
+      const double weight = w[dy + kRadius] * w[dx + kRadius];
+      const double va = a.at(yy, xx, ch), vb = b.at(yy, xx, ch);
+      m[0] += weight * va;
+      m[1] += weight * vb;
+      m[2] += weight * va * va;
+      m[3] += weight * vb * vb;
+      m[4] += weight * va * vb;
+    }
+  }
+  return m;
+}
+
+LocalSsim reference_local(const Image& a, const Image& b, int y, int x, int ch) {
+  const auto m = window_moments(a, b, y, x, ch);
+  return local_ssim(m[0], m[1], m[2], m[3], m[4]);
+}
+
+}  // namespace
+
+double ssim(const Image& a, const Image& b, Image* map) {
+  check_same_size(a, b, "ssim");
+  return ssim_separable(a, b, map, 0.0, nullptr);
+}
+
+double ssim_backward(const Image& a, const Image& b, double v_ssim, Image& v_a) {
+  check_same_size(a, b, "ssim_backward");
+  return ssim_separable(a, b, nullptr, v_ssim, &v_a);
+}
+
+double ssim_reference(const Image& a, const Image& b, Image* map) {
+  check_same_size(a, b, "ssim_reference");
+  if (map) *map = Image(a.width, a.height, a.channels);
+  double sum = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int ch = 0; ch < a.channels; ++ch) {
+        const double s = reference_local(a, b, y, x, ch).s;
+        sum += s;
+        if (map) map->at(y, x, ch) = float(s);
+      }
+  return sum / double(a.data.size());
+}
+
+double ssim_backward_reference(const Image& a, const Image& b, double v_ssim, Image& v_a) {
+  check_same_size(a, b, "ssim_backward_reference");
+  const int c = a.channels;
+  std::vector<LocalSsim> local(a.data.size());  // [H, W, C]
+  double sum = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int ch = 0; ch < c; ++ch) {
+        local[(std::size_t(y) * a.width + x) * c + ch] = reference_local(a, b, y, x, ch);
+        sum += local[(std::size_t(y) * a.width + x) * c + ch].s;
+      }
+  const double scale = v_ssim / double(a.data.size());
+  const Window& w = window();
+  v_a = Image(a.width, a.height, c);
+  // Pixel q enters every window p with |p − q| ≤ r, through μ_a(p), E[a²](p) and E[ab](p).
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x)
+      for (int ch = 0; ch < c; ++ch) {
+        double g = 0;
+        for (int dy = -kRadius; dy <= kRadius; ++dy)
+          for (int dx = -kRadius; dx <= kRadius; ++dx) {
+            const int py = y + dy, px = x + dx;
+            if (py < 0 || py >= a.height || px < 0 || px >= a.width) continue;
+            const LocalSsim& l = local[(std::size_t(py) * a.width + px) * c + ch];
+            const double weight = w[dy + kRadius] * w[dx + kRadius];
+            g += weight *
+                 (l.d_mu_a + 2.0 * a.at(y, x, ch) * l.d_e_aa + double(b.at(y, x, ch)) * l.d_e_ab);
+          }
+        v_a.at(y, x, ch) = float(scale * g);
+      }
+  return sum / double(a.data.size());
+}
+
+}  // namespace retimegs

@@ -1,0 +1,72 @@
+#include "retimegs/train/config.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs::train {
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(Ablations, no_flow_init, no_flow_loss, no_triple,
+                                                no_stretch, linear)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every,
+    max_sh_degree, lr_decay_start, lr_decay_final, flow_decay_until, relocate_every,
+    relocate_start, relocate_stop, stretch_every, lr_means, lr_means_final, lr_velocity, lr_scales,
+    lr_quats, lr_quat_rate, lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center,
+    lr_temporal_scale, ssim_lambda, flow_weight_start, flow_weight_end, opacity_reg, scale_reg,
+    gamma, cap, min_opacity, growth, init_opacity, stretch_distance, stretch_color, stretch_speed,
+    checkpoint_every)
+
+int TrainConfig::scaled(int iteration) const {
+  constexpr double kPaperIterations = 20000;
+  if (!scale_schedule) return iteration;
+  return std::max(1, int(std::lround(iteration * double(iters) / kPaperIterations)));
+}
+
+model::ModelConfig TrainConfig::model_config() const {
+  model::ModelConfig m;
+  m.representation = stgs_baseline ? model::Representation::kStgs : model::Representation::kRetime;
+  m.trajectory = ablate.linear ? model::TrajectoryKind::kLinear : model::TrajectoryKind::kCatmullRom;
+  m.gamma = gamma;
+  m.sh_degree = 0;
+  return m;
+}
+
+std::string to_json(const TrainConfig& config) { return nlohmann::json(config).dump(2); }
+
+TrainConfig config_from_json(const std::string& text, TrainConfig config, const std::string& what) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: malformed JSON: {}", what, e.what());
+  }
+  if (!j.is_object()) fail("{}: the config must be a JSON object", what);
+  const nlohmann::json known = config;
+  for (const auto& [key, value] : j.items()) {
+    if (!known.contains(key)) fail("{}: unknown config key '{}'", what, key);
+    if (key == "ablate")
+      for (const auto& [k, v] : value.items())
+        if (!known["ablate"].contains(k)) fail("{}: unknown ablation '{}'", what, k);
+  }
+  nlohmann::json merged = known;
+  merged.merge_patch(j);
+  try {
+    config = merged.get<TrainConfig>();
+  } catch (const nlohmann::json::exception& e) {
+    fail("{}: a config value has the wrong type: {}", what, e.what());
+  }
+  const nlohmann::json check = config;
+  for (const auto& [key, value] : check.items())
+    if (value.is_number_float() && !std::isfinite(value.get<double>()))
+      fail("{}: '{}' is not finite", what, key);
+  if (config.iters < 1) fail("{}: 'iters' must be >= 1, got {}", what, config.iters);
+  if (config.cap < 1) fail("{}: 'cap' must be >= 1", what);
+  if (!(config.gamma > 0)) fail("{}: 'gamma' must be > 0", what);
+  return config;
+}
+
+}  // namespace retimegs::train

@@ -1,0 +1,76 @@
+#include "retimegs/train/losses.hpp"
+
+#include <cmath>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/ssim.hpp"
+
+namespace retimegs::train {
+
+namespace {
+Image rgb_of(const Image& render) {
+  if (render.channels == 3) return render;
+  Image rgb(render.width, render.height, 3);
+  for (std::size_t p = 0; p < render.pixels(); ++p)
+    for (int c = 0; c < 3; ++c) rgb.data[3 * p + c] = render.data[render.channels * p + c];
+  return rgb;
+}
+}  // namespace
+
+double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
+                  Image& v_render) {
+  if (render.width != target.width || render.height != target.height || target.channels != 3)
+    fail("image loss: render {}x{} vs target {}x{}x{}", render.width, render.height, target.width,
+         target.height, target.channels);
+  const Image rgb = rgb_of(render);
+  const std::size_t n = rgb.data.size();
+  double l1 = 0;
+  for (std::size_t i = 0; i < n; ++i) l1 += std::abs(rgb.data[i] - target.data[i]);
+  l1 /= double(n);
+  Image v_ssim;
+  const double s = ssim_backward(rgb, target, -ssim_lambda * weight, v_ssim);
+  const float l1_grad = float((1 - ssim_lambda) * weight / double(n));
+  const int channels = render.channels;
+  for (std::size_t p = 0; p < render.pixels(); ++p)
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t i = 3 * p + c;
+      const float diff = rgb.data[i] - target.data[i];
+      v_render.data[channels * p + c] +=
+          (diff > 0 ? l1_grad : diff < 0 ? -l1_grad : 0.0f) + v_ssim.data[i];
+    }
+  return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
+}
+
+double flow_loss(const Image& render, int channel, const Flow& target, double weight,
+                 Image& v_render) {
+  if (render.width != target.width || render.height != target.height || channel + 2 > render.channels)
+    fail("flow loss: render {}x{}x{} vs flow {}x{} at channel {}", render.width, render.height,
+         render.channels, target.width, target.height, channel);
+  std::size_t known = 0;
+  for (unsigned char v : target.valid) known += v;
+  if (known == 0) return 0;
+  const float grad = float(weight / double(known));
+  double sum = 0;
+  for (std::size_t p = 0; p < render.pixels(); ++p) {
+    if (!target.valid[p]) continue;
+    for (int k = 0; k < 2; ++k) {
+      const float diff = render.data[render.channels * p + channel + k] - target.uv[2 * p + k];
+      sum += std::abs(diff);
+      v_render.data[render.channels * p + channel + k] += diff > 0 ? grad : diff < 0 ? -grad : 0.0f;
+    }
+  }
+  return sum / double(known);
+}
+
+double psnr(const Image& render, const Image& target) {
+  double se = 0;
+  for (std::size_t p = 0; p < target.pixels(); ++p)
+    for (int c = 0; c < 3; ++c) {
+      const double d = render.data[render.channels * p + c] - target.data[3 * p + c];
+      se += d * d;
+    }
+  const double mse = se / double(3 * target.pixels());
+  return mse > 0 ? 10 * std::log10(1 / mse) : 99.0;
+}
+
+}  // namespace retimegs::train

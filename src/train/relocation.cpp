@@ -1,0 +1,132 @@
+#include "retimegs/train/relocation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "retimegs/model/temporal_opacity.hpp"
+
+namespace retimegs::train {
+
+namespace {
+
+constexpr double kNoiseScale = 5e5;         // 3DGS-MCMC noise_lr
+constexpr double kNoiseSharpness = 100.0;   // sigmoid(-k (σ - x0)): noise only on faint splats
+constexpr double kNoiseThreshold = 0.005;
+constexpr double kMaxOpacity = 1.0 - 1e-6;  // keep logits finite
+
+double opacity_of(const model::Primitives& p, std::size_t i) {
+  return model::sigmoid<double>(p.opacity_logit[i]);
+}
+
+std::vector<double> sampling_scores(const model::Primitives& p, model::Representation rep,
+                                    double min_opacity) {
+  std::vector<double> score(p.size(), 0.0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double sigma = opacity_of(p, i);
+    if (sigma <= min_opacity) continue;  // dead rows are never sources
+    score[i] = rep == model::Representation::kStgs
+                   ? sigma
+                   : sigma / std::max(1e-6, double(p.tau_l[i]) + double(p.tau_r[i]));
+  }
+  return score;
+}
+
+// `count` indices drawn with replacement ∝ weights (all zero: none).
+std::vector<std::int32_t> sample(const std::vector<double>& weights, std::size_t count,
+                                 std::mt19937_64& rng) {
+  std::vector<double> cumulative(weights.size());
+  double total = 0;
+  for (std::size_t i = 0; i < weights.size(); ++i) cumulative[i] = total += weights[i];
+  std::vector<std::int32_t> out;
+  if (!(total > 0)) return out;
+  std::uniform_real_distribution<double> uniform(0.0, total);
+  for (std::size_t k = 0; k < count; ++k) {
+    const auto it = std::upper_bound(cumulative.begin(), cumulative.end(), uniform(rng));
+    out.push_back(std::int32_t(std::min<std::size_t>(it - cumulative.begin(), weights.size() - 1)));
+  }
+  return out;
+}
+
+// Applies the correction to every drawn source: n = (times drawn) + 1.
+void correct_sources(model::Primitives& p, const std::vector<std::int32_t>& sources,
+                     double min_opacity) {
+  std::vector<int> drawn(p.size(), 0);
+  for (const auto s : sources) ++drawn[s];
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!drawn[i]) continue;
+    double opacity = 0, factor = 1;
+    mcmc_correction(opacity_of(p, i), std::min(drawn[i] + 1, kMaxCopies), opacity, factor);
+    opacity = std::clamp(opacity, min_opacity, kMaxOpacity);
+    p.opacity_logit[i] = float(std::log(opacity / (1 - opacity)));
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] += float(std::log(factor));
+  }
+}
+
+}  // namespace
+
+void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_factor) {
+  new_opacity = 1.0 - std::pow(1.0 - opacity, 1.0 / n);
+  double denominator = 0, binomial_row[kMaxCopies] = {1.0};  // C(i-1, k), row by row
+  for (int i = 1; i <= n; ++i) {
+    if (i > 1)
+      for (int k = i - 1; k > 0; --k) binomial_row[k] += binomial_row[k - 1];
+    for (int k = 0; k < i; ++k)
+      denominator += binomial_row[k] * ((k % 2) ? -1.0 : 1.0) *
+                     std::pow(new_opacity, k + 1) / std::sqrt(double(k + 1));
+  }
+  scale_factor = opacity / denominator;
+}
+
+Relocation relocate(model::Primitives& p, model::Representation rep, double min_opacity,
+                    std::mt19937_64& rng) {
+  Relocation result;
+  std::vector<std::int32_t> dead;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (opacity_of(p, i) <= min_opacity) dead.push_back(std::int32_t(i));
+  if (dead.empty()) return result;
+  const std::vector<std::int32_t> sources = sample(sampling_scores(p, rep, min_opacity), dead.size(), rng);
+  if (sources.empty()) return result;  // nothing alive to copy
+  correct_sources(p, sources, min_opacity);
+  for (std::size_t k = 0; k < dead.size(); ++k) p.copy_row(dead[k], p, sources[k]);
+  result.moved = dead.size();
+  result.touched = dead;
+  result.touched.insert(result.touched.end(), sources.begin(), sources.end());
+  return result;
+}
+
+Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap, double growth,
+                double min_opacity, std::mt19937_64& rng) {
+  Relocation result;
+  const std::size_t n = p.size();
+  const std::size_t target = std::min(cap, std::size_t(std::floor(growth * double(n))));
+  if (target <= n) return result;
+  const std::vector<std::int32_t> sources = sample(sampling_scores(p, rep, min_opacity), target - n, rng);
+  if (sources.empty()) return result;
+  correct_sources(p, sources, min_opacity);
+  p.resize(n + sources.size());
+  for (std::size_t k = 0; k < sources.size(); ++k) p.copy_row(n + k, p, sources[k]);
+  result.added = sources.size();
+  result.touched = sources;
+  return result;
+}
+
+void inject_noise(model::Primitives& p, double lr_means, std::mt19937_64& rng) {
+  std::normal_distribution<float> normal;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector3f eps(normal(rng), normal(rng), normal(rng));
+    const double sigma = opacity_of(p, i);
+    const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));
+    if (gate < 1e-12) continue;
+    const Eigen::Quaternionf q(p.q0[4 * i], p.q0[4 * i + 1], p.q0[4 * i + 2], p.q0[4 * i + 3]);
+    const Eigen::Matrix3f r = q.normalized().toRotationMatrix();
+    const Eigen::Vector3f s2(std::exp(2 * p.log_scale[3 * i]), std::exp(2 * p.log_scale[3 * i + 1]),
+                             std::exp(2 * p.log_scale[3 * i + 2]));
+    const Eigen::Vector3f delta = r * (s2.asDiagonal() * (r.transpose() * eps));
+    const float k = float(gate * lr_means * kNoiseScale);
+    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] += k * delta[a];
+  }
+}
+
+}  // namespace retimegs::train

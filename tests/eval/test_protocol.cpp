@@ -1,0 +1,88 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/data/image_io.hpp"
+#include "retimegs/eval/protocol.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::eval {
+namespace {
+
+// 5 frames of 32x32 grey images whose value ramps linearly in time (0.1 per frame); camera 0 has
+// masks covering the left half.
+data::Scene ramp_scene(const std::filesystem::path& root) {
+  data::Scene scene;
+  scene.root = root;
+  scene.num_frames = 5;
+  scene.fps = 10;
+  for (int c = 0; c < 2; ++c) {
+    Camera cam;
+    cam.name = "c" + std::to_string(c);
+    cam.width = cam.height = 32;
+    cam.fx = cam.fy = 30, cam.cx = cam.cy = 16;
+    scene.cameras.push_back(cam);
+    for (int k = 0; k < 5; ++k) {
+      Image image(32, 32, 3, 0.2f + 0.1f * k);
+      data::write_png(scene.image_path(c, k), image);
+      if (c == 0) {
+        Image mask(32, 32, 1, 0.0f);
+        for (int y = 0; y < 32; ++y)
+          for (int x = 0; x < 16; ++x) mask.at(y, x) = 1;
+        data::write_png(scene.mask_path(c, k), mask);
+      }
+    }
+  }
+  data::write_scene_json(scene);
+  return data::read_scene(root);
+}
+
+TEST(Protocol, BaselinesOnALinearRamp) {
+  test::TempDir dir;
+  const data::Scene scene = ramp_scene(dir / "s");
+  EvalOptions options;
+  options.frames = parse_frames("odd", scene.num_frames, "--frames");
+  options.cameras = {0, 1};
+  options.progress = false;
+  // Nearest copies a neighbour: off by 0.1 everywhere -> 20 dB (8-bit rounding aside).
+  const EvalResult nearest =
+      evaluate_views(scene, baseline_renderer(scene, {0, 2, 4}, Baseline::kNearest), options);
+  EXPECT_NEAR(nearest.psnr, 20.0, 0.1);
+  EXPECT_EQ(nearest.per_view.size(), 4u);
+  EXPECT_FALSE(nearest.masked);  // camera 1 has no masks
+  EXPECT_TRUE(nearest.per_view[0].masked);
+  EXPECT_FALSE(nearest.lpips.has_value());
+  // Crossfade of a linear ramp is exact up to 8-bit rounding: far better than nearest.
+  const EvalResult crossfade =
+      evaluate_views(scene, baseline_renderer(scene, {0, 2, 4}, Baseline::kCrossfade), options);
+  EXPECT_GT(crossfade.psnr, 45.0);
+  const auto j = nlohmann::json::parse(to_json(nearest));
+  for (const char* key : {"psnr", "ssim", "lpips", "masked", "frames", "per_view"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_TRUE(j["lpips"].is_null());
+  EXPECT_EQ(j["frames"], nlohmann::json({1, 3}));
+  EXPECT_EQ(j["per_view"][1]["camera"], "c0");
+  EXPECT_EQ(j["per_view"][1]["frame"], 3);
+}
+
+TEST(Protocol, SavesRendersAndParsesFrameLists) {
+  test::TempDir dir;
+  const data::Scene scene = ramp_scene(dir / "s");
+  EvalOptions options;
+  options.frames = parse_frames("1,2", scene.num_frames, "--frames");
+  options.cameras = {1};
+  options.progress = false;
+  options.save_renders = dir / "renders";
+  evaluate_views(scene, baseline_renderer(scene, {0, 2, 4}, Baseline::kNearest), options);
+  EXPECT_TRUE(std::filesystem::exists(dir / "renders" / "c1" / "00001.png"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "renders" / "c1" / "00002.png"));
+  EXPECT_EQ(parse_frames("all", 3, "f"), std::vector<int>({0, 1, 2}));
+  EXPECT_THROW(parse_frames("1,x", 5, "--frames"), Error);
+  EXPECT_THROW(parse_frames("7", 5, "--frames"), Error);
+  EXPECT_THROW(parse_frames("", 5, "--frames"), Error);
+}
+
+}  // namespace
+}  // namespace retimegs::eval

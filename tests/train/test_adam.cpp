@@ -1,0 +1,53 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/train/adam.hpp"
+
+namespace retimegs::train {
+namespace {
+
+TEST(Adam, MatchesHandComputedSteps) {
+  // Two steps of torch.optim.Adam(lr=0.1, betas=(0.9, 0.999), eps=1e-8) on p = [1, -2], by hand:
+  //   t=1, g=[0.5, -1]: m = 0.1 g, v = 0.001 g², m̂ = g, v̂ = g²  ->  p -= 0.1 g / (|g| + eps)
+  //   t=2, g=[-0.25, 2]: m = 0.9 m1 + 0.1 g, v = 0.999 v1 + 0.001 g², m̂ = m / 0.19,
+  //   v̂ = v / (1 - 0.999²)
+  AdamSettings settings;
+  settings.epsilon = 1e-8;
+  Adam adam(1, 2, settings);
+  float p[2] = {1.0f, -2.0f};
+  const float g1[2] = {0.5f, -1.0f}, g2[2] = {-0.25f, 2.0f};
+  adam.step(p, g1, 0.1);
+  double expected[2] = {1.0 - 0.1, -2.0 + 0.1};
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(p[i], expected[i], 1e-6);
+  adam.step(p, g2, 0.1);
+  for (int i = 0; i < 2; ++i) {
+    const double m = 0.9 * 0.1 * g1[i] + 0.1 * g2[i];
+    const double v = 0.999 * 0.001 * g1[i] * g1[i] + 0.001 * g2[i] * g2[i];
+    const double m_hat = m / (1 - 0.9 * 0.9), v_hat = v / (1 - 0.999 * 0.999);
+    expected[i] -= 0.1 * m_hat / (std::sqrt(v_hat) + 1e-8);
+    EXPECT_NEAR(p[i], expected[i], 1e-6) << i;
+  }
+  EXPECT_EQ(adam.steps(), 2);
+}
+
+TEST(Adam, ResetRowsAndGrowthStartFromZeroState) {
+  Adam adam(3, 2);
+  float p[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  const float g[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+  adam.step(p, g, 0.01);
+  adam.reset_rows({1});
+  EXPECT_EQ(adam.m()[2], 0.0f);
+  EXPECT_EQ(adam.v()[3], 0.0f);
+  EXPECT_NE(adam.m()[0], 0.0f);
+  adam.resize(4);
+  EXPECT_EQ(adam.rows(), 4u);
+  EXPECT_EQ(adam.m()[7], 0.0f);
+  // A reset row moves like a fresh parameter would at this step count: lr·(g(1-β1)/c1) / ...
+  const float before = p[2];
+  adam.step(p, g, 0.01);
+  EXPECT_LT(p[2], before);
+}
+
+}  // namespace
+}  // namespace retimegs::train

@@ -1,0 +1,145 @@
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/render/rasterize.hpp"
+#include "retimegs/train/relocation.hpp"
+
+namespace retimegs::train {
+namespace {
+
+TEST(Relocation, CorrectionMatchesHandComputedValues) {
+  double opacity = 0, factor = 0;
+  mcmc_correction(0.3, 1, opacity, factor);
+  EXPECT_NEAR(opacity, 0.3, 1e-12);
+  EXPECT_NEAR(factor, 1.0, 1e-12);
+  // n = 2, σ = 0.5: σ_new = 1 - sqrt(0.5); D = 2 σ_new - σ_new² / sqrt(2).
+  mcmc_correction(0.5, 2, opacity, factor);
+  const double s = 1 - std::sqrt(0.5);
+  EXPECT_NEAR(opacity, s, 1e-12);
+  EXPECT_NEAR(factor, 0.5 / (2 * s - s * s / std::sqrt(2.0)), 1e-12);
+  // Opacity composition: n copies at σ_new are as opaque as the source.
+  mcmc_correction(0.8, 5, opacity, factor);
+  EXPECT_NEAR(1 - std::pow(1 - opacity, 5), 0.8, 1e-12);
+}
+
+// 300 primitives of one interval in front of a camera, 40 of them nearly transparent (dead).
+model::Primitives scene(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  model::Primitives p;
+  p.resize(300);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.8f * u(rng);
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.05f);
+    p.q0[4 * i] = 1;
+    for (int c = 0; c < 3; ++c) p.sh[48 * i + c] = u(rng);
+    p.opacity_logit[i] = i < 40 ? -6.0f : 0.5f * u(rng);  // sigmoid(-6) = 0.0025 < 0.01
+    p.mu_tau[i] = 1, p.tau_l[i] = 1, p.tau_r[i] = 1;
+    p.velocity[9 * i + 3] = 0.05f * u(rng);
+  }
+  return p;
+}
+
+TEST(Relocation, KeepsCountCopiesEveryFieldAndRevivesDeadSlots) {
+  model::Primitives p = scene(1);
+  p.tau_r[250] = 7;  // a distinctive temporal window, to see that temporal fields are copied
+  std::mt19937_64 rng(3);
+  const Relocation r = relocate(p, model::Representation::kRetime, 0.01, rng);
+  EXPECT_EQ(p.size(), 300u);
+  EXPECT_EQ(r.moved, 40u);
+  for (std::size_t i = 0; i < p.size(); ++i) EXPECT_GT(model::sigmoid(p.opacity_logit[i]), 0.01f);
+  // Every dead row is now an exact copy of some (corrected) live row.
+  for (int i = 0; i < 40; ++i) {
+    bool found = false;
+    for (std::size_t j = 40; j < p.size() && !found; ++j)
+      found = p.mu[3 * i] == p.mu[3 * j] && p.velocity[9 * i + 3] == p.velocity[9 * j + 3] &&
+              p.tau_r[i] == p.tau_r[j] && p.opacity_logit[i] == p.opacity_logit[j];
+    EXPECT_TRUE(found) << i;
+  }
+  // Sampling ∝ σ / (τ_l + τ_r): row 250 has a 4x longer support, so it is drawn less often;
+  // over many draws the ratio of its copies to an equal-σ row's approaches 1/4 — a smoke check
+  // that long-lived primitives are down-weighted.
+  model::Primitives q;
+  q.resize(2);
+  q.opacity_logit = {0.0f, 0.0f};
+  q.tau_l = {1.0f, 1.0f};
+  q.tau_r = {1.0f, 7.0f};
+  int long_drawn = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    model::Primitives t = q;
+    t.resize(3);
+    t.opacity_logit[2] = -10;  // one dead slot
+    t.copy_row(2, t, 2);
+    std::mt19937_64 r2(trial);
+    relocate(t, model::Representation::kRetime, 0.01, r2);
+    long_drawn += t.tau_r[2] == 7.0f;
+  }
+  EXPECT_NEAR(long_drawn / 2000.0, 0.2, 0.03);  // weights 1/2 : 1/8 -> 0.2
+}
+
+// The MCMC correction preserves the rendered image to first order: relocating onto sources with
+// the correction changes the image far less than copying without it.
+TEST(Relocation, PreservesTheRenderedImageToFirstOrder) {
+  Camera cam;
+  cam.name = "c";
+  cam.width = 96, cam.height = 72;
+  cam.fx = cam.fy = 90, cam.cx = 48, cam.cy = 36;
+  cam.world_to_camera = look_at({0, 0, -4}, {0, 0, 0}, {0, -1, 0});
+  const model::TimeGrid grid{0.0, 2.0, 2};
+  const model::ModelConfig config;
+  auto render = [&](const model::Primitives& p) {
+    const auto e = model::evaluate(p, config, grid, 1.0, cam, {});
+    return render::rasterize_forward(e.gaussians, cam, nullptr).blend.image;
+  };
+  auto diff = [](const Image& a, const Image& b) {
+    double sum = 0;
+    for (std::size_t i = 0; i < a.data.size(); ++i) sum += std::abs(a.data[i] - b.data[i]);
+    return sum / double(a.data.size());
+  };
+  const model::Primitives before = scene(7);
+  model::Primitives corrected = before;
+  std::mt19937_64 rng(11);
+  relocate(corrected, model::Representation::kRetime, 0.01, rng);
+  // Same draws without the correction: copy the sources as they were.
+  model::Primitives naive = before;
+  std::mt19937_64 rng2(11);
+  model::Primitives scratch = before;
+  const Relocation r = relocate(scratch, model::Representation::kRetime, 0.01, rng2);
+  for (std::size_t k = 0; k < r.moved; ++k) naive.copy_row(r.touched[k], before, r.touched[r.moved + k]);
+  const Image reference = render(before);
+  const double with = diff(render(corrected), reference), without = diff(render(naive), reference);
+  EXPECT_LT(with, 0.4 * without) << "with correction " << with << ", without " << without;
+  EXPECT_LT(with, 0.01);
+}
+
+TEST(Relocation, GrowthTowardTheCap) {
+  model::Primitives p = scene(2);
+  std::mt19937_64 rng(5);
+  const Relocation r = grow(p, model::Representation::kRetime, 310, 1.05, 0.01, rng);
+  EXPECT_EQ(p.size(), 310u);  // min(cap, floor(1.05 * 300) = 315)
+  EXPECT_EQ(r.added, 10u);
+  const Relocation none = grow(p, model::Representation::kRetime, 310, 1.05, 0.01, rng);
+  EXPECT_EQ(none.added, 0u);
+  EXPECT_EQ(p.size(), 310u);
+}
+
+TEST(Relocation, NoiseMovesOnlyFaintPrimitives) {
+  model::Primitives p = scene(3);
+  const model::Primitives before = p;
+  std::mt19937_64 rng(1);
+  inject_noise(p, 1.6e-4, rng);
+  double faint = 0, solid = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double moved = std::abs(p.mu[3 * i] - before.mu[3 * i]);
+    (i < 40 ? faint : solid) += moved;
+  }
+  EXPECT_GT(faint / 40, 1e-5);
+  EXPECT_LT(solid / 260, 1e-9 + 1e-3 * faint / 40);
+}
+
+}  // namespace
+}  // namespace retimegs::train
