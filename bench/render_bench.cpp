@@ -2,7 +2,8 @@
 // for scene a (256x256, 50k Gaussians) and scene b (960x540, 300k), at 1 and 2 threads.
 //
 // Counters: blended = Gaussian-pixel pairs composited (sum of n_contrib; the backward revisits
-// exactly these), G_blended/s/core = blended / wall time / threads.
+// exactly these), G_blended/s/core = blended / wall time / threads. BM_Stage times one stage
+// (stage 0 project, 1 bin, 2 blend, 3 blend backward, 4 project backward).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -119,6 +120,51 @@ void BM_ForwardBackward(benchmark::State& state) {
   }
 }
 
+// One stage at a time (inputs prepared outside the timed loop), to see where the time goes.
+enum Stage { kProject, kBin, kBlend, kBlendBackward, kProjectBackward };
+
+void BM_Stage(benchmark::State& state) {
+  const BenchScene& s = load_scene(scene_of(state));
+  const int threads = int(state.range(1));
+  const auto stage = Stage(state.range(2));
+  set_threads(threads);
+  const render::RenderOptions options;
+  const render::PinholeT<float> camera(s.camera);
+  const auto out = render::rasterize_forward(s.gaussians, s.camera, s.background.data(), options);
+  render::BlendInputs in;
+  in.projected = &out.projected;
+  in.opacities = s.gaussians.opacities.data();
+  in.features = s.gaussians.features.data();
+  in.channels = 3;
+  in.background = s.background.data();
+  in.width = s.camera.width;
+  in.height = s.camera.height;
+  GaussianGrads grads;
+  render::blend_backward(in, out.bins, options, out.blend, s.v_image.data(), nullptr, nullptr,
+                         grads);
+  for (auto _ : state) {
+    switch (stage) {
+      case kProject:
+        benchmark::DoNotOptimize(render::project_forward(s.gaussians, camera, options));
+        break;
+      case kBin:
+        benchmark::DoNotOptimize(render::bin_tiles(out.projected, s.gaussians.opacities.data(),
+                                                   s.camera.width, s.camera.height, options));
+        break;
+      case kBlend:
+        benchmark::DoNotOptimize(render::blend_forward(in, out.bins, options));
+        break;
+      case kBlendBackward:
+        render::blend_backward(in, out.bins, options, out.blend, s.v_image.data(), nullptr, nullptr,
+                               grads);
+        break;
+      case kProjectBackward:
+        render::project_backward(s.gaussians, camera, out.projected, options, grads);
+        break;
+    }
+  }
+}
+
 void scenes_and_threads(benchmark::internal::Benchmark* b) {
   b->ArgNames({"scene", "threads"});
   for (int scene : {0, 1})
@@ -129,6 +175,12 @@ void scenes_and_threads(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_Forward)->Apply(scenes_and_threads);
 BENCHMARK(BM_Backward)->Apply(scenes_and_threads);
 BENCHMARK(BM_ForwardBackward)->Apply(scenes_and_threads);
+BENCHMARK(BM_Stage)
+    ->ArgNames({"scene", "threads", "stage"})
+    ->ArgsProduct({{0, 1}, {1, 2}, {kProject, kBin, kBlend, kBlendBackward, kProjectBackward}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
 
 }  // namespace
 

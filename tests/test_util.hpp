@@ -11,13 +11,15 @@
 
 namespace retimegs::test {
 
-inline std::filesystem::path shared_data() { return RETIMEGS_SHARED_DATA; }
+inline std::filesystem::path shared_data() {
+  return RETIMEGS_SHARED_DATA;
+}
 
 // Skips the current test when a reference data folder is missing (e.g. no ../shared beside the
 // checkout); CI always has it.
-#define RETIMEGS_REQUIRE_DATA(rel)                                                   \
-  do {                                                                               \
-    if (!std::filesystem::exists(::retimegs::test::shared_data() / (rel)))           \
+#define RETIMEGS_REQUIRE_DATA(rel)                                                             \
+  do {                                                                                         \
+    if (!std::filesystem::exists(::retimegs::test::shared_data() / (rel)))                     \
       GTEST_SKIP() << "reference data missing: " << (::retimegs::test::shared_data() / (rel)); \
   } while (0)
 

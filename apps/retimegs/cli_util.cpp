@@ -34,12 +34,14 @@ std::vector<std::string> split_list(const std::string& text, const std::string& 
 std::pair<int, int> parse_range(const std::string& text, const std::string& flag) {
   const std::size_t colon = text.find(':');
   if (colon == std::string::npos) fail("{}: expected A:B, got '{}'", flag, text);
-  return {parse_int(text.substr(0, colon), flag, text), parse_int(text.substr(colon + 1), flag, text)};
+  return {parse_int(text.substr(0, colon), flag, text),
+          parse_int(text.substr(colon + 1), flag, text)};
 }
 
 std::vector<int> parse_int_list(const std::string& text, const std::string& flag) {
   std::vector<int> values;
-  for (const std::string& item : split_list(text, flag)) values.push_back(parse_int(item, flag, text));
+  for (const std::string& item : split_list(text, flag))
+    values.push_back(parse_int(item, flag, text));
   return values;
 }
 
@@ -75,7 +77,8 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
   std::size_t start = 0;
   for (int i = 0; i < 3; ++i) {
     const std::size_t colon = text.find(':', start);
-    if ((i < 2) == (colon == std::string::npos)) fail("{}: expected A:B:STEP, got '{}'", flag, text);
+    if ((i < 2) == (colon == std::string::npos))
+      fail("{}: expected A:B:STEP, got '{}'", flag, text);
     parts.push_back(parse_double(text.substr(start, colon - start), flag, text));
     start = colon + 1;
   }

@@ -1,4 +1,5 @@
-// retimegs eval (--model MODEL | --baseline crossfade|nearest) --scene SCENE [--frames odd|all|LIST]
+// retimegs eval (--model MODEL | --baseline crossfade|nearest) --scene SCENE [--frames
+// odd|all|LIST]
 //               [--cameras LIST] [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
 #include <filesystem>
 #include <fstream>
@@ -21,13 +22,15 @@ namespace fs = std::filesystem;
 
 void add_eval_command(CLI::App& app) {
   struct Args {
-    std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out, train_frames = "even";
+    std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out,
+                                        train_frames = "even";
     int threads = 0;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "eval", "Render held-out frames and score them against the ground truth (PSNR, SSIM, "
-              "LPIPS; inside the masks when the scene has them) as JSON.");
+      "eval",
+      "Render held-out frames and score them against the ground truth (PSNR, SSIM, "
+      "LPIPS; inside the masks when the scene has them) as JSON.");
   auto* model = cmd->add_option("--model", args->model, "model (.rgs, or a static .ply)");
   auto* baseline = cmd->add_option("--baseline", args->baseline,
                                    "score a trivial in-betweening instead: crossfade (blend of the "
@@ -35,8 +38,10 @@ void add_eval_command(CLI::App& app) {
                        ->check(CLI::IsMember({"crossfade", "nearest"}));
   model->excludes(baseline);
   cmd->add_option("--scene", args->scene, "scene folder")->required();
-  cmd->add_option("--frames", args->frames, "odd, all, or a list like 1,3,5")->capture_default_str();
-  cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: every camera)");
+  cmd->add_option("--frames", args->frames, "odd, all, or a list like 1,3,5")
+      ->capture_default_str();
+  cmd->add_option("--cameras", args->cameras,
+                  "camera names, comma-separated (default: every camera)");
   cmd->add_option("--train-frames", args->train_frames,
                   "the training frames the baselines blend: even or all")
       ->check(CLI::IsMember({"even", "all"}))
@@ -46,7 +51,8 @@ void add_eval_command(CLI::App& app) {
                   "weights when present; otherwise lpips is null)");
   cmd->add_option("--save-renders", args->save, "also write DIR/<camera>/<frame:05d>.png");
   cmd->add_option("--out", args->out, "metrics JSON to write")->required();
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
   cmd->callback([args] {
     set_threads(args->threads);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
@@ -72,10 +78,11 @@ void add_eval_command(CLI::App& app) {
     const float black[3] = {0, 0, 0};
     if (!args->baseline.empty()) {
       std::vector<int> train;
-      for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1) train.push_back(k);
-      renderer = eval::baseline_renderer(scene, train, args->baseline == "crossfade"
-                                                           ? eval::Baseline::kCrossfade
-                                                           : eval::Baseline::kNearest);
+      for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1)
+        train.push_back(k);
+      renderer = eval::baseline_renderer(
+          scene, train,
+          args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
     } else if (fs::path(args->model).extension() == ".ply") {
       splats = std::make_shared<Splats>(data::read_splat_ply(args->model));
       renderer = [&scene, splats, &black](int c, int) {

@@ -36,7 +36,8 @@ void add_export_command(CLI::App& app) {
     const model::Model m = model::read_model(args->model);
     const std::filesystem::path out = args->out;
     if (args->time) {
-      if (out.extension() != ".ply") fail("--out: a single time is written to a .ply file, got '{}'", args->out);
+      if (out.extension() != ".ply")
+        fail("--out: a single time is written to a .ply file, got '{}'", args->out);
       if (std::filesystem::exists(out) && !args->force)
         fail("{}: output already exists (pass --force to replace it)", args->out);
       const Splats s = model::export_splats(m, *args->time);

@@ -26,10 +26,12 @@ void add_import_command(CLI::App& app) {
   cmd->add_option("--in", args->in, "source folder")->required();
   cmd->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
       ->required();
-  cmd->add_option("--frames", args->frames, "inclusive frame range A:B of the source (default: all)");
+  cmd->add_option("--frames", args->frames,
+                  "inclusive frame range A:B of the source (default: all)");
   cmd->add_option("--downscale", args->downscale, "divide the image size by F (intrinsics follow)")
       ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
   cmd->add_flag("--force", args->force, "replace an existing output folder");
   cmd->callback([args] {
     set_threads(args->threads);

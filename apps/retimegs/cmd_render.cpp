@@ -34,7 +34,8 @@ void add_render_command(CLI::App& app) {
       "Render a model at any real-valued time: one image, a folder of PNGs or a video. MODEL is a "
       "4D model (.rgs) or a static 3DGS .ply (Inria layout; time is then ignored).");
   cmd->add_option("--model", args->model, "model file (.rgs or .ply)")->required();
-  cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")->required();
+  cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")
+      ->required();
   auto* camera = cmd->add_option("--camera", args->camera, "camera name in the scene");
   auto* path = cmd->add_option("--path", args->path,
                                "cameras CAM,CAM,... to move through (bullet time with --time)");
@@ -58,7 +59,8 @@ void add_render_command(CLI::App& app) {
       ->required();
   cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
       ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     set_threads(args->threads);
@@ -67,11 +69,16 @@ void add_render_command(CLI::App& app) {
     if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
 
     std::vector<double> frame_times;
-    if (args->time) frame_times = {*args->time};
-    else if (!args->times.empty()) frame_times = parse_time_range(args->times, "--times");
-    else if (args->slowmo) frame_times = slowmo_times(scene.num_frames, *args->slowmo);
-    else if (!args->retime.empty()) frame_times = data::read_retime_csv(args->retime);
-    else fail("render: give one of --time, --times, --slowmo or --retime");
+    if (args->time)
+      frame_times = {*args->time};
+    else if (!args->times.empty())
+      frame_times = parse_time_range(args->times, "--times");
+    else if (args->slowmo)
+      frame_times = slowmo_times(scene.num_frames, *args->slowmo);
+    else if (!args->retime.empty())
+      frame_times = data::read_retime_csv(args->retime);
+    else
+      fail("render: give one of --time, --times, --slowmo or --retime");
     std::vector<Camera> path;
     if (!args->path.empty()) {
       for (const auto& name : split_list(args->path, "--path"))
@@ -87,8 +94,10 @@ void add_render_command(CLI::App& app) {
     const bool is_ply = std::filesystem::path(args->model).extension() == ".ply";
     std::optional<model::Model> model4d;
     std::optional<Splats> splats;
-    if (is_ply) splats = data::read_splat_ply(args->model);
-    else model4d = model::read_model(args->model);
+    if (is_ply)
+      splats = data::read_splat_ply(args->model);
+    else
+      model4d = model::read_model(args->model);
 
     const int frames = int(frame_times.size());
     data::FrameWriter writer(args->out, frames, scene.fps, args->force);

@@ -17,12 +17,15 @@ void add_sheet_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "sheet", "Write a contact sheet PNG of a scene: a row per camera with frames, mask and flow.");
+      "sheet",
+      "Write a contact sheet PNG of a scene: a row per camera with frames, mask and flow.");
   cmd->add_option("--scene", args->scene, "scene folder")->required();
   cmd->add_option("--out", args->out, "PNG file to write")->required();
   cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: up to 4)");
-  cmd->add_option("--frames", args->frames, "frame numbers, comma-separated (default: first, middle, last)");
-  cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")->capture_default_str();
+  cmd->add_option("--frames", args->frames,
+                  "frame numbers, comma-separated (default: first, middle, last)");
+  cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")
+      ->capture_default_str();
   cmd->callback([args] {
     const data::Scene scene = data::read_scene(args->scene, data::SceneCheck::kJson);
     data::SheetOptions options;

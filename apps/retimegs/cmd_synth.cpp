@@ -1,10 +1,10 @@
 // retimegs synth --preset NAME --out SCENE [--cameras N] [--frames K] [--size WxH] [--seed S]
 //                [--threads T] [--force]
 #include <charconv>
-#include <tuple>
-#include <utility>
 #include <memory>
 #include <string>
+#include <tuple>
+#include <utility>
 
 #include <fmt/format.h>
 

@@ -25,8 +25,9 @@ void add_train_command(CLI::App& app) {
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
-      "train", "Optimise the 4D model of a scene: RUN/model.rgs, RUN/config.json, RUN/log.jsonl, "
-               "RUN/checkpoints/.");
+      "train",
+      "Optimise the 4D model of a scene: RUN/model.rgs, RUN/config.json, RUN/log.jsonl, "
+      "RUN/checkpoints/.");
   cmd->add_option("--scene", args->scene, "scene folder")->required();
   cmd->add_option("--out", args->out, "run folder")->required();
   cmd->add_option("--train-frames", args->frames,
@@ -41,7 +42,8 @@ void add_train_command(CLI::App& app) {
       ->check(CLI::IsMember({"stgs"}));
   cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap, default 50000)");
   cmd->add_option("--seed", args->seed, "random seed (default 0)");
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
   cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
   cmd->callback([args] {
     set_threads(args->threads);
@@ -65,12 +67,21 @@ void add_train_command(CLI::App& app) {
     if (!args->baseline.empty()) config.stgs_baseline = true;
     if (!args->ablate.empty())
       for (const std::string& a : split_list(args->ablate, "--ablate")) {
-        if (a == "no-flow-init") config.ablate.no_flow_init = true;
-        else if (a == "no-flow-loss") config.ablate.no_flow_loss = true;
-        else if (a == "no-triple") config.ablate.no_triple = true;
-        else if (a == "no-stretch") config.ablate.no_stretch = true;
-        else if (a == "linear") config.ablate.linear = true;
-        else fail("--ablate: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear)", a);
+        if (a == "no-flow-init")
+          config.ablate.no_flow_init = true;
+        else if (a == "no-flow-loss")
+          config.ablate.no_flow_loss = true;
+        else if (a == "no-triple")
+          config.ablate.no_triple = true;
+        else if (a == "no-stretch")
+          config.ablate.no_stretch = true;
+        else if (a == "linear")
+          config.ablate.linear = true;
+        else
+          fail(
+              "--ablate: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, "
+              "linear)",
+              a);
       }
     const data::Scene scene = data::read_scene(args->scene);
     train::train(scene, run);

@@ -27,9 +27,11 @@ void check_rigid(const Eigen::Matrix4d& m, const std::string& what, double toler
   if (!m.allFinite()) fail("{}: matrix has a non-finite entry", what);
   const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
   const double orth = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (orth > tolerance) fail("{}: rotation block is not orthonormal (|R^T R - I| = {:.3g})", what, orth);
+  if (orth > tolerance)
+    fail("{}: rotation block is not orthonormal (|R^T R - I| = {:.3g})", what, orth);
   const double det = r.determinant();
-  if (std::abs(det - 1.0) > tolerance) fail("{}: rotation determinant is {:.6g}, not +1", what, det);
+  if (std::abs(det - 1.0) > tolerance)
+    fail("{}: rotation determinant is {:.6g}, not +1", what, det);
   const Eigen::RowVector4d last = m.row(3);
   if ((last - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9)
     fail("{}: last row is not (0, 0, 0, 1)", what);

@@ -12,7 +12,8 @@ namespace {
 std::string format_seconds(double s) {
   if (!(s >= 0) || s > 1e7) return "--:--";
   const long total = long(s + 0.5);
-  if (total >= 3600) return fmt::format("{}:{:02}:{:02}", total / 3600, total / 60 % 60, total % 60);
+  if (total >= 3600)
+    return fmt::format("{}:{:02}:{:02}", total / 3600, total / 60 % 60, total % 60);
   return fmt::format("{:02}:{:02}", total / 60, total % 60);
 }
 }  // namespace
@@ -25,7 +26,9 @@ Progress::Progress(std::string label, std::size_t total, bool enabled)
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
 void Progress::tick(std::size_t n, const std::string& status) {
   std::lock_guard lock(mutex_);

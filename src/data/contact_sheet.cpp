@@ -13,8 +13,10 @@ namespace retimegs::data {
 namespace {
 
 Image to_rgb_tile(const Image& image, int tile_width) {
-  const int tile_height = std::max(1, int(std::lround(double(image.height) * tile_width / image.width)));
-  cv::Mat src(image.height, image.width, CV_32FC(image.channels), const_cast<float*>(image.data.data()));
+  const int tile_height =
+      std::max(1, int(std::lround(double(image.height) * tile_width / image.width)));
+  cv::Mat src(image.height, image.width, CV_32FC(image.channels),
+              const_cast<float*>(image.data.data()));
   cv::Mat scaled;
   cv::resize(src, scaled, cv::Size(tile_width, tile_height), 0, 0, cv::INTER_AREA);
   if (image.channels == 1) cv::cvtColor(scaled, scaled, cv::COLOR_GRAY2RGB);
@@ -35,7 +37,8 @@ Image flow_to_color(const Flow& flow, float max_magnitude) {
   float max_mag = max_magnitude;
   if (max_mag <= 0)
     for (std::size_t i = 0; i < flow.pixels(); ++i)
-      if (flow.valid[i]) max_mag = std::max(max_mag, std::hypot(flow.uv[2 * i], flow.uv[2 * i + 1]));
+      if (flow.valid[i])
+        max_mag = std::max(max_mag, std::hypot(flow.uv[2 * i], flow.uv[2 * i + 1]));
   cv::Mat hsv(flow.height, flow.width, CV_32FC3);
   for (int y = 0; y < flow.height; ++y)
     for (int x = 0; x < flow.width; ++x) {
@@ -54,7 +57,8 @@ Image flow_to_color(const Flow& flow, float max_magnitude) {
 }
 
 Image contact_sheet(const Scene& scene, const SheetOptions& options) {
-  if (options.tile_width < 8) fail("contact sheet: tile width must be >= 8, got {}", options.tile_width);
+  if (options.tile_width < 8)
+    fail("contact sheet: tile width must be >= 8, got {}", options.tile_width);
   std::vector<int> cameras = options.cameras, frames = options.frames;
   if (cameras.empty()) {
     const int n = int(scene.cameras.size()), rows = std::min(n, 4);

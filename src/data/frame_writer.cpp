@@ -36,7 +36,8 @@ FrameWriter::FrameWriter(fs::path out, int frames, double fps, bool force)
            out_.string(), frames);
     kind_ = Kind::kPng;
   } else if (is_video(out_)) {
-    if (!(fps > 0) || !std::isfinite(fps)) fail("{}: invalid video frame rate {}", out_.string(), fps);
+    if (!(fps > 0) || !std::isfinite(fps))
+      fail("{}: invalid video frame rate {}", out_.string(), fps);
     kind_ = Kind::kVideo;
     file_ = std::make_unique<AtomicFile>(out_);
     video_ = std::make_unique<Video>();
@@ -108,7 +109,8 @@ std::vector<double> read_retime_csv(const fs::path& path) {
     }
     if (fields >> rest) fail("{}:{}: more than two columns", path.string(), number);
     if (!std::isfinite(t) || frame < 0 || frame != std::floor(frame) || frame > 1e7)
-      fail("{}:{}: output_frame must be a non-negative integer and t finite", path.string(), number);
+      fail("{}:{}: output_frame must be a non-negative integer and t finite", path.string(),
+           number);
     if (!keys.emplace(int(frame), t).second)
       fail("{}:{}: output frame {} appears twice", path.string(), number, int(frame));
   }

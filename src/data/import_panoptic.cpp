@@ -191,8 +191,7 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
         if (mask.width != image.width || mask.height != image.height)
           fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width,
                mask.height, image.width, image.height);
-        write_png(scene.mask_path(job.camera, job.frame),
-                  resize_area(mask, cam.width, cam.height));
+        write_png(scene.mask_path(job.camera, job.frame), resize_area(mask, cam.width, cam.height));
       }
       progress.tick();
     } catch (const std::exception& e) {

@@ -86,9 +86,12 @@ Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
   check_rigid(cam.world_to_camera, fmt::format("{}: '{}'", f.file(), mpath));
   if (j.contains("split")) {
     const std::string split = f.string(j["split"], path + ".split");
-    if (split == "train") cam.split = Split::kTrain;
-    else if (split == "test") cam.split = Split::kTest;
-    else fail("{}: '{}.split' must be \"train\" or \"test\", got \"{}\"", f.file(), path, split);
+    if (split == "train")
+      cam.split = Split::kTrain;
+    else if (split == "test")
+      cam.split = Split::kTest;
+    else
+      fail("{}: '{}.split' must be \"train\" or \"test\", got \"{}\"", f.file(), path, split);
   }
   return cam;
 }
@@ -165,7 +168,8 @@ Scene read_scene(const fs::path& root, SceneCheck check) {
   scene.fps = f.positive(f.require(j, "fps", ""), "fps");
   if (j.contains("up")) {
     const json& up = j["up"];
-    if (!up.is_array() || up.size() != 3) fail("{}: 'up' must be an array of 3 numbers", file.string());
+    if (!up.is_array() || up.size() != 3)
+      fail("{}: 'up' must be an array of 3 numbers", file.string());
     for (int i = 0; i < 3; ++i) scene.up[i] = f.number(up[i], fmt::format("up[{}]", i));
     if (scene.up.norm() < 1e-9) fail("{}: 'up' must not be the zero vector", file.string());
     scene.up.normalize();
@@ -200,9 +204,12 @@ void write_scene_json(const Scene& scene) {
                     {"world_to_camera", m},
                     {"split", cam.split == Split::kTest ? "test" : "train"}});
   }
-  const json j = {{"format", kFormat},       {"version", kVersion},
-                  {"num_frames", scene.num_frames}, {"fps", scene.fps},
-                  {"cameras", cams},         {"up", {scene.up.x(), scene.up.y(), scene.up.z()}}};
+  const json j = {{"format", kFormat},
+                  {"version", kVersion},
+                  {"num_frames", scene.num_frames},
+                  {"fps", scene.fps},
+                  {"cameras", cams},
+                  {"up", {scene.up.x(), scene.up.y(), scene.up.z()}}};
   AtomicFile out(scene.json_path());
   {
     std::ofstream o(out.temp_path());

@@ -24,11 +24,20 @@ Splats read_splat_ply(const std::filesystem::path& path) {
   while (table.has(fmt::format("f_rest_{}", rest))) ++rest;
   Splats s;
   switch (rest) {
-    case 0: s.sh_degree = 0; break;
-    case 9: s.sh_degree = 1; break;
-    case 24: s.sh_degree = 2; break;
-    case 45: s.sh_degree = 3; break;
-    default: fail("{}: {} f_rest properties; a 3DGS file has 0, 9, 24 or 45", file, rest);
+    case 0:
+      s.sh_degree = 0;
+      break;
+    case 9:
+      s.sh_degree = 1;
+      break;
+    case 24:
+      s.sh_degree = 2;
+      break;
+    case 45:
+      s.sh_degree = 3;
+      break;
+    default:
+      fail("{}: {} f_rest properties; a 3DGS file has 0, 9, 24 or 45", file, rest);
   }
   const std::size_t n = table.count;
   const int k = s.sh_coeffs(), rest_per_channel = k - 1;

@@ -26,9 +26,9 @@ using synth::World;
 namespace {
 
 constexpr int kMinImageSide = 8;  // smaller images cannot show the objects at all
-// Cameras on a ring around the scene centre, 5.5 m away: the objects (within 1.9 m of the centre)
-// stay in view of every camera with a 55 degree horizontal field of view.
-constexpr double kRingRadius = 5.5;
+// Cameras on a ring 4.5 m from the scene centre: with a 55 degree horizontal field of view the
+// objects (within 1.9 m of the centre) stay in every view and fill a good part of it.
+constexpr double kRingRadius = 4.5;
 constexpr double kHorizontalFovDegrees = 55;
 // Camera heights above the ground alternate between two values so the views differ in elevation.
 constexpr double kCameraHeights[2] = {1.5, 2.1};
@@ -43,12 +43,13 @@ constexpr double kDepthTolerance = 1e-4;  // relative
 constexpr double kObjectPointDensity = 1500;  // per square metre of object surface
 constexpr double kGroundPointDensity = 120;   // per square metre of ground
 constexpr double kGroundPointRadius = 4;      // metres around the origin: the staged area
-// Streams of the seed (synth_world.cpp uses 1 for the objects).
-constexpr std::uint64_t kCameraStream = 2;
-constexpr std::uint64_t kPointStream = 3;  // + frame
+// The far ground (out to the dome) and the sky dome, sparsely: training needs primitives there
+// too, and a point cloud that stops at the stage would leave the background to chance.
+constexpr long kFarGroundPoints = 3000;
+constexpr long kSkyPoints = 3000;
 
+// The preset is checked by synth::build_world.
 void validate(const SynthOptions& o) {
-  synth::build_world(o.preset, o.seed, 2);  // throws on an unknown preset
   if (o.cameras < 1) fail("--cameras: must be >= 1, got {}", o.cameras);
   if (o.frames < 2) fail("--frames: must be >= 2, got {}", o.frames);
   if (o.width < kMinImageSide || o.height < kMinImageSide)
@@ -58,7 +59,7 @@ void validate(const SynthOptions& o) {
 }
 
 std::vector<Camera> make_cameras(const SynthOptions& o, const World& world) {
-  synth::Rng rng(synth::stream_seed(o.seed, kCameraStream));
+  synth::Rng rng(synth::stream_seed(o.seed, synth::kCameraStream));
   const double fx = 0.5 * o.width / std::tan(0.5 * kHorizontalFovDegrees * std::numbers::pi / 180);
   std::vector<Camera> cameras;
   for (int i = 0; i < o.cameras; ++i) {
@@ -125,7 +126,8 @@ View render_view(const World& world, const Posed& posed, const Rays& rays, int s
       const std::size_t p = std::size_t(y) * w + x;
       for (int c = 0; c < 3; ++c) view.image.data[p * 3 + c] = float(weight * colour[c]);
       view.mask.data[p] = float(weight * covered);
-      const Hit centre = synth::cast_ray(world, posed, rays.origin, rays.direction(x + 0.5, y + 0.5));
+      const Hit centre =
+          synth::cast_ray(world, posed, rays.origin, rays.direction(x + 0.5, y + 0.5));
       view.centre_object[p] = centre.object;
       for (int c = 0; c < 3; ++c) view.centre_u[p * 3 + c] = centre.u[c];
     }
@@ -155,8 +157,8 @@ Flow exact_flow(const World& world, const Posed& to, const Rays& rays, const Vie
       if (visible) {
         const double expected = (target - rays.origin).norm();
         const Hit hit = synth::cast_ray(world, to, rays.origin, rays.direction(uv.x(), uv.y()));
-        visible = hit.object == object &&
-                  std::abs(hit.distance - expected) <= kDepthTolerance * expected;
+        visible =
+            hit.object == object && std::abs(hit.distance - expected) <= kDepthTolerance * expected;
       }
       flow.valid[p] = visible;
       flow.uv[p * 2] = visible ? float(uv.x() - (x + 0.5)) : 0.0f;
@@ -166,31 +168,49 @@ Flow exact_flow(const World& world, const Posed& to, const Rays& rays, const Vie
   return flow;
 }
 
-// Uniform samples of every moving object's surface plus the ground around the stage that at least
-// one camera sees, coloured with the albedo.
+// Uniform samples of every moving object's surface, the ground around the stage, and sparse
+// samples of the far ground and the sky dome, each kept only where at least one camera sees it,
+// coloured with the albedo.
 PointCloud frame_points(const World& world, const Posed& posed, const std::vector<Camera>& cameras,
                         std::uint64_t seed, int frame) {
-  synth::Rng rng(synth::stream_seed(seed, kPointStream + std::uint64_t(frame)));
+  synth::Rng rng(synth::stream_seed(seed, synth::kPointStream + std::uint64_t(frame)));
   PointCloud points;
+  auto seen = [&](const Vector3d& x) {
+    return std::any_of(cameras.begin(), cameras.end(), [&](const Camera& cam) {
+      const Vector3d xc = cam.world_to_cam(x);
+      return xc.z() > 0 && cam.in_image(cam.project_cam(xc));
+    });
+  };
+  auto emit = [&](const Vector3d& x, const Vector3d& c) {
+    for (int k = 0; k < 3; ++k) {
+      points.xyz.push_back(float(x[k]));
+      points.rgb.push_back(float(c[k]));
+    }
+  };
+  // Ground radius inside the dome (the dome meets the ground plane at this radius).
+  const double ground_edge = 0.95 * world.sky_radius;
   for (int i = 0; i < int(world.objects.size()); ++i) {
     const synth::Object& object = world.objects[i];
     if (object.shape == synth::Shape::kPlane) {
-      const long count = std::lround(kGroundPointDensity * std::numbers::pi *
-                                     kGroundPointRadius * kGroundPointRadius);
-      for (long n = 0; n < count; ++n) {
-        const double r = kGroundPointRadius * std::sqrt(rng.uniform());
+      const long near = std::lround(kGroundPointDensity * std::numbers::pi * kGroundPointRadius *
+                                    kGroundPointRadius);
+      for (long n = 0; n < near + kFarGroundPoints; ++n) {
+        // Uniform over the stage disc, then uniform over the ring out to the dome.
+        const double r = n < near ? kGroundPointRadius * std::sqrt(rng.uniform())
+                                  : std::sqrt(rng.uniform(kGroundPointRadius * kGroundPointRadius,
+                                                          ground_edge * ground_edge));
         const double phi = rng.uniform(0, 2 * std::numbers::pi);
         const Vector3d x(r * std::cos(phi), 0, r * std::sin(phi));
-        const bool seen = std::any_of(cameras.begin(), cameras.end(), [&](const Camera& cam) {
-          const Vector3d xc = cam.world_to_cam(x);
-          return xc.z() > 0 && cam.in_image(cam.project_cam(xc));
-        });
-        if (!seen) continue;
-        const Vector3d c = synth::albedo(object.texture, x);
-        for (int k = 0; k < 3; ++k) {
-          points.xyz.push_back(float(x[k]));
-          points.rgb.push_back(float(c[k]));
-        }
+        if (seen(x)) emit(x, synth::albedo(object.texture, x));
+      }
+    } else if (object.emissive) {
+      // The sky: directions of the upper hemisphere (world up is -y) on the dome.
+      for (long n = 0; n < kSkyPoints; ++n) {
+        const double y = rng.uniform(-1, 0), phi = rng.uniform(0, 2 * std::numbers::pi);
+        const double r = std::sqrt(std::max(0.0, 1 - y * y));
+        const Vector3d u(r * std::cos(phi), y, r * std::sin(phi));
+        const Vector3d x = world.sky_radius * u;
+        if (seen(x)) emit(x, synth::albedo(object.texture, u));
       }
     } else if (object.foreground) {
       synth::sample_surface(world, posed, i, kObjectPointDensity, rng, points);

@@ -30,7 +30,9 @@ double smoothstep(double edge0, double edge1, double x) {
   return s * s * (3 - 2 * s);
 }
 
-Vector3d mix(const Vector3d& a, const Vector3d& b, double w) { return a + w * (b - a); }
+Vector3d mix(const Vector3d& a, const Vector3d& b, double w) {
+  return a + w * (b - a);
+}
 
 Vector3d jitter_colour(const Vector3d& colour, Rng& rng) {
   Vector3d c;
@@ -53,16 +55,14 @@ Texture make_texture(Pattern pattern, const Vector3d& a, const Vector3d& b, doub
 // Static backdrop shared by every preset: a tiled ground plane y = 0 and a sky dome.
 void add_backdrop(World& world, Rng& rng) {
   Object ground;
-  ground.name = "ground";
   ground.shape = Shape::kPlane;
   ground.foreground = false;
   // Tiles 0.5 m wide (sin period 1 m): several pixels each across the whole visible ground.
-  ground.texture = make_texture(Pattern::kTiles, {0.62, 0.56, 0.46}, {0.34, 0.31, 0.27},
-                                kPi / 0.5, rng);
+  ground.texture =
+      make_texture(Pattern::kTiles, {0.62, 0.56, 0.46}, {0.34, 0.31, 0.27}, kPi / 0.5, rng);
   world.objects.push_back(ground);
 
   Object sky;
-  sky.name = "sky";
   sky.shape = Shape::kSphere;
   sky.foreground = false;
   sky.emissive = true;
@@ -75,7 +75,6 @@ void add_backdrop(World& world, Rng& rng) {
 Object orbiter(Rng& rng, double orbit_radius, double radius, double orbit_rate, double bob,
                double speed) {
   Object o;
-  o.name = "orbiter";
   o.shape = Shape::kSphere;
   o.motion.anchor = {0, -0.78, 0};
   o.motion.orbit_radius = orbit_radius;
@@ -83,7 +82,7 @@ Object orbiter(Rng& rng, double orbit_radius, double radius, double orbit_rate, 
   o.motion.orbit_phase = rng.uniform(0, 2 * kPi);
   o.motion.bob_amplitude = bob;
   o.motion.spin_axis = Vector3d(0.3, 1.0, 0.2).normalized();
-  o.motion.spin_rate = 0.2 * speed;
+  o.motion.spin_rate = 0.1 * speed;
   o.motion.spin_phase = rng.uniform(0, 2 * kPi);
   o.motion.radii = Vector3d::Constant(radius);
   o.texture = make_texture(Pattern::kSpots, {0.86, 0.24, 0.14}, {0.96, 0.84, 0.30}, 4.5, rng);
@@ -92,10 +91,10 @@ Object orbiter(Rng& rng, double orbit_radius, double radius, double orbit_rate, 
 
 Object spinner(Rng& rng, const Vector3d& anchor, const Vector3d& half_size, double speed) {
   Object o;
-  o.name = "spinner";
   o.shape = Shape::kBox;
   o.motion.anchor = anchor;
-  o.motion.spin_axis = Vector3d::UnitY();  // about the vertical: the box keeps standing on the ground
+  // About the vertical: the box keeps standing on the ground.
+  o.motion.spin_axis = Vector3d::UnitY();
   o.motion.spin_rate = 0.15 * speed;
   o.motion.spin_phase = rng.uniform(0, 2 * kPi);
   o.motion.radii = half_size;
@@ -106,19 +105,17 @@ Object spinner(Rng& rng, const Vector3d& anchor, const Vector3d& half_size, doub
 World make_default(std::uint64_t seed, int frames, double speed) {
   World world;
   world.frames = frames;
-  world.light = Vector3d(0.45, -1.0, 0.3).normalized();
-  Rng rng(stream_seed(seed, 1));
+  Rng rng(stream_seed(seed, kWorldStream));
   add_backdrop(world, rng);
 
-  // 0.25 rad/frame on a 1.55 m circle: ~0.39 m per frame, >= 13 px per frame at 256 px width
-  // from the farthest point of the ring of cameras 5.5 m away, when the motion is across the view.
+  // 0.25 rad/frame on a 1.55 m circle: ~0.39 m per frame, >= 15 px per frame at 256 px width
+  // from the farthest point of the ring of cameras 4.5 m away, when the motion is across the view.
   world.objects.push_back(orbiter(rng, 1.55, 0.28, 0.25, 0.22, speed));
 
   const Vector3d box_anchor(0.35, -0.46, 0.25);
   world.objects.push_back(spinner(rng, box_anchor, {0.30, 0.45, 0.30}, speed));
 
   Object breather;
-  breather.name = "breather";
   breather.shape = Shape::kSphere;
   breather.motion.anchor = {-0.65, -0.62, -0.35};
   breather.motion.spin_rate = 0.05 * speed;
@@ -132,9 +129,8 @@ World make_default(std::uint64_t seed, int frames, double speed) {
       make_texture(Pattern::kSpots, {0.20, 0.70, 0.30}, {0.06, 0.26, 0.10}, 5.0, rng);
   world.objects.push_back(breather);
 
-  // Starts inside the box (hidden from every camera), slides out up and forward.
+  // Starts inside the box (hidden from every camera) and slides out of it, upwards and along -z.
   Object emerger;
-  emerger.name = "emerger";
   emerger.shape = Shape::kSphere;
   emerger.motion.anchor = box_anchor;
   emerger.motion.slide = {0.15, -0.55, -0.60};
@@ -151,8 +147,7 @@ World make_default(std::uint64_t seed, int frames, double speed) {
 World make_minimal(std::uint64_t seed, int frames) {
   World world;
   world.frames = frames;
-  world.light = Vector3d(0.45, -1.0, 0.3).normalized();
-  Rng rng(stream_seed(seed, 1));
+  Rng rng(stream_seed(seed, kWorldStream));
   add_backdrop(world, rng);
   world.objects.push_back(orbiter(rng, 1.2, 0.3, 0.15, 0.15, 1.0));
   world.objects.push_back(spinner(rng, {0, -0.36, 0}, Vector3d::Constant(0.35), 1.0));
@@ -175,7 +170,9 @@ std::uint64_t Rng::next() {
   return z ^ (z >> 31);
 }
 
-double Rng::uniform() { return double(next() >> 11) * 0x1.0p-53; }
+double Rng::uniform() {
+  return double(next() >> 11) * 0x1.0p-53;
+}
 
 std::uint64_t stream_seed(std::uint64_t seed, std::uint64_t stream) {
   Rng rng(seed ^ (stream * 0xd1b54a32d192ed03ULL));
@@ -230,7 +227,8 @@ Posed pose_world(const World& world, double t) {
             .toRotationMatrix();
     Vector3d scale;
     for (int i = 0; i < 3; ++i)
-      scale[i] = m.radii[i] * (1 + m.pulse_amplitude[i] * std::sin(m.pulse_rate * t + m.pulse_phase[i]));
+      scale[i] =
+          m.radii[i] * (1 + m.pulse_amplitude[i] * std::sin(m.pulse_rate * t + m.pulse_phase[i]));
     posed.linear.push_back(rotation * scale.asDiagonal());
     posed.inverse.push_back(scale.cwiseInverse().asDiagonal() * rotation.transpose());
     posed.centre.push_back(centre);
@@ -327,7 +325,8 @@ Vector3d albedo(const Texture& t, const Vector3d& u) {
       const double s = std::sin(f * u.x() + p.x()) * std::sin(f * u.z() + p.z());
       const double fade = 1 - smoothstep(4.0, 8.0, std::hypot(u.x(), u.z()));
       const double w = 0.5 + (smoothstep(-0.25, 0.25, s) - 0.5) * fade;
-      const double tint = 0.92 + 0.08 * std::sin(0.8 * u.x() + p.y()) * std::sin(0.6 * u.z() + p.y());
+      const double tint =
+          0.92 + 0.08 * std::sin(0.8 * u.x() + p.y()) * std::sin(0.6 * u.z() + p.y());
       return mix(t.colour_a, t.colour_b, w) * tint;
     }
     case Pattern::kSky: {

@@ -1,9 +1,9 @@
 #pragma once
 // The analytic world behind `retimegs synth` (private to src/data). Every object maps canonical
 // coordinates u (the unit sphere, the surface of the cube [-1, 1]^3, or the plane y = 0) to the
-// world at time t by X(t) = C(t) + R(t) diag(S(t)) u, with closed-form C, R, S. Rays are intersected
-// in canonical space and textures are functions of u, so a surface point keeps its canonical
-// coordinate while it moves and flows are exact. Shares no code with any splat renderer.
+// world at time t by X(t) = C(t) + R(t) diag(S(t)) u, with closed-form C, R, S. Rays are
+// intersected in canonical space and textures are functions of u, so a surface point keeps its
+// canonical coordinate while it moves and flows are exact. Shares no code with any splat renderer.
 // Times are in scene frame units (frame k at t = k).
 #include <cstdint>
 #include <string>
@@ -21,7 +21,7 @@ class Rng {
  public:
   explicit Rng(std::uint64_t seed) : state_(seed) {}
   std::uint64_t next();
-  double uniform();                  // [0, 1)
+  double uniform();  // [0, 1)
   double uniform(double a, double b) { return a + (b - a) * uniform(); }
 
  private:
@@ -30,6 +30,9 @@ class Rng {
 
 // Independent streams of one seed: world parameters, camera jitter, the points of a frame.
 std::uint64_t stream_seed(std::uint64_t seed, std::uint64_t stream);
+constexpr std::uint64_t kWorldStream = 1;
+constexpr std::uint64_t kCameraStream = 2;
+constexpr std::uint64_t kPointStream = 3;  // + frame index
 
 enum class Shape {
   kSphere,  // |u| = 1
@@ -46,13 +49,14 @@ enum class Pattern {
 struct Texture {
   Pattern pattern = Pattern::kSpots;
   Eigen::Vector3d colour_a{0.5, 0.5, 0.5}, colour_b{0.5, 0.5, 0.5};  // albedo in [0, 1]
-  double frequency = 1;                      // radians per canonical unit
-  Eigen::Vector3d phase = Eigen::Vector3d::Zero();  // radians
+  double frequency = 1;                                              // radians per canonical unit
+  Eigen::Vector3d phase = Eigen::Vector3d::Zero();                   // radians
 };
 
 // X(t) = C(t) + R(t) diag(S(t)) u with
 //   C(t) = anchor + orbit_radius (cos a, 0, sin a) + (0, bob_amplitude sin 2a, 0)
-//          + slide * smoothstep(slide_begin, slide_end, t / (frames - 1)),  a = orbit_phase + orbit_rate t
+//          + slide * smoothstep(slide_begin, slide_end, t / (frames - 1))
+//   a    = orbit_phase + orbit_rate t
 //   R(t) = rotation by spin_phase + spin_rate t about spin_axis
 //   S(t) = radii * (1 + pulse_amplitude * sin(pulse_rate t + pulse_phase))   (per axis)
 // Rates are per frame; the slide is clip-relative so that it happens within any clip length.
@@ -73,7 +77,6 @@ struct Motion {
 };
 
 struct Object {
-  std::string name;
   Shape shape = Shape::kSphere;
   bool foreground = true;  // counted in the masks (every moving object)
   bool emissive = false;   // unshaded (the sky)
@@ -83,11 +86,14 @@ struct Object {
 
 struct World {
   std::vector<Object> objects;
-  int frames = 2;                          // clip length (for clip-relative motion)
-  Eigen::Vector3d light{0, -1, 0};         // unit vector toward the light
-  double ambient = 0.35;                   // fraction of albedo lit regardless of orientation
-  Eigen::Vector3d centre{0, -0.45, 0};     // where the cameras look
-  double sky_radius = 14;                  // radius of the sky dome around the origin
+  int frames = 2;  // clip length (for clip-relative motion)
+  // Unit vector toward the light: above (up is -y) and to one side, so box faces differ.
+  Eigen::Vector3d light = Eigen::Vector3d(0.45, -1.0, 0.3).normalized();
+  // Fraction of the albedo lit regardless of orientation: high enough that turning objects change
+  // brightness only mildly (flows stay checkable by warping), low enough to show their shape.
+  double ambient = 0.45;
+  Eigen::Vector3d centre{0, -0.45, 0};  // where the cameras look
+  double sky_radius = 14;               // radius of the sky dome around the origin
 };
 
 // The objects of a preset (see synth_presets()) with seed-dependent phases, colours and texture
@@ -105,10 +111,10 @@ Posed pose_world(const World& world, double t);
 Eigen::Vector3d canonical_to_world(const Posed& posed, int object, const Eigen::Vector3d& u);
 
 struct Hit {
-  int object = -1;                                  // -1: nothing (never inside the sky dome)
-  double distance = 0;                              // along the unit ray direction
-  Eigen::Vector3d u = Eigen::Vector3d::Zero();      // canonical coordinate of the hit
-  Eigen::Vector3d normal = Eigen::Vector3d::Zero(); // canonical outward normal
+  int object = -1;                                   // -1: nothing (impossible inside the sky)
+  double distance = 0;                               // along the unit ray direction
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();       // canonical coordinate of the hit
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // canonical outward normal
 };
 
 // Nearest intersection with distance > 0 of the ray origin + s * direction (|direction| = 1).

@@ -22,8 +22,10 @@ EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
   if (options.frames.empty()) fail("eval: no frames to evaluate");
   if (options.cameras.empty()) fail("eval: no cameras to evaluate");
   std::optional<Lpips> lpips;
-  if (options.lpips_weights) lpips = Lpips::load(*options.lpips_weights);
-  else result.note = "lpips: no weights given (--lpips-weights DIR), reported as null";
+  if (options.lpips_weights)
+    lpips = Lpips::load(*options.lpips_weights);
+  else
+    result.note = "lpips: no weights given (--lpips-weights DIR), reported as null";
 
   std::optional<AtomicDirectory> renders;
   if (options.save_renders) renders.emplace(*options.save_renders, /*replace=*/true);
@@ -42,7 +44,8 @@ EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
     const Image truth = data::load_image(scene, c, k);
     std::optional<Image> mask = data::load_mask(scene, c, k);
     // A mask without foreground (nothing of interest in view) scores the whole image.
-    if (mask && std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
+    if (mask &&
+        std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
       mask.reset();
     ViewScore& v = result.per_view[j];
     v.camera = scene.cameras[c].name;
@@ -82,8 +85,12 @@ std::string to_json(const EvalResult& r) {
                      {"ssim", v.ssim},
                      {"lpips", v.lpips ? json(*v.lpips) : json(nullptr)},
                      {"masked", v.masked}});
-  json j = {{"psnr", r.psnr},     {"ssim", r.ssim},     {"lpips", r.lpips ? json(*r.lpips) : json(nullptr)},
-            {"masked", r.masked}, {"frames", r.frames}, {"per_view", views}};
+  json j = {{"psnr", r.psnr},
+            {"ssim", r.ssim},
+            {"lpips", r.lpips ? json(*r.lpips) : json(nullptr)},
+            {"masked", r.masked},
+            {"frames", r.frames},
+            {"per_view", views}};
   if (!r.note.empty()) j["note"] = r.note;
   return j.dump(2);
 }
@@ -110,7 +117,8 @@ FrameRenderer baseline_renderer(const data::Scene& scene, std::vector<int> train
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag) {
   std::vector<int> frames;
   if (text == "odd" || text == "all") {
-    for (int k = text == "odd" ? 1 : 0; k < num_frames; k += text == "odd" ? 2 : 1) frames.push_back(k);
+    for (int k = text == "odd" ? 1 : 0; k < num_frames; k += text == "odd" ? 2 : 1)
+      frames.push_back(k);
     return frames;
   }
   std::size_t start = 0;

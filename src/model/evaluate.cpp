@@ -11,7 +11,8 @@ namespace retimegs::model {
 
 namespace {
 
-constexpr double kFlowNearZ = 1e-2;  // camera z floor for projecting control points (render near plane)
+constexpr double kFlowNearZ =
+    1e-2;  // camera z floor for projecting control points (render near plane)
 
 // The camera's numbers in T.
 template <typename T>
@@ -27,7 +28,8 @@ struct CameraT {
   // Pixel coordinates of world point p and, when jacobian != nullptr, d(u, v)/dp [2, 3].
   void project(const T p[3], T uv[2], T* jacobian) const {
     T x[3];
-    for (int a = 0; a < 3; ++a) x[a] = r[3 * a] * p[0] + r[3 * a + 1] * p[1] + r[3 * a + 2] * p[2] + tr[a];
+    for (int a = 0; a < 3; ++a)
+      x[a] = r[3 * a] * p[0] + r[3 * a + 1] * p[1] + r[3 * a + 2] * p[2] + tr[a];
     const bool clamped = x[2] < T(kFlowNearZ);
     const T z = clamped ? T(kFlowNearZ) : x[2], iz = T(1) / z;
     uv[0] = fx * x[0] * iz + cx;
@@ -51,8 +53,9 @@ int grid_index(const TimeGrid& grid, double t) {
 template <typename T>
 RetimeWindow<T> window_of(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
                           const TimeGrid& grid) {
-  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i], T(grid.first), T(grid.last()),
-          T(grid.to_frames(config.gamma)), T(config.epsilon)};
+  return {p.mu_tau[i],      p.tau_l[i],     p.tau_r[i],
+          T(grid.first),    T(grid.last()), T(grid.to_frames(config.gamma)),
+          T(config.epsilon)};
 }
 
 template <typename T>
@@ -197,7 +200,8 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
       v_mu_tau -= vq * p.q1[4 * i + a];
     }
     // Position: directly and through the view direction of the SH colour.
-    const auto coefficients = trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
+    const auto coefficients =
+        trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
     T x[3];
     apply_trajectory(coefficients, mu, v, x);
     T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
@@ -222,8 +226,8 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
                               jac[1] * v_uv[q][0] + jac[4] * v_uv[q][1],
                               jac[2] * v_uv[q][0] + jac[5] * v_uv[q][1]};
         T unused = 0;
-        apply_trajectory_vjp(Representation::kRetime, control_point<T>(points[q], step), v,
-                             v_point, v_mu, v_v, unused);
+        apply_trajectory_vjp(Representation::kRetime, control_point<T>(points[q], step), v, v_point,
+                             v_mu, v_v, unused);
       }
     }
     if (stgs) grads.v_mu_tau[i] += v_mu_tau;

@@ -20,7 +20,8 @@ Splats export_splats(const Model& model, double t, double min_opacity) {
     const double temporal =
         config.representation == Representation::kStgs
             ? stgs_temporal_opacity<double>(p.mu_tau[i], p.temporal_log_scale[i], t)
-            : RetimeWindow<double>{p.mu_tau[i], p.tau_l[i], p.tau_r[i], model.grid.first,
+            : RetimeWindow<double>{p.mu_tau[i],       p.tau_l[i],
+                                   p.tau_r[i],        model.grid.first,
                                    model.grid.last(), model.grid.to_frames(config.gamma),
                                    config.epsilon}(t);
     const double opacity = sigmoid<double>(p.opacity_logit[i]) * temporal;

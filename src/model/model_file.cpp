@@ -38,8 +38,12 @@ void put(std::string& out, U value) {
   out.append(reinterpret_cast<const char*>(&value), sizeof value);
 }
 
-const char* name_of(Representation r) { return r == Representation::kStgs ? "stgs" : "retime"; }
-const char* name_of(TrajectoryKind k) { return k == TrajectoryKind::kLinear ? "linear" : "catmull-rom"; }
+const char* name_of(Representation r) {
+  return r == Representation::kStgs ? "stgs" : "retime";
+}
+const char* name_of(TrajectoryKind k) {
+  return k == TrajectoryKind::kLinear ? "linear" : "catmull-rom";
+}
 
 }  // namespace
 
@@ -50,7 +54,10 @@ void write_model(const fs::path& path, const Model& model) {
   std::size_t offset = 0;
   for (const auto& f : model.primitives.fields()) {
     const std::size_t bytes = f.values->size() * sizeof(float);
-    fields.push_back({{"name", f.name}, {"width", f.width}, {"dtype", "<f4"}, {"offset", offset},
+    fields.push_back({{"name", f.name},
+                      {"width", f.width},
+                      {"dtype", "<f4"},
+                      {"offset", offset},
                       {"bytes", bytes}});
     offset += bytes;
   }

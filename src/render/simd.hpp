@@ -40,6 +40,7 @@ inline void store(std::int32_t* p, vi v) {
 
 #if defined(__AVX512F__)
 using mask = __mmask16;
+constexpr mask kAllLanes = 0xffff;
 inline mask lanes_below(int n) {
   return mask((1u << n) - 1u);
 }  // lanes [0, n), n <= 16
@@ -142,8 +143,10 @@ inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
   constexpr float kLog2e = 1.44269504088896341f;
 #if defined(__AVX512F__)
   const vf y = log2_opacity - sigma * kLog2e;
-  const vf n = _mm512_roundscale_ps(y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-  return _mm512_scalef_ps(exp2_fraction(y - n), n);
+  // The all-lanes masked forms: GCC 12 warns (falsely) about the unmasked ones' undefined
+  // pass-through.
+  const vf n = _mm512_maskz_roundscale_ps(kAllLanes, y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  return _mm512_maskz_scalef_ps(kAllLanes, exp2_fraction(y - n), n);
 #else
   constexpr float kMinExponent = -126.0f;  // below: 2^y would be denormal; flush to ~1e-38
   const vf y_raw = log2_opacity - sigma * kLog2e;
@@ -159,7 +162,7 @@ inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
 // (relative error ~1e-7, a rounding or two from the quotient), a division elsewhere.
 inline vf reciprocal(vf x) {
 #if defined(__AVX512F__)
-  const vf r = (vf)_mm512_rcp14_ps((__m512)x);
+  const vf r = _mm512_maskz_rcp14_ps(kAllLanes, x);
   return r * (2.0f - x * r);
 #else
   return 1.0f / x;

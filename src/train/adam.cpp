@@ -8,7 +8,8 @@ namespace retimegs::train {
 Adam::Adam(std::size_t rows, int width, AdamSettings settings, std::vector<float> column_scale)
     : width_(width),
       settings_(settings),
-      column_scale_(column_scale.empty() ? std::vector<float>(width, 1.0f) : std::move(column_scale)),
+      column_scale_(column_scale.empty() ? std::vector<float>(width, 1.0f)
+                                         : std::move(column_scale)),
       m_(rows * width, 0.0f),
       v_(rows * width, 0.0f) {}
 
@@ -40,7 +41,8 @@ void Adam::step(float* params, const float* grads, double lr) {
 
 void Adam::reset_rows(const std::vector<std::int32_t>& rows) {
   for (const std::int32_t r : rows)
-    for (int k = 0; k < width_; ++k) m_[std::size_t(r) * width_ + k] = v_[std::size_t(r) * width_ + k] = 0;
+    for (int k = 0; k < width_; ++k)
+      m_[std::size_t(r) * width_ + k] = v_[std::size_t(r) * width_ + k] = 0;
 }
 
 void Adam::resize(std::size_t rows) {

@@ -12,13 +12,12 @@ namespace retimegs::train {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(Ablations, no_flow_init, no_flow_loss, no_triple,
                                                 no_stretch, linear)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every,
-    max_sh_degree, lr_decay_start, lr_decay_final, flow_decay_until, relocate_every,
-    relocate_start, relocate_stop, stretch_every, lr_means, lr_means_final, lr_velocity, lr_scales,
-    lr_quats, lr_quat_rate, lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center,
-    lr_temporal_scale, ssim_lambda, flow_weight_start, flow_weight_end, opacity_reg, scale_reg,
-    gamma, cap, min_opacity, growth, init_opacity, stretch_distance, stretch_color, stretch_speed,
-    checkpoint_every)
+    TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every, max_sh_degree,
+    lr_decay_start, lr_decay_final, flow_decay_until, relocate_every, relocate_start, relocate_stop,
+    stretch_every, lr_means, lr_means_final, lr_velocity, lr_scales, lr_quats, lr_quat_rate,
+    lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center, lr_temporal_scale, ssim_lambda,
+    flow_weight_start, flow_weight_end, opacity_reg, scale_reg, gamma, cap, min_opacity, growth,
+    init_opacity, stretch_distance, stretch_color, stretch_speed, checkpoint_every)
 
 int TrainConfig::scaled(int iteration) const {
   constexpr double kPaperIterations = 20000;
@@ -29,13 +28,16 @@ int TrainConfig::scaled(int iteration) const {
 model::ModelConfig TrainConfig::model_config() const {
   model::ModelConfig m;
   m.representation = stgs_baseline ? model::Representation::kStgs : model::Representation::kRetime;
-  m.trajectory = ablate.linear ? model::TrajectoryKind::kLinear : model::TrajectoryKind::kCatmullRom;
+  m.trajectory =
+      ablate.linear ? model::TrajectoryKind::kLinear : model::TrajectoryKind::kCatmullRom;
   m.gamma = gamma;
   m.sh_degree = 0;
   return m;
 }
 
-std::string to_json(const TrainConfig& config) { return nlohmann::json(config).dump(2); }
+std::string to_json(const TrainConfig& config) {
+  return nlohmann::json(config).dump(2);
+}
 
 TrainConfig config_from_json(const std::string& text, TrainConfig config, const std::string& what) {
   nlohmann::json j;

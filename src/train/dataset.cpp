@@ -10,7 +10,8 @@ namespace retimegs::train {
 std::size_t TrainingSet::flow_files() const {
   std::size_t n = 0;
   for (std::size_t c = 0; c < cameras.size(); ++c)
-    for (std::size_t i = 0; i < frames.size(); ++i) n += forward[c][i].has_value() + backward[c][i].has_value();
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      n += forward[c][i].has_value() + backward[c][i].has_value();
   return n;
 }
 

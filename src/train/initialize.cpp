@@ -15,7 +15,7 @@ namespace retimegs::train {
 
 namespace {
 
-constexpr int kDepthSplat = 1;               // z-buffer footprint of a point: (2r + 1)^2 pixels
+constexpr int kDepthSplat = 1;                // z-buffer footprint of a point: (2r + 1)^2 pixels
 constexpr double kOcclusionTolerance = 0.03;  // relative depth slack of the visibility test
 constexpr std::size_t kRandomPoints = 20000;  // fallback point count per frame... in total
 
@@ -49,7 +49,8 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
     const auto& bwd = set.backward[c][slot];
     if (!fwd && !bwd) continue;
     // The point cloud's own depth map in this camera (a small splat per point).
-    std::vector<float> depth(std::size_t(cam.width) * cam.height, std::numeric_limits<float>::infinity());
+    std::vector<float> depth(std::size_t(cam.width) * cam.height,
+                             std::numeric_limits<float>::infinity());
     std::vector<Eigen::Vector3d> in_camera(n);
     for (std::size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d x(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]);
@@ -91,7 +92,8 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
   return motion;
 }
 
-model::Primitives initialize(const TrainingSet& set, const InitOptions& options, std::string& note) {
+model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
+                             std::string& note) {
   const int nf = int(set.frames.size());
   const double step = set.grid.step;
   const bool stgs = options.representation == model::Representation::kStgs;
@@ -118,29 +120,35 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       const int slot = int(k % std::size_t(stgs ? nf : nf - 1));
       time.push_back(float(stgs ? set.grid.at(slot) : set.grid.at(slot) + step / 2));
     }
-    note = fmt::format("initialisation: the scene has no points; {} random points in a box of side "
-                       "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
-                       kRandomPoints, 2 * half, centre.x(), centre.y(), centre.z());
+    note = fmt::format(
+        "initialisation: the scene has no points; {} random points in a box of side "
+        "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
+        kRandomPoints, 2 * half, centre.x(), centre.y(), centre.z());
   } else {
     std::size_t with_motion = 0, total = 0;
     for (int i = 0; i < nf; ++i) {
       if (!set.points[i]) continue;
       const data::PointCloud& cloud = *set.points[i];
-      const std::vector<PointMotion> motion =
-          options.use_flow && !stgs ? estimate_point_motion(set, i) : std::vector<PointMotion>(cloud.size());
+      const std::vector<PointMotion> motion = options.use_flow && !stgs
+                                                  ? estimate_point_motion(set, i)
+                                                  : std::vector<PointMotion>(cloud.size());
       for (std::size_t k = 0; k < cloud.size(); ++k) {
         const PointMotion& m = motion[k];
         // v = mean of the forward and the negated backward displacement, per frame.
         Eigen::Vector3d v = Eigen::Vector3d::Zero();
-        if (m.forward_views && m.backward_views) v = 0.5 * (m.forward - m.backward) / step;
-        else if (m.forward_views) v = m.forward / step;
-        else if (m.backward_views) v = -m.backward / step;
+        if (m.forward_views && m.backward_views)
+          v = 0.5 * (m.forward - m.backward) / step;
+        else if (m.forward_views)
+          v = m.forward / step;
+        else if (m.backward_views)
+          v = -m.backward / step;
         with_motion += (m.forward_views + m.backward_views) > 0;
         ++total;
         const Eigen::Vector3d x(cloud.xyz[3 * k], cloud.xyz[3 * k + 1], cloud.xyz[3 * k + 2]);
-        const Eigen::Vector3f colour = cloud.rgb.empty()
-                                           ? Eigen::Vector3f(0.5f, 0.5f, 0.5f)
-                                           : Eigen::Vector3f(cloud.rgb[3 * k], cloud.rgb[3 * k + 1], cloud.rgb[3 * k + 2]);
+        const Eigen::Vector3f colour =
+            cloud.rgb.empty()
+                ? Eigen::Vector3f(0.5f, 0.5f, 0.5f)
+                : Eigen::Vector3f(cloud.rgb[3 * k], cloud.rgb[3 * k + 1], cloud.rgb[3 * k + 2]);
         auto add = [&](const Eigen::Vector3d& p, double t) {
           for (int a = 0; a < 3; ++a) xyz.push_back(float(p[a]));
           for (int a = 0; a < 3; ++a) velocity.push_back(float(v[a]));
@@ -159,7 +167,9 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     }
     note = fmt::format("initialisation: {} points from {} frames, {} with flow-based motion{}",
                        total, nf, with_motion,
-                       stgs ? " (STGS baseline: no motion)" : options.use_flow ? "" : " (no-flow-init: motion off)");
+                       stgs               ? " (STGS baseline: no motion)"
+                       : options.use_flow ? ""
+                                          : " (no-flow-init: motion off)");
   }
 
   // Deterministic subsample to the budget.
@@ -175,7 +185,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
   std::vector<float> positions(3 * count);
   for (std::size_t j = 0; j < count; ++j)
     for (int a = 0; a < 3; ++a) positions[3 * j + a] = xyz[3 * keep[j] + a];
-  const std::vector<float> scale = mean_neighbor_distance(positions, float(0.01 * set.scene_extent));
+  const std::vector<float> scale =
+      mean_neighbor_distance(positions, float(0.01 * set.scene_extent));
 
   model::Primitives p;
   p.resize(count);

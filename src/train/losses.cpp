@@ -35,15 +35,18 @@ double image_loss(const Image& render, const Image& target, double ssim_lambda, 
     for (int c = 0; c < 3; ++c) {
       const std::size_t i = 3 * p + c;
       const float diff = rgb.data[i] - target.data[i];
-      v_render.data[channels * p + c] +=
-          (diff > 0 ? l1_grad : diff < 0 ? -l1_grad : 0.0f) + v_ssim.data[i];
+      v_render.data[channels * p + c] += (diff > 0   ? l1_grad
+                                          : diff < 0 ? -l1_grad
+                                                     : 0.0f) +
+                                         v_ssim.data[i];
     }
   return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
 }
 
 double flow_loss(const Image& render, int channel, const Flow& target, double weight,
                  Image& v_render) {
-  if (render.width != target.width || render.height != target.height || channel + 2 > render.channels)
+  if (render.width != target.width || render.height != target.height ||
+      channel + 2 > render.channels)
     fail("flow loss: render {}x{}x{} vs flow {}x{} at channel {}", render.width, render.height,
          render.channels, target.width, target.height, channel);
   std::size_t known = 0;

@@ -17,8 +17,8 @@ struct Cloud {
     return false;
   }
 };
-using Tree3 = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>,
-                                                  Cloud, 3, std::uint32_t>;
+using Tree3 = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>, Cloud,
+                                                  3, std::uint32_t>;
 constexpr int kLeafSize = 16;
 }  // namespace
 

@@ -11,8 +11,8 @@ namespace retimegs::train {
 
 namespace {
 
-constexpr double kNoiseScale = 5e5;         // 3DGS-MCMC noise_lr
-constexpr double kNoiseSharpness = 100.0;   // sigmoid(-k (σ - x0)): noise only on faint splats
+constexpr double kNoiseScale = 5e5;        // 3DGS-MCMC noise_lr
+constexpr double kNoiseSharpness = 100.0;  // sigmoid(-k (σ - x0)): noise only on faint splats
 constexpr double kNoiseThreshold = 0.005;
 constexpr double kMaxOpacity = 1.0 - 1e-6;  // keep logits finite
 
@@ -73,8 +73,8 @@ void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_f
     if (i > 1)
       for (int k = i - 1; k > 0; --k) binomial_row[k] += binomial_row[k - 1];
     for (int k = 0; k < i; ++k)
-      denominator += binomial_row[k] * ((k % 2) ? -1.0 : 1.0) *
-                     std::pow(new_opacity, k + 1) / std::sqrt(double(k + 1));
+      denominator += binomial_row[k] * ((k % 2) ? -1.0 : 1.0) * std::pow(new_opacity, k + 1) /
+                     std::sqrt(double(k + 1));
   }
   scale_factor = opacity / denominator;
 }
@@ -86,7 +86,8 @@ Relocation relocate(model::Primitives& p, model::Representation rep, double min_
   for (std::size_t i = 0; i < p.size(); ++i)
     if (opacity_of(p, i) <= min_opacity) dead.push_back(std::int32_t(i));
   if (dead.empty()) return result;
-  const std::vector<std::int32_t> sources = sample(sampling_scores(p, rep, min_opacity), dead.size(), rng);
+  const std::vector<std::int32_t> sources =
+      sample(sampling_scores(p, rep, min_opacity), dead.size(), rng);
   if (sources.empty()) return result;  // nothing alive to copy
   correct_sources(p, sources, min_opacity);
   for (std::size_t k = 0; k < dead.size(); ++k) p.copy_row(dead[k], p, sources[k]);
@@ -102,7 +103,8 @@ Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap
   const std::size_t n = p.size();
   const std::size_t target = std::min(cap, std::size_t(std::floor(growth * double(n))));
   if (target <= n) return result;
-  const std::vector<std::int32_t> sources = sample(sampling_scores(p, rep, min_opacity), target - n, rng);
+  const std::vector<std::int32_t> sources =
+      sample(sampling_scores(p, rep, min_opacity), target - n, rng);
   if (sources.empty()) return result;
   correct_sources(p, sources, min_opacity);
   p.resize(n + sources.size());

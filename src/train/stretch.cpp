@@ -15,7 +15,8 @@ double max_speed(const model::Primitives& p, std::size_t i) {
   double speed = 0;
   for (int j = 0; j < 3; ++j) {
     const float* v = &p.velocity[9 * i + 3 * j];
-    speed = std::max(speed, std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]));
+    speed =
+        std::max(speed, std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]));
   }
   return speed;
 }
@@ -32,7 +33,8 @@ StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
   std::vector<std::vector<std::int32_t>> partners(n);
   // Supports as they were before this round (a primitive may stretch at both ends).
   std::vector<double> lo(n), hi(n);
-  for (std::size_t i = 0; i < n; ++i) lo[i] = double(p.mu_tau[i]) - p.tau_l[i], hi[i] = double(p.mu_tau[i]) + p.tau_r[i];
+  for (std::size_t i = 0; i < n; ++i)
+    lo[i] = double(p.mu_tau[i]) - p.tau_l[i], hi[i] = double(p.mu_tau[i]) + p.tau_r[i];
   const float step = float(grid.step);
 
   for (int b = 1; b + 1 < grid.count; ++b) {
@@ -57,12 +59,14 @@ StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
       float x[3], d2;
       std::uint32_t k;
       position(a, x);
-      if (index.knn(x, 1, &k, &d2) < 1 || d2 > settings.max_distance * settings.max_distance) continue;
+      if (index.knn(x, 1, &k, &d2) < 1 || d2 > settings.max_distance * settings.max_distance)
+        continue;
       const std::int32_t c = starting[k];
       if (max_speed(p, c) > settings.max_speed) continue;
       double color = 0;
       for (int ch = 0; ch < 3; ++ch)
-        color = std::max(color, model::kShC0 * std::abs(double(p.sh[48 * a + ch]) - p.sh[48 * c + ch]));
+        color =
+            std::max(color, model::kShC0 * std::abs(double(p.sh[48 * a + ch]) - p.sh[48 * c + ch]));
       if (color > settings.max_color) continue;
       // Union of the two supports for both (μ_τ stays).
       const double from = std::min(lo[a], lo[c]), to = std::max(hi[a], hi[c]);

@@ -4,8 +4,8 @@
 #include <fstream>
 #include <sstream>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
@@ -112,7 +112,8 @@ StepStats Trainer::step() {
   model::Primitives& p = model_.primitives;
   const model::Representation rep = model_.config.representation;
   const bool stgs = rep == model::Representation::kStgs;
-  model_.config.sh_degree = std::min(config_.max_sh_degree, it / config_.scaled(config_.sh_degree_every));
+  model_.config.sh_degree =
+      std::min(config_.max_sh_degree, it / config_.scaled(config_.sh_degree_every));
 
   // The view of this step.
   const int nc = int(set_.cameras.size()), nf = int(set_.frames.size());
@@ -201,8 +202,8 @@ StepStats Trainer::step() {
   inject_noise(p, lr_means, rng_);
 
   // Relocation and growth.
-  if (it % config_.scaled(config_.relocate_every) == 0 && it > config_.scaled(config_.relocate_start) &&
-      it < config_.scaled(config_.relocate_stop)) {
+  if (it % config_.scaled(config_.relocate_every) == 0 &&
+      it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
     const Relocation moved = relocate(p, rep, config_.min_opacity, rng_);
     const Relocation grown = grow(p, rep, config_.cap, config_.growth, config_.min_opacity, rng_);
     for (auto& [name, adam] : adam_) {
@@ -229,7 +230,8 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
   model::write_model(out.temp_path() / "model.rgs", model_);
   std::ostringstream rng;
   rng << rng_;
-  json state = {{"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
+  json state = {
+      {"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
   for (const auto& [name, adam] : adam_) {
     Adam& a = const_cast<Adam&>(adam);
     state["adam_steps"][name] = a.steps();
@@ -282,8 +284,10 @@ model::Model train(const data::Scene& scene, const TrainRun& run) {
             (latest.empty() || e.path().filename() > latest.filename()))
           latest = e.path();
   } else if (fs::exists(run.out / "model.rgs") || fs::exists(checkpoints)) {
-    fail("{}: a training run is already there (pass --resume to continue it, or choose another "
-         "folder)", run.out.string());
+    fail(
+        "{}: a training run is already there (pass --resume to continue it, or choose another "
+        "folder)",
+        run.out.string());
   }
   fs::create_directories(run.out);
   const TrainingSet set = load_training_set(scene, run.frames);
@@ -297,9 +301,11 @@ model::Model train(const data::Scene& scene, const TrainRun& run) {
     std::ofstream(cfg.temp_path()) << to_json(config) << "\n";
     cfg.commit();
   }
-  spdlog::info("training {} primitives (cap {}) on {} cameras x {} frames, {} flow files, {} "
-               "iterations", trainer.model().primitives.size(), config.cap, set.cameras.size(),
-               set.frames.size(), set.flow_files(), config.iters);
+  spdlog::info(
+      "training {} primitives (cap {}) on {} cameras x {} frames, {} flow files, {} "
+      "iterations",
+      trainer.model().primitives.size(), config.cap, set.cameras.size(), set.frames.size(),
+      set.flow_files(), config.iters);
   std::ofstream log(run.out / "log.jsonl", std::ios::app);
   Progress progress("train", std::size_t(config.iters), run.progress);
   progress.tick(std::size_t(trainer.iteration()));
@@ -310,11 +316,20 @@ model::Model train(const data::Scene& scene, const TrainRun& run) {
     psnr_avg = s.iteration == 1 ? s.psnr : (1 - kSmoothing) * psnr_avg + kSmoothing * s.psnr;
     loss_avg = s.iteration == 1 ? s.loss : (1 - kSmoothing) * loss_avg + kSmoothing * s.loss;
     if (s.iteration % 10 == 0 || s.relocated || s.stretched)
-      log << json{{"iteration", s.iteration}, {"camera", s.camera},     {"frame", s.frame},
-                  {"loss", s.loss},           {"image_loss", s.image_loss}, {"flow_loss", s.flow_loss},
-                  {"flow_weight", s.flow_weight}, {"psnr", s.psnr},     {"primitives", s.primitives},
-                  {"relocated", s.relocated}, {"added", s.added},       {"stretched", s.stretched},
-                  {"pruned", s.pruned}}.dump()
+      log << json{{"iteration", s.iteration},
+                  {"camera", s.camera},
+                  {"frame", s.frame},
+                  {"loss", s.loss},
+                  {"image_loss", s.image_loss},
+                  {"flow_loss", s.flow_loss},
+                  {"flow_weight", s.flow_weight},
+                  {"psnr", s.psnr},
+                  {"primitives", s.primitives},
+                  {"relocated", s.relocated},
+                  {"added", s.added},
+                  {"stretched", s.stretched},
+                  {"pruned", s.pruned}}
+                 .dump()
           << "\n";
     progress.tick(1, fmt::format("loss {:.4f} psnr {:.2f} n {}", loss_avg, psnr_avg, s.primitives));
     if (s.iteration % config.checkpoint_every == 0 && s.iteration < config.iters) {

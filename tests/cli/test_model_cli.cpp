@@ -103,7 +103,8 @@ TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
   // A sequence: DIR/00000.ply ... and times.csv.
   run("export --model " + model + " --times 0:1:0.5 --out " + (dir / "seq").string());
   EXPECT_TRUE(fs::exists(dir / "seq" / "00002.ply"));
-  EXPECT_EQ(test::read_text(dir / "seq" / "times.csv"), "file,t\n00000.ply,0\n00001.ply,0.5\n00002.ply,1\n");
+  EXPECT_EQ(test::read_text(dir / "seq" / "times.csv"),
+            "file,t\n00000.ply,0\n00001.ply,0.5\n00002.ply,1\n");
 }
 
 TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
@@ -119,10 +120,12 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
   // 4x slow motion over 9 frames: 8 * 4 + 1 frames; consecutive frames differ (motion).
   run(base + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string());
   int count = 0;
-  for (const auto& e : fs::directory_iterator(dir / "slow")) count += e.path().extension() == ".png";
+  for (const auto& e : fs::directory_iterator(dir / "slow"))
+    count += e.path().extension() == ".png";
   EXPECT_EQ(count, 33);
   EXPECT_GT(mean_abs_diff(data::read_image(dir / "slow" / "00005.png"),
-                          data::read_image(dir / "slow" / "00006.png")), 1e-3);
+                          data::read_image(dir / "slow" / "00006.png")),
+            1e-3);
   // Frame 10 of the 4x slow motion is t = 2.5 from cam00.
   EXPECT_LT(mean_abs_diff(data::read_image(dir / "slow" / "00010.png"),
                           eval::render_model(f.model, f.scene.cameras[0], 2.5, black)),
@@ -142,7 +145,8 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
                           eval::render_model(f.model, f.scene.cameras[1], 3.0, black)),
             1.0 / 255);
   EXPECT_GT(mean_abs_diff(data::read_image(dir / "bullet" / "00000.png"),
-                          data::read_image(dir / "bullet" / "00004.png")), 1e-3);
+                          data::read_image(dir / "bullet" / "00004.png")),
+            1e-3);
   // Video at the scene's fps.
   run(base + " --camera cam00 --times 0:8:0.5 --out " + (dir / "clip.mp4").string());
   cv::VideoCapture video((dir / "clip.mp4").string());
@@ -163,12 +167,24 @@ TEST(ModelCli, BadInputExitsTwoWithoutOutput) {
     std::string args, fragment;
   };
   for (const Case& c : {
-           Case{"render --model " + (dir / "cut.rgs").string() + scene + " --camera cam00 --time 1 --out " + (dir / "o.png").string(), "cut.rgs"},
-           Case{"render" + model + scene + " --camera cam00 --slowmo 2 --out " + (dir / "o.png").string(), ".png output holds one frame"},
-           Case{"render" + model + scene + " --camera camXX --time 1 --out " + (dir / "o.png").string(), "camXX"},
-           Case{"render" + model + scene + " --camera cam00 --retime " + (dir / "ramp.csv").string() + " --out " + (dir / "o").string(), "ramp.csv:2"},
-           Case{"render" + model + scene + " --camera cam00 --times 3:1:1 --out " + (dir / "o").string(), "--times"},
-           Case{"export --model " + (dir / "cut.rgs").string() + " --time 1 --out " + (dir / "o.ply").string(), "cut.rgs"},
+           Case{"render --model " + (dir / "cut.rgs").string() + scene +
+                    " --camera cam00 --time 1 --out " + (dir / "o.png").string(),
+                "cut.rgs"},
+           Case{"render" + model + scene + " --camera cam00 --slowmo 2 --out " +
+                    (dir / "o.png").string(),
+                ".png output holds one frame"},
+           Case{"render" + model + scene + " --camera camXX --time 1 --out " +
+                    (dir / "o.png").string(),
+                "camXX"},
+           Case{"render" + model + scene + " --camera cam00 --retime " +
+                    (dir / "ramp.csv").string() + " --out " + (dir / "o").string(),
+                "ramp.csv:2"},
+           Case{"render" + model + scene + " --camera cam00 --times 3:1:1 --out " +
+                    (dir / "o").string(),
+                "--times"},
+           Case{"export --model " + (dir / "cut.rgs").string() + " --time 1 --out " +
+                    (dir / "o.ply").string(),
+                "cut.rgs"},
        }) {
     const auto r = test::run_cli(c.args);
     EXPECT_EQ(r.status, 2) << c.args;

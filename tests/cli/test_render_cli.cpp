@@ -78,8 +78,8 @@ TEST(RenderCli, StaticPlyMatchesLibraryRender) {
   const Image cli = data::read_image(dir / "out.png");
   const Camera& cam = f.scene.cameras[0];
   const float background[3] = {1, 1, 1};
-  const auto lib = render::rasterize_forward(model::splats_to_gaussians(f.splats, cam), cam,
-                                             background);
+  const auto lib =
+      render::rasterize_forward(model::splats_to_gaussians(f.splats, cam), cam, background);
   ASSERT_EQ(cli.data.size(), lib.blend.image.data.size());
   double max_err = 0, mean = 0;
   for (std::size_t i = 0; i < cli.data.size(); ++i) {
@@ -104,9 +104,10 @@ TEST(RenderCli, BadModelOrCameraExitsTwo) {
   struct Case {
     std::string args, fragment;
   };
-  for (const Case& c : {Case{"--model " + (dir / "cut.ply").string() + scene + " --camera garden", "cut.ply"},
-                        Case{"--model " + (dir / "none.ply").string() + scene + " --camera garden", "none.ply"},
-                        Case{"--model " + (dir / "splat.ply").string() + scene + " --camera nope", "nope"}}) {
+  for (const Case& c :
+       {Case{"--model " + (dir / "cut.ply").string() + scene + " --camera garden", "cut.ply"},
+        Case{"--model " + (dir / "none.ply").string() + scene + " --camera garden", "none.ply"},
+        Case{"--model " + (dir / "splat.ply").string() + scene + " --camera nope", "nope"}}) {
     const auto r = test::run_cli("render " + c.args + out);
     EXPECT_EQ(r.status, 2) << c.args;
     EXPECT_NE(r.err.find(c.fragment), std::string::npos) << r.err;

@@ -83,8 +83,8 @@ TEST_F(PanopticImport, ImagesAreLosslessCopiesOfTheDecodedJpegs) {
 // mask and calibration agree.
 TEST_F(PanopticImport, TriangulatedBallProjectsOntoForegroundEverywhere) {
   const Scene scene = read_scene(scene_dir(), SceneCheck::kJson);
-  const auto verification = nlohmann::json::parse(
-      test::read_text(test::shared_data() / kClip / "verification.json"));
+  const auto verification =
+      nlohmann::json::parse(test::read_text(test::shared_data() / kClip / "verification.json"));
   const auto& x = verification["ball_triangulation"]["0"]["X"];
   const Eigen::Vector3d ball(x[0].get<double>(), x[1].get<double>(), x[2].get<double>());
   int on_mask = 0, masked = 0;

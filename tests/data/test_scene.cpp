@@ -34,7 +34,8 @@ Scene write_small_scene(const fs::path& root) {
   for (int c = 0; c < 2; ++c)
     for (int k = 0; k < 3; ++k) {
       Image image(12, 8, 3);
-      for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = float((i * 7 + k) % 256) / 255;
+      for (std::size_t i = 0; i < image.data.size(); ++i)
+        image.data[i] = float((i * 7 + k) % 256) / 255;
       write_png(scene.image_path(c, k), image);
       if (c == 0) write_png(scene.mask_path(c, k), Image(12, 8, 1, 1.0f));
     }
@@ -46,8 +47,12 @@ Scene write_small_scene(const fs::path& root) {
   return scene;
 }
 
-json read_json(const fs::path& path) { return json::parse(test::read_text(path)); }
-void write_json(const fs::path& path, const json& j) { test::write_text(path, j.dump(1)); }
+json read_json(const fs::path& path) {
+  return json::parse(test::read_text(path));
+}
+void write_json(const fs::path& path, const json& j) {
+  test::write_text(path, j.dump(1));
+}
 
 // Expects read_scene to throw an Error whose message contains every fragment.
 void expect_scene_error(const fs::path& root, std::initializer_list<std::string> fragments) {

@@ -29,9 +29,11 @@ TEST(SplatPly, ExactInriaPropertyList) {
   test::TempDir dir;
   write_splat_ply(dir / "a.ply", random_splats(5, 1, 1));
   const PlyTable table = read_ply(dir / "a.ply");
-  std::vector<std::string> expected = {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"};
+  std::vector<std::string> expected = {"x",  "y",      "z",      "nx",    "ny",
+                                       "nz", "f_dc_0", "f_dc_1", "f_dc_2"};
   for (int i = 0; i < 45; ++i) expected.push_back("f_rest_" + std::to_string(i));
-  for (const char* name : {"opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"})
+  for (const char* name :
+       {"opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"})
     expected.push_back(name);
   EXPECT_EQ(table.names, expected);
   EXPECT_EQ(table.count, 5u);

@@ -137,7 +137,8 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
   cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, plain, "at edge"});
   cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, flow, "all + flow"});
   cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, left, "left group"});
-  cases.push_back({Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, right, "right group"});
+  cases.push_back(
+      {Representation::kRetime, TrajectoryKind::kCatmullRom, 4.0, right, "right group"});
   cases.push_back({Representation::kRetime, TrajectoryKind::kLinear, 5.3, flow, "linear"});
   cases.push_back({Representation::kStgs, TrajectoryKind::kCatmullRom, 3.4, plain, "stgs"});
   for (const Case& c : cases) {
@@ -187,8 +188,10 @@ TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
     if (p.mu_tau[i] == 3.0 || i == 4) expect_l.push_back(i);
     if (p.mu_tau[i] == 5.0) expect_r.push_back(i);
   }
-  EXPECT_EQ(std::vector<int>(l.primitive_from_gaussian.begin(), l.primitive_from_gaussian.end()), expect_l);
-  EXPECT_EQ(std::vector<int>(r.primitive_from_gaussian.begin(), r.primitive_from_gaussian.end()), expect_r);
+  EXPECT_EQ(std::vector<int>(l.primitive_from_gaussian.begin(), l.primitive_from_gaussian.end()),
+            expect_l);
+  EXPECT_EQ(std::vector<int>(r.primitive_from_gaussian.begin(), r.primitive_from_gaussian.end()),
+            expect_r);
   // All-primitives render at a training time: each non-stretched neighbour at half opacity
   // (σ_τ = ½ at its own edge); compensated group renders use the full σ.
   for (std::size_t row = 0; row < at4.gaussians.size(); ++row) {
@@ -214,8 +217,8 @@ TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
   EXPECT_NEAR(r.gaussians.features[7 * row + 3], fwd.x(), 1e-9);
   EXPECT_NEAR(r.gaussians.features[7 * row + 4], fwd.y(), 1e-9);
   // The primitive is rendered at p1 = x(t_i).
-  const Eigen::Vector2d rendered = cam.project(Eigen::Vector3d(
-      r.gaussians.means[0], r.gaussians.means[1], r.gaussians.means[2]));
+  const Eigen::Vector2d rendered = cam.project(
+      Eigen::Vector3d(r.gaussians.means[0], r.gaussians.means[1], r.gaussians.means[2]));
   EXPECT_LT((rendered - project(-1)).norm(), 1e-9);
   // Groups exist only at training times, and not beyond the clip ends.
   EXPECT_THROW(evaluate(p, config, kGrid, 4.5, cam, left), Error);
@@ -230,10 +233,9 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
   ro.min_alpha = 0;          // smooth alpha cut-off (finite-difference test only)
   ro.min_transmittance = 0;  // no early stop
   ro.alpha_clamp = 1;
-  for (const auto& [rep, group, t] :
-       {std::tuple{Representation::kRetime, Group::kRight, 4.0},
-        std::tuple{Representation::kRetime, Group::kAll, 4.6},
-        std::tuple{Representation::kStgs, Group::kAll, 4.6}}) {
+  for (const auto& [rep, group, t] : {std::tuple{Representation::kRetime, Group::kRight, 4.0},
+                                      std::tuple{Representation::kRetime, Group::kAll, 4.6},
+                                      std::tuple{Representation::kStgs, Group::kAll, 4.6}}) {
     ModelConfig config;
     config.representation = rep;
     config.sh_degree = 2;
@@ -246,7 +248,8 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
     const int channels = options.flow_features ? 7 : 3;
     std::mt19937 rng(9);
     std::normal_distribution<double> normal;
-    std::vector<double> w(std::size_t(cam.width) * cam.height * channels), background(channels, 0.2);
+    std::vector<double> w(std::size_t(cam.width) * cam.height * channels),
+        background(channels, 0.2);
     for (double& x : w) x = normal(rng);
     auto loss = [&] {
       const auto e = evaluate(p, config, kGrid, t, cam, options);
@@ -256,8 +259,8 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
       return sum;
     };
     const auto e = evaluate(p, config, kGrid, t, cam, options);
-    const auto v_gaussians =
-        render::reference_backward(e.gaussians, cam, background.data(), ro, w.data(), nullptr, nullptr);
+    const auto v_gaussians = render::reference_backward(e.gaussians, cam, background.data(), ro,
+                                                        w.data(), nullptr, nullptr);
     G grads(p.size());
     evaluate_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
     expect_gradients_match(p, rep, config.sh_degree, grads, loss, 1e-6, 2e-5);

@@ -44,7 +44,8 @@ TEST(ModelFile, RoundTripIsExact) {
   write_model(dir / "m.rgs", m);
   const Model r = read_model(dir / "m.rgs");
   const auto a = m.primitives.fields(), b = r.primitives.fields();
-  for (int i = 0; i < Primitives::kFieldCount; ++i) EXPECT_EQ(*a[i].values, *b[i].values) << a[i].name;
+  for (int i = 0; i < Primitives::kFieldCount; ++i)
+    EXPECT_EQ(*a[i].values, *b[i].values) << a[i].name;
   EXPECT_EQ(r.grid.first, 0.0);
   EXPECT_EQ(r.grid.step, 2.0);
   EXPECT_EQ(r.grid.count, 9);

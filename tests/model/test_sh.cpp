@@ -13,9 +13,9 @@ TEST(Sh, BasisAtPoleAndOrthonormality) {
   double b[kMaxShCoeffs] = {};
   sh_basis(3, z, b);
   EXPECT_DOUBLE_EQ(b[0], kShC0);
-  EXPECT_DOUBLE_EQ(b[2], 0.4886025119029199);        // sqrt(3 / 4pi)
-  EXPECT_DOUBLE_EQ(b[6], 2 * 0.31539156525252005);   // sqrt(5 / 16pi) * 2
-  EXPECT_DOUBLE_EQ(b[12], 2 * 0.3731763325901154);   // sqrt(7 / 16pi) * 2
+  EXPECT_DOUBLE_EQ(b[2], 0.4886025119029199);       // sqrt(3 / 4pi)
+  EXPECT_DOUBLE_EQ(b[6], 2 * 0.31539156525252005);  // sqrt(5 / 16pi) * 2
+  EXPECT_DOUBLE_EQ(b[12], 2 * 0.3731763325901154);  // sqrt(7 / 16pi) * 2
   for (int k : {1, 3, 4, 5, 7, 8, 9, 10, 11, 13, 14, 15}) EXPECT_EQ(b[k], 0.0) << k;
 
   // Real SH are orthonormal on the sphere: (4pi / M) sum_i b_j(d_i) b_k(d_i) -> delta_jk.

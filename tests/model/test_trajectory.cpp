@@ -12,15 +12,17 @@ constexpr double kStep = 2.0;  // Δt: every other frame held out
 
 struct Spline {
   double mu[3] = {0.3, -1.0, 2.0};
-  double v[9] = {0.4, 0.1, -0.2,    // v1
-                 1.0, -0.5, 0.25,   // v2
-                 -0.3, 0.8, 0.6};   // v3
-  double mu_tau = 5.0;  // interval [4, 6]
+  double v[9] = {0.4,  0.1,  -0.2,  // v1
+                 1.0,  -0.5, 0.25,  // v2
+                 -0.3, 0.8,  0.6};  // v3
+  double mu_tau = 5.0;              // interval [4, 6]
 
   void at(double t, double x[3], TrajectoryKind kind = TrajectoryKind::kCatmullRom) const {
     apply_trajectory(trajectory_at(Representation::kRetime, kind, mu_tau, t, kStep), mu, v, x);
   }
-  void point(int k, double p[3]) const { apply_trajectory(control_point<double>(k, kStep), mu, v, p); }
+  void point(int k, double p[3]) const {
+    apply_trajectory(control_point<double>(k, kStep), mu, v, p);
+  }
 };
 
 TEST(Trajectory, PassesThroughInnerControlPointsWithDesignTangents) {
@@ -66,10 +68,9 @@ TEST(Trajectory, MatchesTheCatmullRomPolynomialInside) {
   for (double u : {0.1, 0.37, 0.5, 0.9}) {
     s.at(4.0 + u * kStep, x);
     for (int a = 0; a < 3; ++a) {
-      const double expected =
-          0.5 * (2 * p[1][a] + (p[2][a] - p[0][a]) * u +
-                 (2 * p[0][a] - 5 * p[1][a] + 4 * p[2][a] - p[3][a]) * u * u +
-                 (-p[0][a] + 3 * p[1][a] - 3 * p[2][a] + p[3][a]) * u * u * u);
+      const double expected = 0.5 * (2 * p[1][a] + (p[2][a] - p[0][a]) * u +
+                                     (2 * p[0][a] - 5 * p[1][a] + 4 * p[2][a] - p[3][a]) * u * u +
+                                     (-p[0][a] + 3 * p[1][a] - 3 * p[2][a] + p[3][a]) * u * u * u);
       EXPECT_NEAR(x[a], expected, 1e-13) << u;
     }
   }
@@ -95,7 +96,8 @@ TEST(Trajectory, VjpMatchesFiniteDifferencesInsideAndOutside) {
       const double v_x[3] = {0.7, -1.1, 0.4};
       auto loss = [&] {
         double x[3];
-        apply_trajectory(trajectory_at(rep, TrajectoryKind::kCatmullRom, s.mu_tau, t, kStep), s.mu, s.v, x);
+        apply_trajectory(trajectory_at(rep, TrajectoryKind::kCatmullRom, s.mu_tau, t, kStep), s.mu,
+                         s.v, x);
         return x[0] * v_x[0] + x[1] * v_x[1] + x[2] * v_x[2];
       };
       double v_mu[3] = {}, v_v[9] = {}, v_mu_tau = 0;
@@ -166,10 +168,16 @@ TEST(TemporalOpacity, DerivativeMatchesFiniteDifferencesInBothBoundaryCases) {
     double mu_tau = 2.2, log_scale = std::log(0.8), v_mu = 0, v_ls = 0;
     stgs_temporal_opacity_vjp(mu_tau, log_scale, t, 1.0, v_mu, v_ls);
     const double h = 1e-6;
-    EXPECT_NEAR(v_mu, (stgs_temporal_opacity(mu_tau + h, log_scale, t) -
-                       stgs_temporal_opacity(mu_tau - h, log_scale, t)) / (2 * h), 1e-8);
-    EXPECT_NEAR(v_ls, (stgs_temporal_opacity(mu_tau, log_scale + h, t) -
-                       stgs_temporal_opacity(mu_tau, log_scale - h, t)) / (2 * h), 1e-8);
+    EXPECT_NEAR(v_mu,
+                (stgs_temporal_opacity(mu_tau + h, log_scale, t) -
+                 stgs_temporal_opacity(mu_tau - h, log_scale, t)) /
+                    (2 * h),
+                1e-8);
+    EXPECT_NEAR(v_ls,
+                (stgs_temporal_opacity(mu_tau, log_scale + h, t) -
+                 stgs_temporal_opacity(mu_tau, log_scale - h, t)) /
+                    (2 * h),
+                1e-8);
   }
 }
 

@@ -25,6 +25,10 @@ const Scenario kScenarios[] = {
     {"dense_40x30", 40, 30, 3000, 3, false, 5},  // most pixels end by the transmittance rule
 };
 
+void PrintTo(const Scenario& scenario, std::ostream* os) {
+  *os << scenario.name;
+}
+
 class RenderFastVsReference : public ::testing::TestWithParam<Scenario> {};
 
 struct Rendered {

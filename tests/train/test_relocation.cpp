@@ -109,7 +109,8 @@ TEST(Relocation, PreservesTheRenderedImageToFirstOrder) {
   std::mt19937_64 rng2(11);
   model::Primitives scratch = before;
   const Relocation r = relocate(scratch, model::Representation::kRetime, 0.01, rng2);
-  for (std::size_t k = 0; k < r.moved; ++k) naive.copy_row(r.touched[k], before, r.touched[r.moved + k]);
+  for (std::size_t k = 0; k < r.moved; ++k)
+    naive.copy_row(r.touched[k], before, r.touched[r.moved + k]);
   const Image reference = render(before);
   const double with = diff(render(corrected), reference), without = diff(render(naive), reference);
   EXPECT_LT(with, 0.4 * without) << "with correction " << with << ", without " << without;

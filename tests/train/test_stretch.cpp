@@ -21,11 +21,11 @@ void set_row(model::Primitives& p, int i, float mu_tau, float x, float dc, float
 TEST(Stretch, MergesIdenticalStaticNeighboursAndLeavesMovingOnesAlone) {
   model::Primitives p;
   p.resize(5);
-  set_row(p, 0, 3, 0.0f, 0.4f, 0);      // static, interval [2, 4]
-  set_row(p, 1, 5, 0.0f, 0.4f, 0);      // the same static content in [4, 6]
-  set_row(p, 2, 3, 1.0f, 0.4f, 0.05f);  // moving, [2, 4]: at t = 4 it sits at x = 1.05
+  set_row(p, 0, 3, 0.0f, 0.4f, 0);               // static, interval [2, 4]
+  set_row(p, 1, 5, 0.0f, 0.4f, 0);               // the same static content in [4, 6]
+  set_row(p, 2, 3, 1.0f, 0.4f, 0.05f);           // moving, [2, 4]: at t = 4 it sits at x = 1.05
   set_row(p, 3, 5, 1.05f - 0.05f, 0.4f, 0.05f);  // its continuation in [4, 6] (x(4) = 1.0 - ... )
-  set_row(p, 4, 7, 3.0f, -0.8f, 0);     // static but alone (nothing near it in [4, 6]... or [8])
+  set_row(p, 4, 7, 3.0f, -0.8f, 0);  // static but alone (nothing near it in [4, 6]... or [8])
   const StretchSettings settings{0.05, 0.1, 0.002};
   std::mt19937_64 rng(1);
   const model::ModelConfig config;

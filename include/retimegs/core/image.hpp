@@ -29,12 +29,12 @@ struct Image {
 // |u| or |v| > 1e9 in .flo files) have valid = 0 and uv = 0.
 struct Flow {
   int width = 0, height = 0;
-  std::vector<float> uv;         // [H, W, 2]
+  std::vector<float> uv;             // [H, W, 2]
   std::vector<unsigned char> valid;  // [H, W] 1 = known
 
   Flow() = default;
-  Flow(int w, int h) : width(w), height(h), uv(std::size_t(w) * h * 2, 0.0f),
-                       valid(std::size_t(w) * h, 1) {}
+  Flow(int w, int h)
+      : width(w), height(h), uv(std::size_t(w) * h * 2, 0.0f), valid(std::size_t(w) * h, 1) {}
   std::size_t pixels() const { return std::size_t(width) * height; }
 };
 

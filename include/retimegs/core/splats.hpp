@@ -9,12 +9,12 @@
 namespace retimegs {
 
 struct Splats {
-  int sh_degree = 0;                 // 0..3; K = (sh_degree + 1)^2 coefficients per channel
-  std::vector<float> means;          // [N, 3]
-  std::vector<float> log_scales;     // [N, 3]
-  std::vector<float> quats;          // [N, 4] (w, x, y, z), unnormalised
-  std::vector<float> opacity_logits; // [N]
-  std::vector<float> sh;             // [N, K, 3] coefficient-major, RGB innermost
+  int sh_degree = 0;                  // 0..3; K = (sh_degree + 1)^2 coefficients per channel
+  std::vector<float> means;           // [N, 3]
+  std::vector<float> log_scales;      // [N, 3]
+  std::vector<float> quats;           // [N, 4] (w, x, y, z), unnormalised
+  std::vector<float> opacity_logits;  // [N]
+  std::vector<float> sh;              // [N, K, 3] coefficient-major, RGB innermost
 
   std::size_t size() const { return opacity_logits.size(); }
   int sh_coeffs() const { return (sh_degree + 1) * (sh_degree + 1); }

@@ -28,7 +28,7 @@ struct SynthPreset {
 const std::vector<SynthPreset>& synth_presets();
 
 // Writes the scene to `out` atomically (a temporary folder renamed at the end). Throws Error on
-// bad options (unknown preset, sizes < 1, frames < 2, ...) naming the option and value.
+// bad options (unknown preset, sizes < 8, frames < 2, ...) naming the option and value.
 void synthesize_scene(const SynthOptions& options, const std::filesystem::path& out);
 
 }  // namespace retimegs::data

@@ -18,8 +18,8 @@ namespace retimegs::eval {
 using FrameRenderer = std::function<Image(int camera, int frame)>;
 
 struct EvalOptions {
-  std::vector<int> frames;   // scene frames
-  std::vector<int> cameras;  // scene camera indices
+  std::vector<int> frames;                             // scene frames
+  std::vector<int> cameras;                            // scene camera indices
   std::optional<std::filesystem::path> lpips_weights;  // none: lpips = null
   std::optional<std::filesystem::path> save_renders;   // DIR/<camera>/<frame:05d>.png
   bool progress = true;

@@ -32,9 +32,9 @@ struct EvaluateOptions {
 
 template <typename T>
 struct EvaluatedT {
-  GaussiansT<T> gaussians;                          // [M] rows, channels 3 or 3 + kFlowChannels
+  GaussiansT<T> gaussians;                            // [M] rows, channels 3 or 3 + kFlowChannels
   std::vector<std::int32_t> primitive_from_gaussian;  // [M]
-  std::vector<T> temporal;                          // [M] σ_τ(t) as applied (1 when compensated)
+  std::vector<T> temporal;  // [M] σ_τ(t) as applied (1 when compensated)
 };
 using Evaluated = EvaluatedT<float>;
 

@@ -33,9 +33,9 @@ enum class TrajectoryKind { kCatmullRom, kLinear };  // kLinear: the "linear" ab
 struct ModelConfig {
   Representation representation = Representation::kRetime;
   TrajectoryKind trajectory = TrajectoryKind::kCatmullRom;
-  double gamma = 0.005;     // temporal-opacity sharpness, normalised clip time (paper §A)
-  double epsilon = 1e-3;    // frames: a window edge within ε of the clip end is "open"
-  int sh_degree = 3;        // active SH degree (training raises it gradually)
+  double gamma = 0.005;   // temporal-opacity sharpness, normalised clip time (paper §A)
+  double epsilon = 1e-3;  // frames: a window edge within ε of the clip end is "open"
+  int sh_degree = 3;      // active SH degree (training raises it gradually)
 };
 
 // One row per primitive. Optimised fields first, then the window that only stretching changes.

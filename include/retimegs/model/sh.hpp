@@ -11,7 +11,9 @@ constexpr int kMaxShDegree = 3;
 constexpr int kMaxShCoeffs = 16;
 constexpr double kShC0 = 0.28209479177387814;  // 1 / (2 sqrt(pi)): the DC basis function
 
-inline constexpr int sh_coeffs(int degree) { return (degree + 1) * (degree + 1); }
+inline constexpr int sh_coeffs(int degree) {
+  return (degree + 1) * (degree + 1);
+}
 
 // The K = (degree + 1)^2 basis values at unit direction d (unused entries untouched).
 template <typename T>

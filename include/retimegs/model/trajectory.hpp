@@ -72,7 +72,8 @@ TrajectoryCoefficients<T> trajectory_at(Representation representation, Trajector
 // x = μ + Σ coef_j v_j.   mu [3], v [3, 3] (row j = v_{j+1}).
 template <typename T>
 void apply_trajectory(const TrajectoryCoefficients<T>& c, const T* mu, const T* v, T x[3]) {
-  for (int a = 0; a < 3; ++a) x[a] = mu[a] + c.coef[0] * v[a] + c.coef[1] * v[3 + a] + c.coef[2] * v[6 + a];
+  for (int a = 0; a < 3; ++a)
+    x[a] = mu[a] + c.coef[0] * v[a] + c.coef[1] * v[3 + a] + c.coef[2] * v[6 + a];
 }
 
 // VJP: v_mu += v_x, v_v[j] += coef_j v_x; for STGS v_mu_tau += v_x · dx/dμ_τ.

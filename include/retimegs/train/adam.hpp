@@ -18,7 +18,8 @@ class Adam {
   Adam() = default;
   // column_scale [width] (optional) multiplies the learning rate per column, e.g. the higher SH
   // bands' 1/20 of the DC rate in one [N, 16, 3] field.
-  Adam(std::size_t rows, int width, AdamSettings settings = {}, std::vector<float> column_scale = {});
+  Adam(std::size_t rows, int width, AdamSettings settings = {},
+       std::vector<float> column_scale = {});
 
   // params -= lr · s_col · m̂ / (sqrt(v̂) + ε) over all rows; params and grads are [rows, width].
   void step(float* params, const float* grads, double lr);

@@ -13,7 +13,7 @@ struct Ablations {
   bool no_flow_loss = false;  // flow weight 0
   bool no_triple = false;     // only the all-primitives render at each frame
   bool no_stretch = false;
-  bool linear = false;        // x(t) = μ + (t - μ_τ) v2
+  bool linear = false;  // x(t) = μ + (t - μ_τ) v2
 };
 
 struct TrainConfig {
@@ -25,13 +25,13 @@ struct TrainConfig {
   // Milestones are given for the paper's 20 000 iterations and scaled by iters / 20 000 when
   // `scale_schedule` is set, so that a short run follows the same recipe compressed.
   bool scale_schedule = true;
-  int sh_degree_every = 1000;   // active SH degree = min(step / this, max_sh_degree)
+  int sh_degree_every = 1000;  // active SH degree = min(step / this, max_sh_degree)
   int max_sh_degree = 3;
-  int lr_decay_start = 18000;   // all rates decay exponentially from here to the end
-  double lr_decay_final = 0.1;  // ... down to this factor at the last iteration
-  int flow_decay_until = 12000; // flow weight decays log-linearly until here, then stays
+  int lr_decay_start = 18000;    // all rates decay exponentially from here to the end
+  double lr_decay_final = 0.1;   // ... down to this factor at the last iteration
+  int flow_decay_until = 12000;  // flow weight decays log-linearly until here, then stays
   int relocate_every = 100, relocate_start = 500, relocate_stop = 25000;
-  int stretch_every = 3000;     // dynamic stretching (also its first iteration)
+  int stretch_every = 3000;  // dynamic stretching (also its first iteration)
 
   // Learning rates (gsplat defaults; means and velocities x scene extent).
   double lr_means = 1.6e-4, lr_means_final = 0.01;  // means decay to 1 % over training
@@ -49,7 +49,7 @@ struct TrainConfig {
   double gamma = 0.005;  // normalised clip time
 
   // MCMC.
-  std::size_t cap = 50000;   // primitive budget
+  std::size_t cap = 50000;  // primitive budget
   double min_opacity = 0.01, growth = 1.05;
   double init_opacity = 0.1;
 
@@ -67,6 +67,7 @@ struct TrainConfig {
 // JSON text with every field; parse applies the keys present in `json_text` on top of `config`
 // and throws Error naming an unknown key or a wrongly typed value.
 std::string to_json(const TrainConfig& config);
-TrainConfig config_from_json(const std::string& json_text, TrainConfig config, const std::string& what);
+TrainConfig config_from_json(const std::string& json_text, TrainConfig config,
+                             const std::string& what);
 
 }  // namespace retimegs::train

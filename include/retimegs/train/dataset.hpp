@@ -19,11 +19,11 @@ struct TrainingSet {
   model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
 
   // Indexed [camera slot][frame slot], slots as in `cameras` / `frames`.
-  std::vector<std::vector<Image>> images;                 // RGB [H, W, 3]
-  std::vector<std::vector<std::optional<Image>>> masks;   // [H, W, 1] when the scene has them
-  std::vector<std::vector<std::optional<Flow>>> forward;  // t_i -> t_{i+1}
-  std::vector<std::vector<std::optional<Flow>>> backward; // t_i -> t_{i-1}
-  std::vector<std::optional<data::PointCloud>> points;    // per frame slot
+  std::vector<std::vector<Image>> images;                  // RGB [H, W, 3]
+  std::vector<std::vector<std::optional<Image>>> masks;    // [H, W, 1] when the scene has them
+  std::vector<std::vector<std::optional<Flow>>> forward;   // t_i -> t_{i+1}
+  std::vector<std::vector<std::optional<Flow>>> backward;  // t_i -> t_{i-1}
+  std::vector<std::optional<data::PointCloud>> points;     // per frame slot
 
   // Radius of the training cameras' centres about their mean, x 1.1 (gsplat's scene scale).
   double scene_extent = 1.0;

@@ -14,9 +14,9 @@
 namespace retimegs::train {
 
 struct StretchSettings {
-  double max_distance;  // world units
-  double max_color;     // max |Δ RGB| of the DC colours
-  double max_speed;     // world units per frame, for every velocity v1, v2, v3
+  double max_distance;      // world units
+  double max_color;         // max |Δ RGB| of the DC colours
+  double max_speed;         // world units per frame, for every velocity v1, v2, v3
   double dead_logit = -10;  // σ ≈ 4.5e-5: invisible and below any relocation threshold
 };
 
