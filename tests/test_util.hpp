@@ -3,11 +3,15 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <initializer_list>
 #include <random>
 #include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "retimegs/core/error.hpp"
 
 namespace retimegs::test {
 
@@ -74,6 +78,29 @@ inline std::string read_text(const std::filesystem::path& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+// f() must throw retimegs::Error with every one of `parts` in its message.
+template <typename F>
+void expect_error(F&& f, std::initializer_list<std::string> parts) {
+  try {
+    f();
+  } catch (const Error& e) {
+    for (const std::string& part : parts)
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what() << " / " << part;
+    return;
+  }
+  ADD_FAILURE() << "no retimegs::Error thrown";
+}
+
+// The message of the retimegs::Error that f() throws, or "(no Error thrown)".
+inline std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no Error thrown)";
 }
 
 }  // namespace retimegs::test

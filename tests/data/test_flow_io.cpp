@@ -19,18 +19,7 @@ using test::shared_data;
 using test::TempDir;
 using test::write_text;
 
-// f() must throw retimegs::Error with every one of `parts` in its message.
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> parts) {
-  try {
-    f();
-  } catch (const Error& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what() << " / " << part;
-    return;
-  }
-  ADD_FAILURE() << "no retimegs::Error thrown";
-}
+using test::expect_error;
 
 nlohmann::json reference(const std::string& key) {
   return nlohmann::json::parse(read_text(shared_data() / "flow/reference_values.json")).at(key);

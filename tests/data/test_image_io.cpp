@@ -18,18 +18,7 @@ using test::write_text;
 constexpr const char* kJpeg = "panoptic-basketball/ims/0/000000.jpg";
 constexpr const char* kPng = "flow/middlebury-rubberwhale/frame10.png";
 
-// f() must throw retimegs::Error with every one of `parts` in its message.
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> parts) {
-  try {
-    f();
-  } catch (const Error& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what() << " / " << part;
-    return;
-  }
-  ADD_FAILURE() << "no retimegs::Error thrown";
-}
+using test::expect_error;
 
 // A 4x3 image whose code values (0..max) are a function of pixel and channel.
 Image coded_image(int channels, int max_code) {

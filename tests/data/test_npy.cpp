@@ -16,18 +16,7 @@ using test::write_text;
 
 constexpr const char* kCase = "gsplat-reference/case1_n500_128x96";
 
-// f() must throw retimegs::Error with every one of `parts` in its message.
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> parts) {
-  try {
-    f();
-  } catch (const Error& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what() << " / " << part;
-    return;
-  }
-  ADD_FAILURE() << "no retimegs::Error thrown";
-}
+using test::expect_error;
 
 // Independent parse: v1.0 header length at bytes 8-9, raw values after it.
 template <typename T>

@@ -16,18 +16,7 @@ using test::read_text;
 using test::TempDir;
 using test::write_text;
 
-// f() must throw retimegs::Error with every one of `parts` in its message.
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> parts) {
-  try {
-    f();
-  } catch (const Error& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what() << " / " << part;
-    return;
-  }
-  ADD_FAILURE() << "no retimegs::Error thrown";
-}
+using test::expect_error;
 
 // Appends the bytes of v, reversed for big-endian files.
 template <typename T>

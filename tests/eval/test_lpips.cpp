@@ -39,14 +39,7 @@ Image read(const char* name) {
   return data::read_image(data_dir() / name);
 }
 
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no Error thrown)";
-}
+using test::message_of;
 
 TEST(Lpips, ReproducesTheReferenceDistances) {
   RETIMEGS_REQUIRE_DATA(kData);

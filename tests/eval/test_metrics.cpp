@@ -47,14 +47,7 @@ Image noisy_copy(const Image& a, float sigma, unsigned seed) {
   return b;
 }
 
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no Error thrown)";
-}
+using test::message_of;
 
 // Grey files are read as RGB with three equal channels: PSNR and the SSIM mean are unchanged.
 // PSNR is exact up to the float32 images: read_image scales the 8-bit codes by float(1/255), which
