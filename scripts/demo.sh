@@ -2,11 +2,11 @@
 # The main job on the built-in default: set up, synthesise the default dynamic scene, train on its
 # even frames, render an 8x slow-motion video, and evaluate the held-out odd frames against the
 # cross-fade baseline. Outputs go to demo/ (or the folder given as the first argument).
-# ITERS (default 1500) sets the training budget.
+# ITERS (default 3000, about 2 minutes of training on 2 cores) sets the training budget.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 out=${1:-$root/demo}
-iters=${ITERS:-1500}
+iters=${ITERS:-3000}
 "$root/scripts/setup.sh"
 bin="$root/build/apps/retimegs"
 mkdir -p "$out"

@@ -7,6 +7,7 @@
 #include <random>
 
 #include <fmt/format.h>
+#include <Eigen/Eigenvalues>
 
 #include "retimegs/model/sh.hpp"
 #include "retimegs/train/neighbors.hpp"
@@ -39,10 +40,54 @@ bool sample_flow(const Flow& f, double u, double v, Eigen::Vector2d& out) {
 
 }  // namespace
 
+namespace {
+
+// A flow observation of one point in one camera: where the point's pixel moves to.
+struct Observation {
+  const Camera* camera;
+  Eigen::Vector2d target;  // projection + flow
+};
+
+// The 3-D displacement d that best explains the observations: least squares of
+// π_c(x + d) - target_c over the cameras (Gauss-Newton). With one camera, or views too close to
+// parallel to fix the depth, it falls back to the average of the per-camera lifts at x's depth —
+// which alone would underestimate motion along each camera's viewing direction.
+Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<Observation>& obs) {
+  constexpr int kIterations = 4;
+  constexpr double kMinConditioning = 1e-3;  // smallest / largest eigenvalue of JᵀJ
+  Eigen::Vector3d lifted = Eigen::Vector3d::Zero();
+  for (const Observation& o : obs)
+    lifted += o.camera->unproject(o.target, o.camera->world_to_cam(x).z()) - x;
+  lifted /= double(obs.size());
+  if (obs.size() < 2) return lifted;
+  Eigen::Vector3d d = lifted;
+  for (int it = 0; it < kIterations; ++it) {
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (const Observation& o : obs) {
+      const Eigen::Vector3d p = o.camera->world_to_cam(x + d);
+      if (p.z() <= 1e-6) return lifted;
+      Eigen::Matrix<double, 2, 3> j;  // d π / d x_world = d π / d p · R
+      j << o.camera->fx / p.z(), 0, -o.camera->fx * p.x() / (p.z() * p.z()), 0,
+          o.camera->fy / p.z(), -o.camera->fy * p.y() / (p.z() * p.z());
+      j = j * o.camera->rotation();
+      const Eigen::Vector2d r = o.camera->project_cam(p) - o.target;
+      a += j.transpose() * j;
+      b -= j.transpose() * r;
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a);
+    if (eig.eigenvalues()(0) < kMinConditioning * eig.eigenvalues()(2)) return lifted;
+    d += a.ldlt().solve(b);
+  }
+  return d.allFinite() ? d : lifted;
+}
+
+}  // namespace
+
 std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot) {
   const data::PointCloud& cloud = *set.points[slot];
   const std::size_t n = cloud.size();
-  std::vector<PointMotion> motion(n);
+  std::vector<std::vector<Observation>> forward(n), backward(n);
   for (std::size_t c = 0; c < set.cameras.size(); ++c) {
     const Camera& cam = set.scene.cameras[set.cameras[c]];
     const auto& fwd = set.forward[c][slot];
@@ -73,21 +118,19 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
       if (!cam.in_image(uv)) continue;
       const float nearest = depth[std::size_t(uv.y()) * cam.width + std::size_t(uv.x())];
       if (z > nearest * (1 + kOcclusionTolerance)) continue;  // occluded
-      const Eigen::Vector3d x = cam.cam_to_world(in_camera[i]);
       Eigen::Vector2d f;
-      if (fwd && sample_flow(*fwd, uv.x(), uv.y(), f)) {
-        motion[i].forward += cam.unproject(uv + f, z) - x;
-        ++motion[i].forward_views;
-      }
-      if (bwd && sample_flow(*bwd, uv.x(), uv.y(), f)) {
-        motion[i].backward += cam.unproject(uv + f, z) - x;
-        ++motion[i].backward_views;
-      }
+      if (fwd && sample_flow(*fwd, uv.x(), uv.y(), f)) forward[i].push_back({&cam, uv + f});
+      if (bwd && sample_flow(*bwd, uv.x(), uv.y(), f)) backward[i].push_back({&cam, uv + f});
     }
   }
-  for (auto& m : motion) {
-    if (m.forward_views) m.forward /= m.forward_views;
-    if (m.backward_views) m.backward /= m.backward_views;
+  std::vector<PointMotion> motion(n);
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d x(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]);
+    PointMotion& m = motion[i];
+    m.forward_views = int(forward[i].size()), m.backward_views = int(backward[i].size());
+    if (m.forward_views) m.forward = solve_displacement(x, forward[i]);
+    if (m.backward_views) m.backward = solve_displacement(x, backward[i]);
   }
   return motion;
 }

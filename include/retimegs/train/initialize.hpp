@@ -19,8 +19,11 @@ struct InitOptions {
 };
 
 // 3-D forward / backward displacement of point X (frame slot i) from the flows of every camera
-// that sees it unoccluded: the flow is sampled at X's projection, the displaced pixel lifted back
-// to 3-D at X's depth, and the displacements averaged. Returns false when no camera had a flow.
+// that sees it unoccluded (z-test against the cloud's own depth map): the flow is sampled at X's
+// projection and the displacement is the least-squares fit of X + d to every camera's displaced
+// pixel. DESIGN.md §2 lifts each displaced pixel at X's depth and averages; that plain average
+// underestimates motion along each view's depth axis (about half of a horizontal motion for
+// cameras on a ring), so the average is only the fallback for a single or ill-conditioned view.
 struct PointMotion {
   Eigen::Vector3d forward = Eigen::Vector3d::Zero(), backward = Eigen::Vector3d::Zero();
   int forward_views = 0, backward_views = 0;
