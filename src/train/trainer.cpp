@@ -233,12 +233,11 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
   json state = {
       {"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
   for (const auto& [name, adam] : adam_) {
-    Adam& a = const_cast<Adam&>(adam);
-    state["adam_steps"][name] = a.steps();
-    const std::size_t rows = a.rows();
-    const std::size_t width = rows ? a.m().size() / rows : 0;
-    data::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, a.m());
-    data::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, a.v());
+    state["adam_steps"][name] = adam.steps();
+    const std::size_t rows = adam.rows();
+    const std::size_t width = rows ? adam.m().size() / rows : 0;
+    data::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
+    data::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
   }
   std::ofstream(out.temp_path() / "state.json") << state.dump(2) << "\n";
   out.commit();

@@ -69,3 +69,37 @@ TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
 
 }  // namespace
 }  // namespace retimegs::train
+
+namespace retimegs::train {
+namespace {
+
+TEST(Initialize, RandomFallbackWithoutPointsIsStated) {
+  test::TempDir dir;
+  data::SynthOptions options;
+  options.preset = "minimal";
+  options.cameras = 3;
+  options.frames = 5;
+  options.width = 48, options.height = 36;
+  options.progress = false;
+  data::synthesize_scene(options, dir / "scene");
+  std::filesystem::remove_all(dir / "scene" / "points");
+  const TrainingSet set = load_training_set(data::read_scene(dir / "scene"), TrainFrames::kEven);
+  std::string note;
+  InitOptions init;
+  init.max_primitives = 5000;
+  const model::Primitives p = initialize(set, init, note);
+  EXPECT_NE(note.find("no points"), std::string::npos) << note;
+  EXPECT_EQ(p.size(), 5000u);
+  int seen = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_TRUE(p.mu_tau[i] == 1.0f || p.mu_tau[i] == 3.0f);
+    const Eigen::Vector3d x(p.mu[3 * i], p.mu[3 * i + 1], p.mu[3 * i + 2]);
+    const Camera& cam = set.scene.cameras[0];
+    const Eigen::Vector3d xc = cam.world_to_cam(x);
+    seen += xc.z() > 0 && cam.in_image(cam.project_cam(xc));
+  }
+  EXPECT_GT(seen, 1000) << "random points should fill the cameras' common view";
+}
+
+}  // namespace
+}  // namespace retimegs::train

@@ -33,6 +33,8 @@ class Adam {
   // State, for checkpoints.
   std::vector<float>& m() { return m_; }
   std::vector<float>& v() { return v_; }
+  const std::vector<float>& m() const { return m_; }
+  const std::vector<float>& v() const { return v_; }
   std::int64_t& step_count() { return steps_; }
 
  private:
