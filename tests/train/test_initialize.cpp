@@ -12,15 +12,20 @@
 namespace retimegs::train {
 namespace {
 
-TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
-  test::TempDir dir;
+// A 5-frame "minimal" synthetic scene with exact flows and points.
+void minimal_scene(const std::filesystem::path& root, int cameras, int width, int height) {
   data::SynthOptions options;
   options.preset = "minimal";
-  options.cameras = 6;
+  options.cameras = cameras;
   options.frames = 5;
-  options.width = 128, options.height = 96;
+  options.width = width, options.height = height;
   options.progress = false;
-  data::synthesize_scene(options, dir / "scene");
+  data::synthesize_scene(options, root);
+}
+
+TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
+  test::TempDir dir;
+  minimal_scene(dir / "scene", 6, 128, 96);
   const data::Scene scene = data::read_scene(dir / "scene");
   const TrainingSet set = load_training_set(scene, TrainFrames::kEven);   // frames 0, 2, 4
   const std::vector<PointMotion> motion = estimate_point_motion(set, 1);  // frame 2
@@ -67,21 +72,9 @@ TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   }
 }
 
-}  // namespace
-}  // namespace retimegs::train
-
-namespace retimegs::train {
-namespace {
-
 TEST(Initialize, RandomFallbackWithoutPointsIsStated) {
   test::TempDir dir;
-  data::SynthOptions options;
-  options.preset = "minimal";
-  options.cameras = 3;
-  options.frames = 5;
-  options.width = 48, options.height = 36;
-  options.progress = false;
-  data::synthesize_scene(options, dir / "scene");
+  minimal_scene(dir / "scene", 3, 48, 36);
   std::filesystem::remove_all(dir / "scene" / "points");
   const TrainingSet set = load_training_set(data::read_scene(dir / "scene"), TrainFrames::kEven);
   std::string note;
