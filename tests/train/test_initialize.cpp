@@ -4,24 +4,13 @@
 
 #include <gtest/gtest.h>
 
-#include "retimegs/data/synth.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/neighbors.hpp"
+#include "synth_scene.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::train {
 namespace {
-
-// A 5-frame "minimal" synthetic scene with exact flows and points.
-void minimal_scene(const std::filesystem::path& root, int cameras, int width, int height) {
-  data::SynthOptions options;
-  options.preset = "minimal";
-  options.cameras = cameras;
-  options.frames = 5;
-  options.width = width, options.height = height;
-  options.progress = false;
-  data::synthesize_scene(options, root);
-}
 
 TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   test::TempDir dir;

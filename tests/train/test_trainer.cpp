@@ -5,31 +5,20 @@
 
 #include <gtest/gtest.h>
 
-#include "retimegs/data/synth.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/train/trainer.hpp"
+#include "synth_scene.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::train {
 namespace {
 namespace fs = std::filesystem;
 
-data::Scene tiny_scene(const fs::path& root, int width, int height, int cameras = 4) {
-  data::SynthOptions options;
-  options.preset = "minimal";
-  options.cameras = cameras;
-  options.frames = 5;
-  options.width = width, options.height = height;
-  options.progress = false;
-  data::synthesize_scene(options, root);
-  return data::read_scene(root);
-}
-
 TEST(Trainer, HeldOutFramesBeatCrossfade) {
   test::TempDir dir;
-  const data::Scene scene = tiny_scene(dir / "scene", 96, 72);
+  const data::Scene scene = minimal_scene(dir / "scene", 4, 96, 72);
   TrainRun run;
   run.out = dir / "run";
   run.config.iters = 600;
@@ -57,7 +46,7 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
 
 TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {
   test::TempDir dir;
-  const data::Scene scene = tiny_scene(dir / "scene", 48, 36, 3);
+  const data::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
   TrainRun run;
   run.config.iters = 40;
   run.config.cap = 1500;
