@@ -12,6 +12,7 @@ packages=(
   libopencv-contrib-dev    # DeepFlow / TV-L1 flow (optflow)
   nlohmann-json3-dev libcli11-dev libfmt-dev libspdlog-dev
   libnanoflann-dev         # nearest neighbours (initialisation, stretching)
+  colmap                   # prepare --points colmap (feature_extractor, point_triangulator)
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 

@@ -20,10 +20,14 @@ void add_import_command(CLI::App& app) {
       "import", "Convert a public dataset layout into the scene format (DESIGN.md §4).");
   cmd->add_option("format", args->format,
                   "source layout: panoptic (Dynamic3DGaussians train_meta.json/test_meta.json, "
-                  "ims/, seg/)")
+                  "ims/, seg/), n3dv (Neural3DV/DyNeRF poses_bounds.npy + cam00.mp4 ...; cam00 "
+                  "becomes the test camera), colmap (sparse model in SRC, SRC/sparse/0 or "
+                  "SRC/sparse, .bin or .txt, + SRC/images; one static frame, undistorted to "
+                  "pinhole), nerfstudio (transforms.json, optional per-frame time and camera)")
       ->required()
-      ->check(CLI::IsMember({"panoptic"}));
-  cmd->add_option("--in", args->in, "source folder")->required();
+      ->check(CLI::IsMember({"panoptic", "n3dv", "colmap", "nerfstudio"}));
+  cmd->add_option("--in", args->in, "source folder (nerfstudio: or its transforms.json)")
+      ->required();
   cmd->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
       ->required();
   cmd->add_option("--frames", args->frames,
@@ -40,7 +44,10 @@ void add_import_command(CLI::App& app) {
       std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
     options.downscale = args->downscale;
     options.force = args->force;
-    data::import_panoptic(args->in, args->out, options);
+    if (args->format == "panoptic") data::import_panoptic(args->in, args->out, options);
+    if (args->format == "n3dv") data::import_n3dv(args->in, args->out, options);
+    if (args->format == "colmap") data::import_colmap(args->in, args->out, options);
+    if (args->format == "nerfstudio") data::import_nerfstudio(args->in, args->out, options);
   });
 }
 

@@ -18,4 +18,27 @@ struct ImportOptions {
 void import_panoptic(const std::filesystem::path& source, const std::filesystem::path& out,
                      const ImportOptions& options);
 
+// Neural3DV / DyNeRF: poses_bounds.npy ([N, 17] float64: the 3x5 LLFF matrix [R | t | (h, w, f)]
+// row-major, columns (down, right, back) camera-to-world, then near and far) and one video per
+// camera, cam00.mp4, cam01.mp4, ... (sorted by name, one per row), decoded with OpenCV's FFmpeg
+// backend. Cameras are named after the videos ("cam00", ...), the principal point is the image
+// centre, fps is the first video's. DyNeRF holds cam00 out: it gets split "test" (when there is
+// more than one camera). The intrinsics follow the video size when it differs from (w, h).
+void import_n3dv(const std::filesystem::path& source, const std::filesystem::path& out,
+                 const ImportOptions& options);
+
+// COLMAP project: a sparse model (source itself, source/sparse/0 or source/sparse; .bin or .txt)
+// and its images in source/images (or beside the model: ../images, ../../images). A static
+// capture: one scene frame at 30 fps; cameras are named after the image file names without
+// extension (folders joined with '_' where the stems alone collide). Distorted camera models
+// are resampled into pinhole cameras of the same size (import_common.hpp: Undistorter); the
+// model's points become points/00000.ply.
+void import_colmap(const std::filesystem::path& source, const std::filesystem::path& out,
+                   const ImportOptions& options);
+
+// nerfstudio / instant-ngp transforms.json (see import_nerfstudio.cpp for the grouping rule of
+// frames into scene frames and cameras).
+void import_nerfstudio(const std::filesystem::path& source, const std::filesystem::path& out,
+                       const ImportOptions& options);
+
 }  // namespace retimegs::data
