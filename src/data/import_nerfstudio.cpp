@@ -15,16 +15,21 @@
 //    image at every time and the same pose and intrinsics throughout.
 // Camera names are the "camera" value (or "cam<idx>", the folder name), or the file stem for
 // static captures. fps comes from a top-level "fps" key, else 30. mask_path (nerfstudio's mask,
-// non-zero = keep) becomes the scene mask.
+// non-zero = keep) becomes the scene mask; without one, the alpha channel of an RGBA image
+// (Blender renders) does. Colours are kept as stored (not composited over a background).
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
@@ -146,6 +151,25 @@ std::string camera_key(const json& frame, const fs::path& image) {
                                    : (v.is_string() ? v.get<std::string>() : v.dump());
     }
   return image.parent_path().filename().string();
+}
+
+// The alpha channel of an RGBA / grey+alpha PNG as a mask (alpha > 127 of 255), else nullopt.
+// Only the PNG header is read for images without alpha.
+std::optional<Image> alpha_mask(const fs::path& path) {
+  unsigned char header[26] = {};  // signature (8), IHDR length + type (8), size (8), depth, colour
+  std::ifstream in(path, std::ios::binary);
+  if (!in.read(reinterpret_cast<char*>(header), sizeof header) ||
+      std::memcmp(header, "\x89PNG", 4) != 0 || (header[25] != 4 && header[25] != 6))
+    return std::nullopt;
+  cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty() || (m.channels() != 2 && m.channels() != 4)) return std::nullopt;
+  cv::Mat alpha;
+  cv::extractChannel(m, alpha, m.channels() - 1);
+  Image mask(m.cols, m.rows, 1);
+  cv::Mat out(m.rows, m.cols, CV_32FC1, mask.data.data());
+  cv::threshold(alpha, alpha, m.depth() == CV_8U ? 127 : 127 * 257, 1, cv::THRESH_BINARY);
+  alpha.convertTo(out, CV_32F);
+  return mask;
 }
 
 bool same_intrinsics(const ColmapCamera& a, const ColmapCamera& b) {
@@ -305,13 +329,15 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
                file, e.intrinsics.width, e.intrinsics.height);
         write_png(scene.image_path(c, k),
                   detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
-        if (!e.mask.empty()) {
-          Image mask = read_mask(e.mask);
-          if (mask.width != image.width || mask.height != image.height)
-            fail("{}: mask is {}x{} but its image is {}x{}", e.mask.string(), mask.width,
-                 mask.height, image.width, image.height);
+        // mask_path, else the alpha channel of an RGBA image (Blender renders).
+        const std::optional<Image> mask =
+            e.mask.empty() ? alpha_mask(e.image) : std::optional<Image>(read_mask(e.mask));
+        if (mask) {
+          if (mask->width != image.width || mask->height != image.height)
+            fail("{}: mask is {}x{} but its image is {}x{}", e.mask.string(), mask->width,
+                 mask->height, image.width, image.height);
           write_png(scene.mask_path(c, k),
-                    detail::resize_area(undistorters[c]->apply(mask), cam.width, cam.height));
+                    detail::resize_area(undistorters[c]->apply(*mask), cam.width, cam.height));
         }
         progress.tick();
       });

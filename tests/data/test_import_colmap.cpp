@@ -158,8 +158,18 @@ Eigen::Vector2d distorted_pixel(const ColmapCamera& c, double x, double y) {
     const double s = 1 + p[3] * r2;
     return {p[0] * x * s + p[1], p[0] * y * s + p[2]};
   }
-  // OPENCV: fx, fy, cx, cy, k1, k2, p1, p2
-  const double s = 1 + p[4] * r2 + p[5] * r2 * r2;
+  if (c.model == "OPENCV_FISHEYE") {  // fx, fy, cx, cy, k1..k4 on the angle theta
+    const double r = std::sqrt(r2), theta = std::atan(r);
+    const double t2 = theta * theta;
+    const double td =
+        theta * (1 + p[4] * t2 + p[5] * t2 * t2 + p[6] * t2 * t2 * t2 + p[7] * t2 * t2 * t2 * t2);
+    const double s = r > 0 ? td / r : 1.0;
+    return {p[0] * x * s + p[2], p[1] * y * s + p[3]};
+  }
+  // OPENCV: fx, fy, cx, cy, k1, k2, p1, p2 (FULL_OPENCV adds k3..k6: rational radial term)
+  double s = 1 + p[4] * r2 + p[5] * r2 * r2;
+  if (c.model == "FULL_OPENCV")
+    s = (s + p[8] * r2 * r2 * r2) / (1 + p[9] * r2 + p[10] * r2 * r2 + p[11] * r2 * r2 * r2);
   const double xd = x * s + 2 * p[6] * x * y + p[7] * (r2 + 2 * x * x);
   const double yd = y * s + p[6] * (r2 + 2 * y * y) + 2 * p[7] * x * y;
   return {p[0] * xd + p[2], p[1] * yd + p[3]};
@@ -170,7 +180,13 @@ Eigen::Vector2d distorted_pixel(const ColmapCamera& c, double x, double y) {
 TEST(ColmapImport, UndistortedImagesMatchThePinholeCamera) {
   for (const ColmapCamera& source :
        {ColmapCamera{1, "OPENCV", 160, 120, {120, 118, 81.5, 59, -0.18, 0.03, 0.002, -0.0015}},
-        ColmapCamera{1, "SIMPLE_RADIAL", 160, 120, {110, 80, 60, 0.12}}}) {
+        ColmapCamera{1, "SIMPLE_RADIAL", 160, 120, {110, 80, 60, 0.12}},
+        ColmapCamera{1,
+                     "FULL_OPENCV",
+                     160,
+                     120,
+                     {120, 120, 80, 60, -0.1, 0.02, 0, 0.001, 0.01, 0.05, 0.01, 0.002}},
+        ColmapCamera{1, "OPENCV_FISHEYE", 160, 120, {90, 90, 80, 60, 0.05, -0.02, 0.01, 0}}}) {
     test::TempDir dir;
     ColmapModel m;
     m.cameras = {source};

@@ -62,6 +62,57 @@ TEST(NerfstudioImport, StaticCaptureProjectsAKnownPoint) {
   EXPECT_GT(scene.up.y(), 0.99);  // both cameras have world +y up
 }
 
+// The same OPENCV camera through transforms.json and through a COLMAP model: same pinhole camera,
+// same undistorted pixels (the undistortion itself is tested in test_import_colmap.cpp).
+TEST(NerfstudioImport, DistortionMatchesTheColmapImporter) {
+  test::TempDir dir;
+  Image image(160, 120, 3);
+  for (int i = 0; i < 120; ++i)
+    for (int j = 0; j < 160; ++j)
+      for (int c = 0; c < 3; ++c) image.at(i, j, c) = float(((i / 8 + j / 8 + c) % 3) / 2.0);
+  write_png(dir / "ns" / "images" / "view.png", image);
+  write_png(dir / "cm" / "images" / "view.png", image);
+  json j = {{"fl_x", 120.0}, {"fl_y", 118.0}, {"cx", 81.5}, {"cy", 59.0},  {"w", 160},
+            {"h", 120},      {"k1", -0.18},   {"k2", 0.03}, {"p1", 0.002}, {"p2", -0.0015}};
+  j["frames"] = {{{"file_path", "images/view.png"}, {"transform_matrix", transform({0, 0, 0}, 0)}}};
+  test::write_text(dir / "ns" / "transforms.json", j.dump());
+  test::write_text(dir / "cm" / "sparse" / "0" / "cameras.txt",
+                   "1 OPENCV 160 120 120 118 81.5 59 -0.18 0.03 0.002 -0.0015\n");
+  // OpenGL identity = OpenCV rotation diag(1, -1, -1): quaternion (0, 1, 0, 0).
+  test::write_text(dir / "cm" / "sparse" / "0" / "images.txt", "1 0 1 0 0 0 0 0 1 view.png\n\n");
+  ImportOptions options;
+  options.progress = false;
+  import_nerfstudio(dir / "ns", dir / "a", options);
+  import_colmap(dir / "cm", dir / "b", options);
+  const Scene a = read_scene(dir / "a"), b = read_scene(dir / "b");
+  EXPECT_LT(std::abs(a.cameras[0].fx - b.cameras[0].fx), 1e-9);
+  EXPECT_LT(std::abs(a.cameras[0].cy - b.cameras[0].cy), 1e-9);
+  EXPECT_LT((a.cameras[0].world_to_camera - b.cameras[0].world_to_camera).norm(), 1e-12);
+  EXPECT_LT(a.cameras[0].fx, 119.0);  // barrel distortion: a wider pinhole view
+  const Image ia = load_image(a, 0, 0), ib = load_image(b, 0, 0);
+  EXPECT_EQ(ia.data, ib.data);
+}
+
+TEST(NerfstudioImport, AlphaChannelBecomesTheMask) {
+  test::TempDir dir;
+  Image rgba(kW, kH, 4, 0.5f);
+  for (int i = 0; i < kH; ++i)
+    for (int x = 0; x < kW; ++x) rgba.at(i, x, 3) = x < kW / 2 ? 1.0f : 0.0f;
+  write_png(dir / "src" / "r_0.png", rgba);
+  json j = {{"camera_angle_x", 1.0}};
+  j["frames"] = {{{"file_path", "./r_0"}, {"transform_matrix", transform({0, 0, 4}, 0)}}};
+  test::write_text(dir / "src" / "transforms.json", j.dump());
+  ImportOptions options;
+  options.progress = false;
+  import_nerfstudio(dir / "src", dir / "scene", options);
+  const Scene scene = read_scene(dir / "scene");
+  const auto mask = load_mask(scene, 0, 0);
+  ASSERT_TRUE(mask.has_value());
+  EXPECT_EQ(mask->at(5, 3), 1.0f);
+  EXPECT_EQ(mask->at(5, kW - 3), 0.0f);
+  EXPECT_NEAR(load_image(scene, 0, 0).at(5, 3, 1), 0.5f, 3e-3);
+}
+
 // Dynamic capture: per-frame time, camera identity from "camera" or the folder.
 json timed_transforms(const fs::path& src, bool camera_key) {
   json j = {{"camera_angle_x", 2 * std::atan(20.0 / 25.0)}, {"fps", 12.5}};
