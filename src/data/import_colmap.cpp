@@ -59,11 +59,13 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
             [](const ColmapImage& a, const ColmapImage& b) { return a.name < b.name; });
   const fs::path image_dir = find_images(source, model_dir);
 
-  // One undistortion per COLMAP camera.
+  // One undistortion per COLMAP camera that an image uses.
   std::map<std::uint32_t, std::unique_ptr<detail::Undistorter>> undistorters;
-  for (const auto& c : model.cameras)
-    undistorters[c.id] = std::make_unique<detail::Undistorter>(
-        c, fmt::format("{}: camera {}", (model_dir / "cameras").string(), c.id));
+  for (const auto& im : model.images)
+    if (!undistorters.count(im.camera_id))
+      undistorters[im.camera_id] = std::make_unique<detail::Undistorter>(
+          model.camera(im.camera_id),
+          fmt::format("{}: camera {}", (model_dir / "cameras").string(), im.camera_id));
 
   Scene scene;
   scene.num_frames = 1;

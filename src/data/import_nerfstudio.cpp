@@ -237,13 +237,18 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
       fail("{}: frames[{}] {} 'time' but frames[0] {}; give every frame a time or none", file,
            e.index, e.has_time ? "has" : "has no", timed ? "has one" : "has none");
 
-  // Scene frames (sorted distinct times) and cameras (first appearance order, then by name).
+  // Scene frames (sorted distinct times, equal within 1e-6 of the time range) and cameras (first
+  // appearance order, then by name).
   std::vector<double> times;
   std::vector<std::string> camera_names;
   if (timed) {
     for (const auto& e : entries) times.push_back(e.time);
     std::sort(times.begin(), times.end());
-    times.erase(std::unique(times.begin(), times.end()), times.end());
+    // Times written by different tools for the same instant may differ in the last digits.
+    const double tolerance = 1e-6 * std::max(1.0, times.back() - times.front());
+    times.erase(std::unique(times.begin(), times.end(),
+                            [&](double a, double b) { return b - a <= tolerance; }),
+                times.end());
     for (const auto& e : entries) camera_names.push_back(e.camera);
     std::sort(camera_names.begin(), camera_names.end());
     camera_names.erase(std::unique(camera_names.begin(), camera_names.end()), camera_names.end());
@@ -273,7 +278,9 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const Entry& e = entries[i];
     const int c = camera_index.at(e.camera);
-    const int k = int(std::lower_bound(times.begin(), times.end(), e.time) - times.begin());
+    int k = 0;  // the nearest scene frame time
+    for (int i = 1; i < steps; ++i)
+      if (std::abs(times[i] - e.time) < std::abs(times[k] - e.time)) k = i;
     if (grid[c][k] >= 0)
       fail("{}: frames[{}] and frames[{}] are both camera '{}' at time {}", file,
            entries[grid[c][k]].index, e.index, e.camera, e.time);

@@ -124,7 +124,7 @@ json timed_transforms(const fs::path& src, bool camera_key) {
       write_gray(src / rel, 0.1f + 0.3f * k + 0.05f * c);
       json f = {{"file_path", rel},
                 {"transform_matrix", transform({c == 0 ? 0.0 : 5.0, 0, c == 0 ? 5.0 : 0}, c)},
-                {"time", k / 2.0}};
+                {"time", k / 2.0 + (c == 1 ? 1e-9 : 0.0)}};  // rounding noise
       if (camera_key) f["camera"] = c == 0 ? "left" : "right";
       j["frames"].push_back(f);
     }
