@@ -126,7 +126,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
     cam.width = v.width, cam.height = v.height;
     cam.fx = f * sx, cam.fy = f * sy;
     cam.cx = 0.5 * v.width, cam.cy = 0.5 * v.height;
-    cam.split = (c == 0 && count > 1) ? Split::kTest : Split::kTrain;
+    cam.split = (cam.name == "cam00" && count > 1) ? Split::kTest : Split::kTrain;
     scene.cameras.push_back(detail::downscaled(cam, options.downscale));
   }
   scene.up = detail::mean_camera_up(scene.cameras);
