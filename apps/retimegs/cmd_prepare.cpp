@@ -47,7 +47,8 @@ void add_prepare_command(CLI::App& app) {
                   "per-frame points: hull (visual hull of the masks; the default when every "
                   "training view has a mask), random (last resort; the default otherwise), "
                   "ply DIR (import DIR/<frame:05d>.ply), colmap")
-      ->expected(1, 2);
+      ->expected(1, 2)
+      ->type_name("SOURCE [DIR]");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
