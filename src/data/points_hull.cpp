@@ -19,9 +19,10 @@ namespace {
 
 using Eigen::Vector3d;
 
-// With fewer cameras than this, a voxel outside one silhouette is never kept: the hull of n - 1
-// views is much looser than that of n when n is small (8 ring cameras of the synthetic scene:
-// the 80th percentile distance of hull points to the surface grows from 2.8 to 4 voxels).
+// When fewer cameras than this see a voxel, all of them must have it inside their silhouette:
+// the hull of n - 1 views is much looser than that of n when n is small (8 ring cameras of the
+// synthetic scene, conservative reach: the 80th percentile distance of hull points to the
+// surface grows from 2.8 to 4 voxels with a slack of one).
 constexpr int kSlackMinCameras = 10;
 // Axes closer to parallel than this (smallest / largest eigenvalue of sum(I - d d^T)) do not fix
 // a common look-at point: a forward-facing rig.
@@ -60,35 +61,40 @@ Grid make_grid(const Vector3d& lo, const Vector3d& hi, int resolution) {
   return g;
 }
 
-// Occupancy [nz, ny, nx]: 1 where at least views.size() - slack silhouettes contain the voxel,
-// i.e. its centre projects within `reach` (world units, projected at the voxel's depth) of a
-// foreground pixel.
-std::vector<unsigned char> carve(const Grid& g, const std::vector<View>& views, int slack,
-                                 double reach) {
+// The carving rule: a voxel in view of `seen` of the n cameras and inside `inside` of their
+// silhouettes is kept when at least half of the cameras (and at least 2) see it, and all of those
+// but `slack` (once 10 or more see it) have it inside their silhouette. Cameras that do not see
+// it abstain, so that people cut by the image border of a few views survive (Panoptic dome).
+struct CarveRule {
+  int min_seen = 2;
+  int slack = 0;
+  bool keep(int seen, int inside) const {
+    return seen >= min_seen && inside >= seen - (seen >= kSlackMinCameras ? slack : 0);
+  }
+};
+
+// Occupancy [nz, ny, nx] under `rule`; a voxel is inside a silhouette when its centre projects
+// within `reach` (world units, projected at the voxel's depth) of a foreground pixel.
+std::vector<unsigned char> carve(const Grid& g, const std::vector<View>& views,
+                                 const CarveRule& rule, double reach) {
   std::vector<unsigned char> occupied(g.count(), 0);
-  const int needed = int(views.size()) - slack;
 #pragma omp parallel for collapse(2) schedule(static)
   for (int k = 0; k < g.nz; ++k)
     for (int j = 0; j < g.ny; ++j)
       for (int i = 0; i < g.nx; ++i) {
         const Vector3d x = g.centre(i, j, k);
-        int inside = 0, misses = 0;
+        int seen = 0, inside = 0;
         for (const View& v : views) {
           const Vector3d xc = v.camera->world_to_cam(x);
-          bool in = false;
-          if (xc.z() > reach) {
-            const Eigen::Vector2d uv = v.camera->project_cam(xc);
-            if (v.camera->in_image(uv)) {
-              const float d = v.distance.at<float>(int(uv.y()), int(uv.x()));
-              // Half the voxel's projected diagonal, plus half a pixel for the pixel's own extent.
-              // Within `reach` of a foreground pixel, plus half a pixel for the pixel's extent.
-              in = d <= v.camera->fx * reach / xc.z() + 0.5;
-            }
-          }
-          inside += in;
-          if (!in && ++misses > slack) break;
+          if (xc.z() <= reach) continue;
+          const Eigen::Vector2d uv = v.camera->project_cam(xc);
+          if (!v.camera->in_image(uv)) continue;
+          ++seen;
+          // Within `reach` of a foreground pixel, plus half a pixel for the pixel's own extent.
+          inside +=
+              v.distance.at<float>(int(uv.y()), int(uv.x())) <= v.camera->fx * reach / xc.z() + 0.5;
         }
-        occupied[g.index(i, j, k)] = inside >= needed;
+        occupied[g.index(i, j, k)] = rule.keep(seen, inside);
       }
   return occupied;
 }
@@ -201,7 +207,7 @@ PointCloud visual_hull(const Scene& scene, const std::vector<int>& cameras, int 
     }
   }
   if (!error.empty()) throw Error(error);
-  const int slack = int(views.size()) >= kSlackMinCameras ? std::max(0, options.slack) : 0;
+  const CarveRule rule{std::max(2, (int(views.size()) + 1) / 2), std::max(0, options.slack)};
 
   // Coarse pass over the common region, fine pass over the coarse hull's bounds.
   Vector3d lo, hi;
@@ -210,15 +216,17 @@ PointCloud visual_hull(const Scene& scene, const std::vector<int>& cameras, int 
   // Coarse: conservative (half the voxel's diagonal: the voxel's footprint touches the
   // silhouette), so that thin parts survive voxels larger than they are.
   const std::vector<unsigned char> coarse_occupied =
-      carve(coarse, views, slack, 0.5 * std::sqrt(3.0) * coarse.size);
+      carve(coarse, views, rule, 0.5 * std::sqrt(3.0) * coarse.size);
   if (!occupied_bounds(coarse, coarse_occupied, coarse.size, lo, hi))
-    fail("visual hull at frame {}: empty (no region lies inside the masks of {} of the {} cameras)",
-         frame, int(views.size()) - slack, views.size());
+    fail(
+        "visual hull at frame {}: empty (no region lies inside the masks of the cameras that see "
+        "it)",
+        frame);
   const Grid g = make_grid(lo, hi, options.resolution);
   // Fine: half the voxel's side; the diagonal would fatten the hull by most of a voxel (on the
   // 8-camera synthetic scene the 80th percentile distance to the surface grows from 1.7 to 2.8
   // voxels).
-  const std::vector<unsigned char> occupied = carve(g, views, slack, 0.5 * g.size);
+  const std::vector<unsigned char> occupied = carve(g, views, rule, 0.5 * g.size);
 
   // Surface voxels and their outward normals.
   auto at = [&](int i, int j, int k) {

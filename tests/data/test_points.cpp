@@ -10,6 +10,7 @@
 #include <nanoflann.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/data/import.hpp"
 #include "retimegs/data/points.hpp"
 #include "retimegs/data/prepare.hpp"
 #include "retimegs/data/scene.hpp"
@@ -19,6 +20,7 @@
 namespace retimegs::data {
 namespace {
 namespace fs = std::filesystem;
+using test::shared_data;
 
 Scene minimal_scene(const fs::path& root, int cameras, int width, int height, int frames = 3) {
   SynthOptions options;
@@ -138,6 +140,48 @@ TEST(VisualHull, LiesOnTheSyntheticSceneSurfaceAndCoversItsObjects) {
     EXPECT_GT(foreground, 200u);
     EXPECT_GT(colour_correlation, 0.5) << frame;
   }
+}
+
+// Panoptic's dome cameras cut the players at the image border in several views; those views
+// must abstain rather than carve the players away. Measured: the projected hull covers 94.5 % of
+// the training cameras' foreground pixels (31 % when out of view counted as a miss).
+TEST(VisualHull, CoversPanopticPlayersCutByTheImageBorder) {
+  RETIMEGS_REQUIRE_DATA("panoptic-basketball/train_meta.json");
+  test::TempDir dir;
+  ImportOptions import;
+  import.first_frame = import.last_frame = 0;
+  import.downscale = 4;  // 160x90
+  import.progress = false;
+  import_panoptic(shared_data() / "panoptic-basketball", dir / "scene", import);
+  const Scene scene = read_scene(dir / "scene");
+  const std::vector<int> cameras = training_cameras(scene);
+  HullOptions options;
+  options.resolution = 96;
+  const PointCloud hull = visual_hull(scene, cameras, 0, options);
+  std::size_t foreground = 0, covered = 0;
+  for (int c : cameras) {
+    const Camera& cam = scene.cameras[c];
+    const Image mask = *load_mask(scene, c, 0);
+    // Pixels within 1 px of a projected hull point.
+    std::vector<unsigned char> hit(mask.pixels(), 0);
+    for (std::size_t i = 0; i < hull.size(); ++i) {
+      const Eigen::Vector3d xc =
+          cam.world_to_cam({hull.xyz[3 * i], hull.xyz[3 * i + 1], hull.xyz[3 * i + 2]});
+      if (xc.z() <= 0) continue;
+      const Eigen::Vector2d uv = cam.project_cam(xc);
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = int(uv.x()) + dx, y = int(uv.y()) + dy;
+          if (x >= 0 && y >= 0 && x < cam.width && y < cam.height) hit[y * cam.width + x] = 1;
+        }
+    }
+    for (std::size_t p = 0; p < mask.pixels(); ++p)
+      if (mask.data[p] > 0.5f) ++foreground, covered += hit[p];
+  }
+  const double coverage = double(covered) / double(foreground);
+  std::printf("  panoptic: %zu hull points, %.3f of %zu foreground pixels covered\n", hull.size(),
+              coverage, foreground);
+  EXPECT_GT(coverage, 0.8);
 }
 
 TEST(VisualHull, NamesTheMissingMask) {
