@@ -77,21 +77,22 @@ void copy_atomic(const fs::path& source, const fs::path& target) {
 // Validates every flow file to import before anything is written.
 void check_flow_imports(const Scene& scene, const std::vector<FlowJob>& jobs, const fs::path& dir) {
   if (!fs::is_directory(dir)) fail("--flow-dir: {}: not a directory", dir.string());
-  std::vector<fs::path> needed;
-  std::vector<int> camera_of;
+  struct Import {
+    fs::path path;
+    int camera;
+  };
+  std::vector<Import> needed;
   for (const FlowJob& job : jobs) {
     if (job.write_forward)
-      needed.push_back(import_path(dir, scene, job.camera, job.from, job.to)),
-          camera_of.push_back(job.camera);
+      needed.push_back({import_path(dir, scene, job.camera, job.from, job.to), job.camera});
     if (job.write_backward)
-      needed.push_back(import_path(dir, scene, job.camera, job.to, job.from)),
-          camera_of.push_back(job.camera);
+      needed.push_back({import_path(dir, scene, job.camera, job.to, job.from), job.camera});
   }
   std::size_t missing = 0;
   const fs::path* first = nullptr;
-  for (const fs::path& p : needed)
-    if (!fs::is_regular_file(p)) {
-      if (!first) first = &p;
+  for (const Import& i : needed)
+    if (!fs::is_regular_file(i.path)) {
+      if (!first) first = &i.path;
       ++missing;
     }
   if (first)
@@ -100,12 +101,28 @@ void check_flow_imports(const Scene& scene, const std::vector<FlowJob>& jobs, co
         "<dir>/<camera>/<from:05d>_<to:05d>.flo)",
         first->string(), missing, needed.size());
   parallel_jobs(needed.size(), [&](std::size_t i) {
-    const Flow flow = read_flo(needed[i]);  // tag, size, length, NaN
-    const Camera& cam = scene.cameras[camera_of[i]];
+    const Flow flow = read_flo(needed[i].path);  // tag, size, length, NaN
+    const Camera& cam = scene.cameras[needed[i].camera];
     if (flow.width != cam.width || flow.height != cam.height)
-      fail("{}: flow is {}x{} but camera '{}' images are {}x{}", needed[i].string(), flow.width,
-           flow.height, cam.name, cam.width, cam.height);
+      fail("{}: flow is {}x{} but camera '{}' images are {}x{}", needed[i].path.string(),
+           flow.width, flow.height, cam.name, cam.width, cam.height);
   });
+}
+
+const char* points_source_name(PointsSource source) {
+  switch (source) {
+    case PointsSource::kHull:
+      return "hull";
+    case PointsSource::kRandom:
+      return "random";
+    case PointsSource::kPly:
+      return "ply";
+    case PointsSource::kColmap:
+      return "colmap";
+    case PointsSource::kDefault:
+      break;
+  }
+  return "default";
 }
 
 bool has_every_mask(const Scene& scene, const std::vector<int>& cameras,
@@ -229,8 +246,7 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
   // Points, one frame at a time (the hull is parallel inside).
   start = std::chrono::steady_clock::now();
   if (!point_frames.empty()) {
-    const char* names[] = {"default", "hull", "random", "ply", "colmap"};
-    report.points_source = names[int(source)];
+    report.points_source = points_source_name(source);
     const std::size_t random_count =
         std::max(kMinRandomPointsPerFrame, options.random_points_total / frames.size());
     Progress progress("points", point_frames.size(), options.progress);
