@@ -10,7 +10,7 @@
 namespace retimegs::data {
 
 enum class FlowMethod {
-  kDis,       // DIS (Kroeger et al. 2016), MEDIUM preset at full resolution; see kDisSettings
+  kDis,       // DIS (Kroeger et al. 2016), MEDIUM at full resolution, patch stride 2
   kDeepFlow,  // DeepFlow (Weinzaepfel et al. 2013), opencv_contrib optflow defaults
   kTvl1,      // Dual TV-L1 (Zach et al. 2007), opencv_contrib optflow defaults
 };
