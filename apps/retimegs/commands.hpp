@@ -7,6 +7,7 @@ namespace retimegs::app {
 
 void add_synth_command(CLI::App& app);
 void add_import_command(CLI::App& app);
+void add_prepare_command(CLI::App& app);
 void add_sheet_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_export_command(CLI::App& app);

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
 
   retimegs::app::add_synth_command(app);
   retimegs::app::add_import_command(app);
+  retimegs::app::add_prepare_command(app);
   retimegs::app::add_train_command(app);
   retimegs::app::add_render_command(app);
   retimegs::app::add_eval_command(app);

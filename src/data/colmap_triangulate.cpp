@@ -109,11 +109,16 @@ std::string number(double v) {
 
 }  // namespace
 
-PointCloud triangulate_with_colmap(const Scene& scene, int frame, const fs::path& work_dir,
-                                   const ColmapOptions& options) {
+fs::path find_colmap(const ColmapOptions& options) {
   const fs::path exe = find_executable(options.executable);
   if (exe.empty())
     fail("COLMAP not found: install the Debian package colmap (scripts/setup.sh does)");
+  return exe;
+}
+
+PointCloud triangulate_with_colmap(const Scene& scene, int frame, const fs::path& work_dir,
+                                   const ColmapOptions& options) {
+  const fs::path exe = find_colmap(options);
   if (frame < 0 || frame >= scene.num_frames)
     fail("--points colmap: frame {} is outside the scene's frames 0:{}", frame,
          scene.num_frames - 1);

@@ -83,6 +83,9 @@ struct ColmapOptions {
   bool verbose = false;  // pass COLMAP's output through to stderr
 };
 
+// The COLMAP executable of options (PATH lookup); throws Error when it is not installed.
+std::filesystem::path find_colmap(const ColmapOptions& options);
+
 // `prepare --points colmap`: triangulates a point cloud of scene frame `frame` from the images of
 // the training cameras with their known poses and intrinsics. Writes into work_dir (created if
 // needed; previous contents are replaced): images/<camera>.png, database.db, known/ (text model

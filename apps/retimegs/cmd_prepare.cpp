@@ -1,0 +1,106 @@
+// retimegs prepare --scene SCENE [--train-frames even|all] [--flow dis|deepflow|tvl1]
+//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--force] [--threads T]
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/data/prepare.hpp"
+#include "retimegs/data/scene.hpp"
+
+namespace retimegs::app {
+
+void add_prepare_command(CLI::App& app) {
+  struct Args {
+    std::string scene, frames = "even", flow = "dis", flow_dir;
+    std::vector<std::string> points;
+    int threads = 0;
+    bool force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "prepare",
+      "Fill in what training needs that a scene lacks: optical flow in both directions between "
+      "consecutive training frames of every training camera, and per-frame point clouds. "
+      "Existing files are kept unless --force, so a re-run resumes.");
+  cmd->add_option("--scene", args->scene, "scene folder")->required();
+  cmd->add_option("--train-frames", args->frames,
+                  "the frames training will use: even (0, 2, 4, ...; flows of stride 2) or all "
+                  "(flows of stride 1)")
+      ->check(CLI::IsMember({"even", "all"}))
+      ->capture_default_str();
+  CLI::Option* flow =
+      cmd->add_option("--flow", args->flow,
+                      "built-in estimator: dis (DIS, fast, default), deepflow or tvl1 (slower); "
+                      "a forward-backward check marks occluded pixels unknown")
+          ->check(CLI::IsMember({"dis", "deepflow", "tvl1"}))
+          ->capture_default_str();
+  cmd->add_option("--flow-dir", args->flow_dir,
+                  "import .flo files (e.g. from WAFT, RAFT, SEA-RAFT) named "
+                  "DIR/<camera>/<from:05d>_<to:05d>.flo instead of estimating")
+      ->excludes(flow);
+  cmd->add_option("--points", args->points,
+                  "per-frame points: hull (visual hull of the masks; the default when every "
+                  "training view has a mask), random (last resort; the default otherwise), "
+                  "ply DIR (import DIR/<frame:05d>.ply), colmap")
+      ->expected(1, 2)
+      ->type_name("SOURCE [DIR]");
+  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
+  cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
+  cmd->callback([args] {
+    set_threads(args->threads);
+    data::PrepareOptions options;
+    options.frame_step = args->frames == "all" ? 1 : 2;
+    options.flow_method = data::parse_flow_method(args->flow);
+    options.flow_dir = args->flow_dir;
+    options.force = args->force;
+    if (!args->points.empty()) {
+      const std::string& kind = args->points[0];
+      const bool has_dir = args->points.size() == 2;
+      if (kind == "ply") {
+        if (!has_dir) fail("--points ply: needs a folder (--points ply DIR)");
+        options.points = data::PointsSource::kPly;
+        options.points_dir = args->points[1];
+      } else if (has_dir) {
+        fail("--points {}: takes no folder (got '{}')", kind, args->points[1]);
+      } else if (kind == "hull") {
+        options.points = data::PointsSource::kHull;
+      } else if (kind == "random") {
+        options.points = data::PointsSource::kRandom;
+      } else if (kind == "colmap") {
+        options.points = data::PointsSource::kColmap;
+      } else {
+        fail("--points: unknown source '{}' (hull, random, ply DIR, colmap)", kind);
+      }
+    }
+
+    const data::Scene scene = data::read_scene(args->scene);
+    const data::PrepareReport r = data::prepare_scene(scene, options);
+
+    const std::string how = options.flow_dir.empty()
+                                ? fmt::format("estimated with {}", args->flow)
+                                : fmt::format("imported from {}", args->flow_dir);
+    spdlog::info("flow: {} file{} written ({}), {} kept, {:.1f} s", r.flows_written,
+                 r.flows_written == 1 ? "" : "s", how, r.flows_kept, r.flow_seconds);
+    if (r.flows_written && options.flow_dir.empty())
+      spdlog::info("flow: {:.1f} % of pixels marked unknown by the forward-backward check",
+                   100 * r.unknown_fraction);
+    if (!r.points_written.empty()) {
+      std::string counts;
+      for (const auto& [frame, n] : r.points_written)
+        counts += fmt::format("{}{}: {}", counts.empty() ? "" : ", ", frame, n);
+      spdlog::info("points ({}): {} frame{} written ({}), {} kept, {:.1f} s", r.points_source,
+                   r.points_written.size(), r.points_written.size() == 1 ? "" : "s", counts,
+                   r.points_kept, r.points_seconds);
+    } else {
+      spdlog::info("points: {} kept", r.points_kept);
+    }
+  });
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,117 @@
+// `retimegs prepare` end to end: fills in a synthetic scene's flows and points, resumes without
+// touching finished files, --force rewrites them, bad imports exit 2 with nothing written.
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/data/flow_io.hpp"
+#include "retimegs/data/ply.hpp"
+#include "test_util.hpp"
+
+namespace retimegs {
+namespace {
+namespace fs = std::filesystem;
+
+// Modification time in nanoseconds and inode: an atomic rewrite changes both.
+std::pair<long long, unsigned long> stamp(const fs::path& p) {
+  struct stat s {};
+  EXPECT_EQ(::stat(p.c_str(), &s), 0) << p;
+  return {s.st_mtim.tv_sec * 1000000000LL + s.st_mtim.tv_nsec, s.st_ino};
+}
+
+// Runs the CLI and returns its stdout (the summary is logged there); status in `status`.
+std::string run_stdout(const std::string& args, const test::TempDir& dir, int& status) {
+  const fs::path out = dir / "stdout.txt";
+  const std::string command =
+      std::string(RETIMEGS_BINARY) + " " + args + " >" + out.string() + " 2>/dev/null";
+  const int raw = std::system(command.c_str());
+  status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return test::read_text(out);
+}
+
+// A 3-camera, 5-frame synthetic scene without flow/ and points/.
+fs::path bare_scene(const test::TempDir& dir) {
+  const fs::path scene = dir / "scene";
+  const auto r = test::run_cli("synth --preset minimal --cameras 3 --frames 5 --size 64x48 --out " +
+                               scene.string());
+  EXPECT_EQ(r.status, 0) << r.err;
+  fs::rename(scene / "flow", dir / "exact-flow");
+  fs::remove_all(scene / "points");
+  return scene;
+}
+
+TEST(PrepareCli, FillsInResumesAndForceRewrites) {
+  test::TempDir dir;
+  const fs::path scene = bare_scene(dir);
+  const std::string cmd = "prepare --scene " + scene.string();
+  int status = -1;
+  const std::string first = run_stdout(cmd, dir, status);
+  ASSERT_EQ(status, 0);
+  EXPECT_NE(first.find("12 files written"), std::string::npos) << first;
+  const fs::path flow = scene / "flow" / "cam02" / "00004_00002.flo";
+  const fs::path points = scene / "points" / "00002.ply";
+  ASSERT_TRUE(fs::exists(flow));
+  ASSERT_TRUE(fs::exists(points));
+  const Flow f = data::read_flo(flow);
+  EXPECT_EQ(f.width, 64);
+  EXPECT_EQ(f.height, 48);
+  EXPECT_EQ(fs::file_size(flow), 12u + 64 * 48 * 8);
+  EXPECT_GT(data::read_points_ply(points).size(), 100u);
+  EXPECT_FALSE(fs::exists(scene / "flow" / "cam00" / "00000_00001.flo"));  // stride 2 only
+
+  const auto flow_before = stamp(flow), points_before = stamp(points);
+  const std::string second = run_stdout(cmd, dir, status);
+  ASSERT_EQ(status, 0);
+  EXPECT_EQ(stamp(flow), flow_before);
+  EXPECT_EQ(stamp(points), points_before);
+  EXPECT_NE(second.find("0 files written"), std::string::npos) << second;
+  EXPECT_NE(second.find("12 kept"), std::string::npos) << second;
+
+  const auto r = test::run_cli(cmd + " --force --points random");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(stamp(flow), flow_before);
+  EXPECT_NE(stamp(points), points_before);
+}
+
+TEST(PrepareCli, WrongSizeImportExitsTwoAndWritesNothing) {
+  test::TempDir dir;
+  const fs::path scene = bare_scene(dir);
+  const fs::path bad = dir / "exact-flow" / "cam00" / "00002_00000.flo";
+  data::write_flo(bad, Flow(64, 40));
+  const auto r = test::run_cli("prepare --scene " + scene.string() + " --flow-dir " +
+                               (dir / "exact-flow").string());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find(bad.string()), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("64x40"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+  EXPECT_FALSE(fs::exists(scene / "flow"));
+  EXPECT_FALSE(fs::exists(scene / "points"));
+}
+
+TEST(PrepareCli, RejectsBadPointsArguments) {
+  test::TempDir dir;
+  const fs::path scene = bare_scene(dir);
+  const std::string cmd = "prepare --scene " + scene.string();
+  // COLMAP missing: refused before any flow is written.
+  const std::string path = std::getenv("PATH") ? std::getenv("PATH") : "";
+  setenv("PATH", "/nonexistent", 1);
+  auto r = test::run_cli(cmd + " --points colmap");
+  setenv("PATH", path.c_str(), 1);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("COLMAP not found"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(scene / "flow"));
+  r = test::run_cli(cmd + " --points ply");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("needs a folder"), std::string::npos) << r.err;
+  r = test::run_cli(cmd + " --points cloud");
+  EXPECT_EQ(r.status, 2);
+  r = test::run_cli(cmd + " --flow dis --flow-dir " + (dir / "exact-flow").string());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_FALSE(fs::exists(scene / "flow"));
+}
+
+}  // namespace
+}  // namespace retimegs
