@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
@@ -46,7 +47,8 @@ void add_prepare_command(CLI::App& app) {
   cmd->add_option("--points", args->points,
                   "per-frame points: hull (visual hull of the masks; the default when every "
                   "training view has a mask), random (last resort; the default otherwise), "
-                  "ply DIR (import DIR/<frame:05d>.ply), colmap")
+                  "ply DIR (import DIR/<frame:05d>.ply), colmap (COLMAP triangulation with the known poses); "
+                  "a comma list concatenates them, e.g. hull,colmap")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
@@ -60,23 +62,28 @@ void add_prepare_command(CLI::App& app) {
     options.flow_dir = args->flow_dir;
     options.force = args->force;
     if (!args->points.empty()) {
-      const std::string& kind = args->points[0];
-      const bool has_dir = args->points.size() == 2;
-      if (kind == "ply") {
-        if (!has_dir) fail("--points ply: needs a folder (--points ply DIR)");
-        options.points = data::PointsSource::kPly;
-        options.points_dir = args->points[1];
-      } else if (has_dir) {
-        fail("--points {}: takes no folder (got '{}')", kind, args->points[1]);
-      } else if (kind == "hull") {
-        options.points = data::PointsSource::kHull;
-      } else if (kind == "random") {
-        options.points = data::PointsSource::kRandom;
-      } else if (kind == "colmap") {
-        options.points = data::PointsSource::kColmap;
-      } else {
-        fail("--points: unknown source '{}' (hull, random, ply DIR, colmap)", kind);
+      const std::string& kinds = args->points[0];
+      bool needs_dir = false;
+      for (const std::string& kind : split_list(kinds, "--points")) {
+        if (kind == "ply") {
+          options.points.push_back(data::PointsSource::kPly);
+          needs_dir = true;
+        } else if (kind == "hull") {
+          options.points.push_back(data::PointsSource::kHull);
+        } else if (kind == "random") {
+          options.points.push_back(data::PointsSource::kRandom);
+        } else if (kind == "colmap") {
+          options.points.push_back(data::PointsSource::kColmap);
+        } else {
+          fail("--points: unknown source '{}' (hull, random, ply DIR, colmap, or a comma list)",
+               kind);
+        }
       }
+      if (needs_dir && args->points.size() != 2)
+        fail("--points {}: ply needs a folder (--points ply DIR)", kinds);
+      if (!needs_dir && args->points.size() == 2)
+        fail("--points {}: takes no folder (got '{}')", kinds, args->points[1]);
+      if (needs_dir) options.points_dir = args->points[1];
     }
 
     const data::Scene scene = data::read_scene(args->scene);

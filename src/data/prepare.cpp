@@ -41,6 +41,16 @@ PointCloud colmap_points(const Scene& scene, int k, const ColmapOptions& options
   return triangulate_with_colmap(scene, k, work, options);
 }
 
+// Appends b to a. When either has colours the result has them, grey where a source had none.
+void append(PointCloud& a, const PointCloud& b) {
+  constexpr float kGrey = 0.5f;
+  const bool colours = !a.rgb.empty() || !b.rgb.empty();
+  if (colours && a.rgb.empty()) a.rgb.assign(a.xyz.size(), kGrey);
+  a.xyz.insert(a.xyz.end(), b.xyz.begin(), b.xyz.end());
+  if (colours && b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.xyz.size(), kGrey);
+  if (colours && !b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.rgb.begin(), b.rgb.end());
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -134,10 +144,8 @@ const char* points_source_name(PointsSource source) {
       return "ply";
     case PointsSource::kColmap:
       return "colmap";
-    case PointsSource::kDefault:
-      break;
   }
-  return "default";
+  return "?";
 }
 
 bool has_every_mask(const Scene& scene, const std::vector<int>& cameras,
@@ -187,16 +195,16 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
     else
       ++report.points_kept;
 
-  PointsSource source = options.points;
-  if (source == PointsSource::kDefault)
-    source = has_every_mask(scene, cameras, frames) ? PointsSource::kHull : PointsSource::kRandom;
+  std::vector<PointsSource> sources = options.points;
+  if (sources.empty())
+    sources = {has_every_mask(scene, cameras, frames) ? PointsSource::kHull : PointsSource::kRandom};
 
   // Check every input before writing anything.
   report.flows_imported = !options.flow_dir.empty();
   if (report.flows_imported) check_flow_imports(scene, jobs, options.flow_dir);
   std::vector<PointCloud> imported(point_frames.size());
   if (!point_frames.empty()) {
-    switch (source) {
+    for (PointsSource source : sources) switch (source) {
       case PointsSource::kHull:
         for (int c : cameras)
           for (int k : point_frames)
@@ -261,28 +269,32 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
   // Points, one frame at a time (the hull is parallel inside).
   start = std::chrono::steady_clock::now();
   if (!point_frames.empty()) {
-    report.points_source = points_source_name(source);
+    for (PointsSource source : sources)
+      report.points_source += (report.points_source.empty() ? "" : ",") +
+                              std::string(points_source_name(source));
     const std::size_t random_count =
         std::max(kMinRandomPointsPerFrame, options.random_points_total / frames.size());
     Progress progress("points", point_frames.size(), options.progress);
     for (std::size_t i = 0; i < point_frames.size(); ++i) {
       const int k = point_frames[i];
       PointCloud cloud;
-      switch (source) {
-        case PointsSource::kHull:
-          cloud = visual_hull(scene, cameras, k, options.hull);
-          break;
-        case PointsSource::kRandom:
-          cloud = random_points(scene, cameras, k, random_count, options.seed);
-          break;
-        case PointsSource::kPly:
-          cloud = std::move(imported[i]);
-          break;
-        case PointsSource::kColmap:
-          cloud = colmap_points(scene, k, options.colmap);
-          break;
-        case PointsSource::kDefault:
-          break;
+      for (PointsSource source : sources) {
+        PointCloud part;
+        switch (source) {
+          case PointsSource::kHull:
+            part = visual_hull(scene, cameras, k, options.hull);
+            break;
+          case PointsSource::kRandom:
+            part = random_points(scene, cameras, k, random_count, options.seed);
+            break;
+          case PointsSource::kPly:
+            part = std::move(imported[i]);
+            break;
+          case PointsSource::kColmap:
+            part = colmap_points(scene, k, options.colmap);
+            break;
+        }
+        append(cloud, part);
       }
       write_points_ply(scene.points_path(k), cloud);
       report.points_written.emplace_back(k, cloud.size());

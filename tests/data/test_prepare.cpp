@@ -97,7 +97,7 @@ TEST(Prepare, KeepsExistingFilesAndForceRewritesThem) {
   test::TempDir dir;
   const Scene scene = bare_scene(dir / "scene", dir / "exact");
   PrepareOptions o = quiet();
-  o.points = PointsSource::kRandom;
+  o.points = {PointsSource::kRandom};
   prepare_scene(scene, o);
   const fs::path flow = scene.flow_path(1, 2, 0);
   fs::remove(flow);
@@ -118,7 +118,7 @@ TEST(Prepare, AllFramesUseStrideOne) {
   const Scene scene = bare_scene(dir / "scene", dir / "exact", 3);
   PrepareOptions o = quiet();
   o.frame_step = 1;
-  o.points = PointsSource::kRandom;
+  o.points = {PointsSource::kRandom};
   const PrepareReport r = prepare_scene(scene, o);
   EXPECT_EQ(r.flows_written, 3u * 2 * 2);
   EXPECT_TRUE(fs::exists(scene.flow_path(0, 1, 2)));
@@ -134,7 +134,7 @@ TEST(Prepare, ImportsFlowFilesByteForByte) {
   const Scene scene = bare_scene(dir / "scene", dir / "exact");
   PrepareOptions o = quiet();
   o.flow_dir = dir / "exact" / "flow";  // the scene's own naming: <camera>/<from>_<to>.flo
-  o.points = PointsSource::kRandom;
+  o.points = {PointsSource::kRandom};
   const PrepareReport r = prepare_scene(scene, o);
   EXPECT_TRUE(r.flows_imported);
   EXPECT_EQ(r.flows_written, 12u);
@@ -162,7 +162,7 @@ TEST(Prepare, ImportsPerFramePlyFiles) {
   test::TempDir dir;
   const Scene scene = bare_scene(dir / "scene", dir / "exact");
   PrepareOptions o = quiet();
-  o.points = PointsSource::kPly;
+  o.points = {PointsSource::kPly};
   o.points_dir = dir / "exact" / "points";
   const PrepareReport r = prepare_scene(scene, o);
   EXPECT_EQ(r.points_source, "ply");
@@ -183,15 +183,38 @@ TEST(Prepare, DefaultsToRandomPointsWithoutMasksAndHullNeedsThem) {
   const Scene scene = bare_scene(dir / "scene", dir / "exact");
   fs::remove_all(scene.root / "masks");
   PrepareOptions o = quiet();
-  o.points = PointsSource::kHull;
+  o.points = {PointsSource::kHull};
   test::expect_error([&] { prepare_scene(scene, o); }, {"no mask", "--points hull"});
   EXPECT_TRUE(files_under(scene.root / "flow").empty());
-  o.points = PointsSource::kColmap;
+  o.points = {PointsSource::kColmap};
   o.colmap.executable = (dir / "no-such-colmap").string();
   test::expect_error([&] { prepare_scene(scene, o); }, {"COLMAP not found"});
   EXPECT_TRUE(files_under(scene.root / "flow").empty());
-  o.points = PointsSource::kDefault;
+  o.points = {};
   EXPECT_EQ(prepare_scene(scene, o).points_source, "random");
+}
+
+TEST(Prepare, SeveralPointSourcesAreConcatenated) {
+  test::TempDir dir;
+  const Scene scene = bare_scene(dir / "scene", dir / "exact");
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kRandom};
+  const PrepareReport random = prepare_scene(scene, o);
+  o.points = {PointsSource::kHull};
+  o.force = true;
+  const PrepareReport hull = prepare_scene(scene, o);
+  o.points = {PointsSource::kHull, PointsSource::kRandom};
+  const PrepareReport both = prepare_scene(scene, o);
+  EXPECT_EQ(both.points_source, "hull,random");
+  ASSERT_EQ(both.points_written.size(), hull.points_written.size());
+  for (std::size_t i = 0; i < both.points_written.size(); ++i) {
+    EXPECT_GT(hull.points_written[i].second, 0u);
+    EXPECT_EQ(both.points_written[i].second,
+              hull.points_written[i].second + random.points_written[i].second);
+    const PointCloud cloud = read_points_ply(scene.points_path(both.points_written[i].first));
+    EXPECT_EQ(cloud.size(), both.points_written[i].second);
+    EXPECT_EQ(cloud.rgb.size(), cloud.xyz.size());
+  }
 }
 
 }  // namespace

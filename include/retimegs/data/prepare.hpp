@@ -19,7 +19,6 @@
 namespace retimegs::data {
 
 enum class PointsSource {
-  kDefault,  // kHull when every training camera has a mask at every training frame, else kRandom
   kHull,     // visual_hull()
   kRandom,   // random_points(): the last resort
   kPly,      // read_frame_points(points_dir / "<frame:05d>.ply")
@@ -34,7 +33,10 @@ struct PrepareOptions {
   // written by a WAFT / RAFT / SEA-RAFT script) instead of estimating. Copied byte for byte after
   // validation (readable .flo, the camera's image size); no consistency check is applied.
   std::filesystem::path flow_dir;
-  PointsSource points = PointsSource::kDefault;
+  // Sources whose clouds are concatenated per frame (e.g. hull + colmap: the dense foreground of
+  // the masks and COLMAP's static background). Empty: kHull when every training camera has a mask
+  // at every training frame, else kRandom.
+  std::vector<PointsSource> points;
   std::filesystem::path points_dir;  // for kPly
   ColmapOptions colmap;  // kColmap; it works in a temporary folder, removed afterwards
   HullOptions hull;
@@ -52,7 +54,7 @@ struct PrepareReport {
   std::size_t flows_written = 0, flows_kept = 0;  // files
   bool flows_imported = false;
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
-  std::string points_source;    // "hull", "random", "ply", "colmap" (empty: nothing to do)
+  std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty: nothing to do)
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double flow_seconds = 0, points_seconds = 0;
