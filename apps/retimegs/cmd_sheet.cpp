@@ -1,4 +1,4 @@
-// retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST]
+// retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST] [--renders DIRS]
 #include <memory>
 
 #include <spdlog/spdlog.h>
@@ -12,7 +12,7 @@ namespace retimegs::app {
 
 void add_sheet_command(CLI::App& app) {
   struct Args {
-    std::string scene, out, cameras, frames;
+    std::string scene, out, cameras, frames, renders;
     int tile_width = 256;
   };
   auto args = std::make_shared<Args>();
@@ -24,6 +24,9 @@ void add_sheet_command(CLI::App& app) {
   cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: up to 4)");
   cmd->add_option("--frames", args->frames,
                   "frame numbers, comma-separated (default: first, middle, last)");
+  cmd->add_option("--renders", args->renders,
+                  "render folders (eval --save-renders), comma-separated: each frame's ground "
+                  "truth is followed by DIR/<camera>/<frame:05d>.png of each");
   cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")
       ->capture_default_str();
   cmd->callback([args] {
@@ -33,6 +36,8 @@ void add_sheet_command(CLI::App& app) {
     if (!args->cameras.empty())
       for (const auto& name : split_list(args->cameras, "--cameras"))
         options.cameras.push_back(scene.camera_index(name));
+    if (!args->renders.empty())
+      for (const auto& dir : split_list(args->renders, "--renders")) options.renders.push_back(dir);
     if (!args->frames.empty()) options.frames = parse_int_list(args->frames, "--frames");
     data::write_png(args->out, data::contact_sheet(scene, options));
     spdlog::info("contact sheet: {}", args->out);

@@ -4,9 +4,11 @@
 #include <cmath>
 #include <numbers>
 
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/data/image_io.hpp"
 
 namespace retimegs::data {
 
@@ -77,7 +79,17 @@ Image contact_sheet(const Scene& scene, const SheetOptions& options) {
   std::vector<std::vector<Image>> rows;
   for (int c : cameras) {
     std::vector<Image> row;
-    for (int k : frames) row.push_back(to_rgb_tile(load_image(scene, c, k), options.tile_width));
+    for (int k : frames) {
+      row.push_back(to_rgb_tile(load_image(scene, c, k), options.tile_width));
+      for (const auto& dir : options.renders)
+        row.push_back(to_rgb_tile(
+            read_image(dir / scene.cameras[c].name / fmt::format("{:05d}.png", k)),
+            options.tile_width));
+    }
+    if (!options.renders.empty()) {
+      rows.push_back(std::move(row));
+      continue;
+    }
     if (auto mask = load_mask(scene, c, frames[0]))
       row.push_back(to_rgb_tile(*mask, options.tile_width));
     if (frames[0] + 1 < scene.num_frames)

@@ -7,6 +7,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/data/flow_io.hpp"
 #include "retimegs/data/image_io.hpp"
+#include "retimegs/data/contact_sheet.hpp"
 #include "retimegs/data/scene.hpp"
 #include "test_util.hpp"
 
@@ -232,6 +233,32 @@ TEST(Scene, FlowOfWrongSizeIsRefused) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("00001_00002.flo"), std::string::npos) << e.what();
   }
+}
+
+// Ground truth vs renders: each frame's image, then each render folder's image of it.
+TEST(ContactSheet, RendersFollowTheirGroundTruth) {
+  test::TempDir dir;
+  const Scene scene = write_small_scene(dir / "s");
+  const fs::path renders = dir / "renders";
+  Image red(12, 8, 3);
+  for (std::size_t p = 0; p < red.pixels(); ++p) red.data[3 * p] = 1;
+  write_png(renders / "7" / "00001.png", red);
+  SheetOptions options;
+  options.cameras = {1};
+  options.frames = {1};
+  options.tile_width = 12;
+  options.gap = 2;
+  options.renders = {renders};
+  const Image sheet = contact_sheet(scene, options);
+  EXPECT_EQ(sheet.width, 2 + 2 * (12 + 2));  // ground truth, render; no mask / flow column
+  EXPECT_EQ(sheet.height, 2 + 8 + 2);
+  const Image truth = load_image(scene, 1, 1);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(sheet.at(2 + 3, 2 + 5, c), truth.at(3, 5, c), 1e-6);
+    EXPECT_NEAR(sheet.at(2 + 3, 16 + 5, c), c == 0 ? 1.0f : 0.0f, 1e-6);
+  }
+  options.frames = {2};  // no render of frame 2
+  test::expect_error([&] { contact_sheet(scene, options); }, {"7/00002.png"});
 }
 
 // The command line: one line on stderr naming the file, exit status 2, no output file.

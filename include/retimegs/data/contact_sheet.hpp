@@ -1,6 +1,9 @@
 #pragma once
 // A contact sheet of a scene: one row per camera; columns are frames, then the mask and a
 // colour-coded flow (hue = direction, saturation = speed, black = unknown) of the first frame.
+// With render folders (eval --save-renders): per frame the ground truth, then each folder's
+// DIR/<camera>/<frame:05d>.png beside it (no mask / flow columns) — ground truth vs renders.
+#include <filesystem>
 #include <vector>
 
 #include "retimegs/core/image.hpp"
@@ -13,6 +16,7 @@ struct SheetOptions {
   std::vector<int> frames;   // empty = first, middle and last frame
   int tile_width = 256;      // every tile is scaled to this width
   int gap = 4;               // pixels between tiles (white)
+  std::vector<std::filesystem::path> renders;  // folders of renders to compare, in column order
 };
 
 Image contact_sheet(const Scene& scene, const SheetOptions& options);
