@@ -12,7 +12,7 @@ factors=${FACTORS:-0.25 0.5 1 2 4}
 cameras=${CAMERAS:-12}
 size=${SIZE:-256x192}
 cap=${CAP:-30000}
-base_lr=1.6e-4  # TrainConfig::lr_velocity, the default being tuned
+base_lr=1.6e-4  # TrainConfig::lr_means; the sweep chose lr_velocity = 4 x this
 work=${WORK:-$root/bench/results/quality}
 bin="$root/build/apps/retimegs"
 [ -x "$bin" ] || "$root/scripts/setup.sh"
@@ -25,7 +25,6 @@ for preset in $presets; do
   for f in $factors; do
     lr=$(awk "BEGIN{printf \"%.6g\", $base_lr*$f}")
     run="$work/$preset/lr_velocity_x$f"
-    [ "$f" = 1 ] && [ -f "$work/$preset/full/metrics.json" ] && run="$work/$preset/full"  # quality.sh's
     metrics="$run/metrics.json"
     if [ ! -f "$metrics" ]; then
       rm -rf "$run"; mkdir -p "$run"
