@@ -47,7 +47,8 @@ void add_prepare_command(CLI::App& app) {
   cmd->add_option("--points", args->points,
                   "per-frame points: hull (visual hull of the masks; the default when every "
                   "training view has a mask), random (last resort; the default otherwise), "
-                  "ply DIR (import DIR/<frame:05d>.ply), colmap (COLMAP triangulation with the known poses); "
+                  "ply DIR (import DIR/<frame:05d>.ply), colmap (COLMAP triangulation with the "
+                  "known poses); "
                   "a comma list concatenates them, e.g. hull,colmap")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");

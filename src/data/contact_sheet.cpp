@@ -82,9 +82,9 @@ Image contact_sheet(const Scene& scene, const SheetOptions& options) {
     for (int k : frames) {
       row.push_back(to_rgb_tile(load_image(scene, c, k), options.tile_width));
       for (const auto& dir : options.renders)
-        row.push_back(to_rgb_tile(
-            read_image(dir / scene.cameras[c].name / fmt::format("{:05d}.png", k)),
-            options.tile_width));
+        row.push_back(
+            to_rgb_tile(read_image(dir / scene.cameras[c].name / fmt::format("{:05d}.png", k)),
+                        options.tile_width));
     }
     if (!options.renders.empty()) {
       rows.push_back(std::move(row));

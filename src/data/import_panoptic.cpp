@@ -5,8 +5,8 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgproc.hpp>
 
+#include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
@@ -26,12 +26,6 @@ struct SourceCamera {
   Camera camera;
   std::vector<std::string> files;  // [T] "<cam>/<frame:06d>.jpg", relative to ims/
 };
-
-double finite(const json& v, const std::string& file, const std::string& field) {
-  if (!v.is_number() || !std::isfinite(v.get<double>()))
-    fail("{}: '{}' must be a finite number, got {}", file, field, v.dump());
-  return v.get<double>();
-}
 
 // Reads one of train_meta.json / test_meta.json into cameras (static: time step 0 defines them;
 // later steps must agree).
@@ -83,7 +77,8 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
       for (int r = 0; r < 3; ++r) {
         if (!kk[r].is_array() || kk[r].size() != 3) fail("{}: 'k{}' must be 3x3", file, where);
         for (int col = 0; col < 3; ++col)
-          intr(r, col) = finite(kk[r][col], file, fmt::format("k{}[{}][{}]", where, r, col));
+          intr(r, col) =
+              detail::finite_number(kk[r][col], file, fmt::format("k{}[{}][{}]", where, r, col));
       }
       cam.fx = intr(0, 0), cam.fy = intr(1, 1), cam.cx = intr(0, 2), cam.cy = intr(1, 2);
       if (!(cam.fx > 0 && cam.fy > 0)) fail("{}: 'k{}' has non-positive focal length", file, where);
@@ -93,7 +88,7 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
         if (!m[r].is_array() || m[r].size() != 4) fail("{}: 'w2c{}' must be 4x4", file, where);
         for (int col = 0; col < 4; ++col)
           cam.world_to_camera(r, col) =
-              finite(m[r][col], file, fmt::format("w2c{}[{}][{}]", where, r, col));
+              detail::finite_number(m[r][col], file, fmt::format("w2c{}[{}][{}]", where, r, col));
       }
       check_rigid(cam.world_to_camera, fmt::format("{}: 'w2c{}'", file, where));
     }
@@ -101,22 +96,11 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
   return cams;
 }
 
-Image resize_area(const Image& image, int width, int height) {
-  if (image.width == width && image.height == height) return image;
-  cv::Mat src(image.height, image.width, CV_32FC(image.channels),
-              const_cast<float*>(image.data.data()));
-  Image out(width, height, image.channels);
-  cv::Mat dst(height, width, CV_32FC(image.channels), out.data.data());
-  cv::resize(src, dst, dst.size(), 0, 0, cv::INTER_AREA);
-  return out;
-}
-
 }  // namespace
 
 void import_panoptic(const fs::path& source, const fs::path& out, const ImportOptions& options) {
   if (!fs::is_directory(source)) fail("{}: Panoptic source folder does not exist", source.string());
-  if (!(options.downscale >= 1.0) || !std::isfinite(options.downscale))
-    fail("--downscale: must be a finite number >= 1, got {}", options.downscale);
+  detail::check_downscale(options.downscale);
   std::vector<SourceCamera> cams = read_meta(source / "train_meta.json", Split::kTrain);
   if (fs::exists(source / "test_meta.json")) {
     auto test = read_meta(source / "test_meta.json", Split::kTest);
@@ -145,15 +129,8 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
   scene.num_frames = last - first + 1;
   scene.fps = kPanopticFps;
   scene.up = {0, -1, 0};  // Panoptic world: floor at y = 0, people at y < 0
-  for (auto& c : cams) {
-    Camera cam = c.camera;
-    const int width = int(std::lround(cam.width / options.downscale));
-    const int height = int(std::lround(cam.height / options.downscale));
-    const double sx = double(width) / cam.width, sy = double(height) / cam.height;
-    cam.fx *= sx, cam.cx *= sx, cam.fy *= sy, cam.cy *= sy;
-    cam.width = width, cam.height = height;
-    scene.cameras.push_back(cam);
-  }
+  for (const auto& c : cams)
+    scene.cameras.push_back(detail::downscaled(c.camera, options.downscale));
 
   // Check every source file before writing anything.
   struct Job {
@@ -185,13 +162,15 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
           image.height != cams[job.camera].camera.height)
         fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
              image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
-      write_png(scene.image_path(job.camera, job.frame), resize_area(image, cam.width, cam.height));
+      write_png(scene.image_path(job.camera, job.frame),
+                detail::resize_area(image, cam.width, cam.height));
       if (!job.mask.empty()) {
         const Image mask = read_mask(job.mask);
         if (mask.width != image.width || mask.height != image.height)
           fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width,
                mask.height, image.width, image.height);
-        write_png(scene.mask_path(job.camera, job.frame), resize_area(mask, cam.width, cam.height));
+        write_png(scene.mask_path(job.camera, job.frame),
+                  detail::resize_area(mask, cam.width, cam.height));
       }
       progress.tick();
     } catch (const std::exception& e) {

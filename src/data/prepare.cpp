@@ -1,10 +1,10 @@
 #include "retimegs/data/prepare.hpp"
 
+#include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <optional>
 #include <system_error>
-#include <unistd.h>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
@@ -29,8 +29,8 @@ struct FlowJob {
 
 // COLMAP's points of frame k, triangulated in a temporary folder that is removed afterwards.
 PointCloud colmap_points(const Scene& scene, int k, const ColmapOptions& options) {
-  const fs::path work = fs::temp_directory_path() /
-                        fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
+  const fs::path work =
+      fs::temp_directory_path() / fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
   struct Remove {
     fs::path path;
     ~Remove() {
@@ -197,7 +197,8 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
 
   std::vector<PointsSource> sources = options.points;
   if (sources.empty())
-    sources = {has_every_mask(scene, cameras, frames) ? PointsSource::kHull : PointsSource::kRandom};
+    sources = {has_every_mask(scene, cameras, frames) ? PointsSource::kHull
+                                                      : PointsSource::kRandom};
 
   // Check every input before writing anything.
   report.flows_imported = !options.flow_dir.empty();
@@ -205,28 +206,28 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
   std::vector<PointCloud> imported(point_frames.size());
   if (!point_frames.empty()) {
     for (PointsSource source : sources) switch (source) {
-      case PointsSource::kHull:
-        for (int c : cameras)
-          for (int k : point_frames)
-            if (!fs::exists(scene.mask_path(c, k)))
-              fail(
-                  "{}: no mask; --points hull needs a mask for every training camera at every "
-                  "training frame (use --points random, ply or colmap instead)",
-                  scene.mask_path(c, k).string());
-        break;
-      case PointsSource::kPly:
-        if (!fs::is_directory(options.points_dir))
-          fail("--points ply: {}: not a directory", options.points_dir.string());
-        for (std::size_t i = 0; i < point_frames.size(); ++i)
-          imported[i] =
-              read_frame_points(options.points_dir / fmt::format("{:05d}.ply", point_frames[i]));
-        break;
-      case PointsSource::kColmap:
-        find_colmap(options.colmap);
-        break;
-      default:
-        break;
-    }
+        case PointsSource::kHull:
+          for (int c : cameras)
+            for (int k : point_frames)
+              if (!fs::exists(scene.mask_path(c, k)))
+                fail(
+                    "{}: no mask; --points hull needs a mask for every training camera at every "
+                    "training frame (use --points random, ply or colmap instead)",
+                    scene.mask_path(c, k).string());
+          break;
+        case PointsSource::kPly:
+          if (!fs::is_directory(options.points_dir))
+            fail("--points ply: {}: not a directory", options.points_dir.string());
+          for (std::size_t i = 0; i < point_frames.size(); ++i)
+            imported[i] =
+                read_frame_points(options.points_dir / fmt::format("{:05d}.ply", point_frames[i]));
+          break;
+        case PointsSource::kColmap:
+          find_colmap(options.colmap);
+          break;
+        default:
+          break;
+      }
   }
 
   // Flows.
@@ -270,8 +271,8 @@ PrepareReport prepare_scene(const Scene& scene, const PrepareOptions& options) {
   start = std::chrono::steady_clock::now();
   if (!point_frames.empty()) {
     for (PointsSource source : sources)
-      report.points_source += (report.points_source.empty() ? "" : ",") +
-                              std::string(points_source_name(source));
+      report.points_source +=
+          (report.points_source.empty() ? "" : ",") + std::string(points_source_name(source));
     const std::size_t random_count =
         std::max(kMinRandomPointsPerFrame, options.random_points_total / frames.size());
     Progress progress("points", point_frames.size(), options.progress);

@@ -5,9 +5,9 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/data/contact_sheet.hpp"
 #include "retimegs/data/flow_io.hpp"
 #include "retimegs/data/image_io.hpp"
-#include "retimegs/data/contact_sheet.hpp"
 #include "retimegs/data/scene.hpp"
 #include "test_util.hpp"
 

@@ -19,10 +19,10 @@
 namespace retimegs::data {
 
 enum class PointsSource {
-  kHull,     // visual_hull()
-  kRandom,   // random_points(): the last resort
-  kPly,      // read_frame_points(points_dir / "<frame:05d>.ply")
-  kColmap,   // data/colmap.hpp's triangulate_with_colmap with `colmap` below
+  kHull,    // visual_hull()
+  kRandom,  // random_points(): the last resort
+  kPly,     // read_frame_points(points_dir / "<frame:05d>.ply")
+  kColmap,  // data/colmap.hpp's triangulate_with_colmap with `colmap` below
 };
 
 struct PrepareOptions {
@@ -38,7 +38,7 @@ struct PrepareOptions {
   // at every training frame, else kRandom.
   std::vector<PointsSource> points;
   std::filesystem::path points_dir;  // for kPly
-  ColmapOptions colmap;  // kColmap; it works in a temporary folder, removed afterwards
+  ColmapOptions colmap;              // kColmap; it works in a temporary folder, removed afterwards
   HullOptions hull;
   // Points per frame of kRandom: training's fallback seeds 20 000 in total, so 20 000 spread over
   // the training frames, at least kMinRandomPointsPerFrame each.
@@ -54,7 +54,8 @@ struct PrepareReport {
   std::size_t flows_written = 0, flows_kept = 0;  // files
   bool flows_imported = false;
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
-  std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty: nothing to do)
+  std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
+                                // nothing to do)
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double flow_seconds = 0, points_seconds = 0;
