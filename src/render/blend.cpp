@@ -37,7 +37,7 @@ constexpr int kBlocksPerSide = kTileSize / kBlockSide;    // 4
 constexpr int kBlocks = kBlocksPerSide * kBlocksPerSide;  // per tile
 static_assert(kBlockSide * kBlockSide == kLanes, "one vector per block");
 static_assert(kTileSize == kLanes, "footprint_blocks: one lane per tile row");
-static_assert(kBlocks <= 32, "block masks are 32-bit");
+static_assert(kBlocks <= 16, "block masks are saved as 16 bits");
 constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
 
 // Lane l of a block is pixel (row l / 4, column l % 4) of the block.
@@ -173,6 +173,7 @@ constexpr int kPrefetchDistance = 32;
 // A tile and its depth-ordered list of Gaussians.
 struct TileList {
   int x0 = 0, y0 = 0, rows = 0, columns = 0, count = 0;
+  std::int32_t begin = 0;                  // the tile's first intersection
   const std::int32_t* gaussian = nullptr;  // [count] Gaussian index of each list entry
   const Context* ctx = nullptr;
 
@@ -182,7 +183,7 @@ struct TileList {
     y0 = ty * kTileSize;
     rows = std::min(kTileSize, ctx->in->height - y0);
     columns = std::min(kTileSize, ctx->in->width - x0);
-    const std::int32_t begin = ctx->bins->isect_offsets[tile];
+    begin = ctx->bins->isect_offsets[tile];
     count = ctx->bins->isect_offsets[tile + 1] - begin;
     gaussian = &ctx->bins->gaussian_from_isect[begin];
   }
@@ -279,7 +280,9 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
     list.prefetch(k + kPrefetchDistance);
     const float* s = list.splat(k);
     const float du = list.du(s), dv = list.dv(s);
-    std::uint32_t todo = live_blocks & footprint_blocks(s, du, dv);
+    const std::uint32_t footprint = footprint_blocks(s, du, dv);
+    out.footprint_blocks[list.begin + k] = std::uint16_t(footprint);
+    std::uint32_t todo = live_blocks & footprint;
     if (!todo) continue;
     const vi index = simd::splat_int(k + 1);
     const PixelOffsets offsets(du, dv);
@@ -384,11 +387,11 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   for (int k = max_last - 1; k >= max_last - 1 - kPrefetchDistance; --k) prefetch(k);
   for (int k = max_last - 1; k >= 0; --k) {
     prefetch(k - kPrefetchDistance);
+    std::uint32_t todo = simd::bits(simd::less(simd::splat_int(k), block_last)) &
+                         fwd.footprint_blocks[list.begin + k];
+    if (!todo) continue;
     const float* s = list.splat(k);
     const float du = list.du(s), dv = list.dv(s);
-    std::uint32_t todo =
-        simd::bits(simd::less(simd::splat_int(k), block_last)) & footprint_blocks(s, du, dv);
-    if (!todo) continue;
     const float a = 2.0f * s[kHalfA], b = s[kB], c_conic = 2.0f * s[kHalfC];
     // With w = d loss / d alpha_raw * alpha_raw = -d loss / d sigma per pixel, the gradient is
     // sum w, sum w dx, sum w dy, sum w dx^2, sum w dx dy, sum w dy^2 (combined after the loop).
@@ -499,6 +502,7 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
   out.final_T.resize(pixels);
   out.last_contributor.resize(pixels);
   out.n_contrib.resize(pixels);
+  out.footprint_blocks.resize(bins.num_intersections());
   dispatch_channels(ctx.channels_ext, [&]<int kC>() {
 #pragma omp parallel
     {
@@ -521,6 +525,8 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
   if (!v_image) fail("blend_backward: v_image is required");
   if (v_depth && !options.render_depth)
     fail("blend_backward: v_depth given but the forward did not render depth");
+  if (forward.footprint_blocks.size() != bins.num_intersections())
+    fail("blend_backward: the saved forward does not match these tile bins");
   const Context ctx(in, bins, options);
   const Rule rule(options);
   const std::size_t n = in.projected->size();

@@ -32,6 +32,10 @@ struct BlendOutput {
   std::vector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
                                                // Gaussian composited; 0 = none
   std::vector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
+  // [M] per tile intersection: the 4x4-pixel blocks of its tile (bit 4 * block row + block
+  // column) that hold a pixel centre of the Gaussian's alpha >= min_alpha ellipse. Set for the
+  // intersections that the forward reached before its tile saturated (all the backward visits).
+  std::vector<std::uint16_t> footprint_blocks;
 };
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
