@@ -436,15 +436,18 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     }
     // d sigma / d (u, v) = (a dx + b dy, b dx + c dy); d sigma / d (a, b, c) = (dx^2 / 2, dx dy,
     // dy^2 / 2); d alpha_raw / d opacity = alpha_raw / opacity.
-    const float sx = simd::sum(w_dx_sum), sy = simd::sum(w_dy_sum);
+    const vf sums = simd::sum8({w_sum, w_dx_sum, w_dy_sum, w_dx2_sum, w_dxdy_sum, w_dy2_sum,
+                                v_feat[0], channels > 1 ? v_feat[1] : vf{}});
+    const float sx = sums[1], sy = sums[2];
     float* g = grad_buffer + std::size_t(list.gaussian[k]) * grad_stride;
     g[kGradU] -= a * sx + b * sy;
     g[kGradV] -= b * sx + c_conic * sy;
-    g[kGradA] -= 0.5f * simd::sum(w_dx2_sum);
-    g[kGradB] -= simd::sum(w_dxdy_sum);
-    g[kGradC] -= 0.5f * simd::sum(w_dy2_sum);
-    g[kGradOpacity] += simd::sum(w_sum) / s[kOpacity];
-    for (int c = 0; c < channels; ++c) g[kGradHeader + c] += simd::sum(v_feat[c]);
+    g[kGradA] -= 0.5f * sums[3];
+    g[kGradB] -= sums[4];
+    g[kGradC] -= 0.5f * sums[5];
+    g[kGradOpacity] += sums[0] / s[kOpacity];
+    for (int c = 0; c < channels; ++c)
+      g[kGradHeader + c] += c < 2 ? sums[6 + c] : simd::sum(v_feat[c]);
   }
 }
 
