@@ -57,7 +57,7 @@ inline int state_index(int row, int column) {
 // The footprint test widens the level sigma <= ln(opacity / min_alpha) by 1 % + 0.01, far more
 // than the float rounding of sigma (a few ulps of its largest term) and of the fast exp (3e-7):
 // a pixel that the blend composites is never left out. The cost is ~0.5 % more lanes.
-constexpr double kLevelRelMargin = 1.01, kLevelAbsMargin = 0.01;
+constexpr float kLevelRelMargin = 1.01f, kLevelAbsMargin = 0.01f;
 
 // One 2-D Gaussian packed for the blend: header, then its features (+ depth). The footprint of a
 // tile row at offset dy = v - y from the centre is the interval of pixel-centre columns
@@ -81,9 +81,11 @@ struct Context {
   const BlendInputs* in;
   const TileBins* bins;
   const RenderOptions* options;
-  int channels_ext;               // C (+ 1 when depth is composited)
-  int stride;                     // kHeader + channels_ext, rounded up to whole cache lines
-  std::vector<vf> packed;         // [N, stride] floats, 64-byte aligned
+  int channels_ext;  // C (+ 1 when depth is composited)
+  int stride;        // kHeader + channels_ext, rounded up to whole cache lines
+  // [N, stride] floats, 64-byte aligned; rows of culled Gaussians (never binned) are left
+  // uninitialised.
+  std::unique_ptr<vf[]> packed;
   std::vector<float> background;  // [channels_ext]
 
   Context(const BlendInputs& blend_in, const TileBins& tile_bins, const RenderOptions& opts)
@@ -95,11 +97,12 @@ struct Context {
     background.assign(channels_ext, 0.0f);
     if (in->background) std::copy(in->background, in->background + c, background.begin());
     const std::size_t n = p.size();
-    packed.resize(n * stride / kLanes);
+    packed.reset(new vf[n * stride / kLanes]);
+    const float log_min_alpha = options->min_alpha > 0 ? std::log(options->min_alpha) : 0.0f;
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(n); ++g) {
       if (p.radii[g] <= 0) continue;
-      float* s = reinterpret_cast<float*>(packed.data()) + g * stride;
+      float* s = reinterpret_cast<float*>(packed.get()) + g * stride;
       const float opacity = in->opacities[g];
       s[kU] = p.means2d[2 * g];
       s[kV] = p.means2d[2 * g + 1];
@@ -107,13 +110,15 @@ struct Context {
       s[kB] = p.conics[3 * g + 1];
       s[kHalfC] = 0.5f * p.conics[3 * g + 2];
       s[kOpacity] = opacity;
-      s[kLog2Opacity] = std::log2(opacity);
+      const float log2_opacity = std::log2(opacity);
+      s[kLog2Opacity] = log2_opacity;
+      // det in double: a c and b^2 nearly cancel for thin footprints.
       const double a = p.conics[3 * g], b = p.conics[3 * g + 1], cc = p.conics[3 * g + 2];
       const double det = a * cc - b * b;
       if (options->min_alpha > 0 && a > 0 && det > 0) {
-        const double level =
-            std::max(0.0, std::log(opacity / double(options->min_alpha))) * kLevelRelMargin +
-            kLevelAbsMargin;
+        constexpr float kLn2 = 0.693147180559945f;
+        const float level =
+            std::max(0.0f, log2_opacity * kLn2 - log_min_alpha) * kLevelRelMargin + kLevelAbsMargin;
         s[kRowCentreSlope] = float(b / a);
         s[kHalfWidth2Level] = float(2 * level / a);
         s[kHalfWidth2Slope] = float(det / (a * a));
@@ -128,7 +133,7 @@ struct Context {
   }
 
   const float* splat(std::int32_t g) const {
-    return reinterpret_cast<const float*>(packed.data()) + std::size_t(g) * stride;
+    return reinterpret_cast<const float*>(packed.get()) + std::size_t(g) * stride;
   }
 };
 
