@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <bit>
 #include <climits>
+#include <cmath>
 #include <utility>
 
 #include "retimegs/core/error.hpp"
+#include "simd.hpp"
 
 namespace retimegs::render {
 namespace {
@@ -42,6 +44,70 @@ void radix_sort_pairs(std::vector<std::uint32_t>& keys, std::vector<std::int32_t
   }
 }
 
+// blend_tile_rect (project.cpp) of 16 Gaussians at a time, operation for operation in float, the
+// logarithm per lane. Lanes of culled Gaussians (radius 0) get an empty rect.
+void blend_tile_rects(const Projected& p, const float* opacities, int tiles_x, int tiles_y,
+                      const RenderOptions& options, std::vector<TileRect>& rects) {
+  using simd::vf;
+  using simd::vi;
+  constexpr int kLanes = simd::kLanes;
+  const std::size_t n = p.size();
+  const vf lim = simd::splat(1e8f);                   // kMaxPixelCoordinate
+  const vf inv_tile = simd::splat(1.0f / kTileSize);  // exact: a power of two
+  const auto clamp_int = [](vi a, int hi) {
+    return simd::min(simd::max(a, vi{}), simd::splat_int(hi));
+  };
+  const auto trunc = [](vf a) { return __builtin_convertvector(a, vi); };
+  const auto floor_tile = [&](vf x) {
+    return simd::floor_to_int(simd::min(simd::max(x, -lim), lim) * inv_tile);
+  };
+  const bool tight = options.tight_tile_bounds && options.min_alpha > 0;
+  constexpr float kRelMargin = 1.001f, kAbsMargin = 0.01f;  // as alpha_extent
+  const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t b = 0; b < batches; ++b) {
+    const std::size_t first = std::size_t(b) * kLanes;
+    const int count = int(std::min<std::size_t>(kLanes, n - first));
+    vf u{}, v{}, c0{}, c1{}, c2{}, level{};
+    vi radius{};
+    for (int l = 0; l < count; ++l) {
+      const std::size_t i = first + l;
+      u[l] = p.means2d[2 * i];
+      v[l] = p.means2d[2 * i + 1];
+      c0[l] = p.conics[3 * i];
+      c1[l] = p.conics[3 * i + 1];
+      c2[l] = p.conics[3 * i + 2];
+      radius[l] = p.radii[i];
+      if (tight && radius[l] > 0) level[l] = std::log(opacities[i] / options.min_alpha);
+    }
+    // radius_tile_rect: C-style truncation toward zero, as gsplat v0.1.13.
+    const vf uc = simd::min(simd::max(u, -lim), lim), vc = simd::min(simd::max(v, -lim), lim);
+    const vf r = __builtin_convertvector(radius, vf) * inv_tile;
+    vi x0 = clamp_int(trunc(uc * inv_tile - r), tiles_x);
+    vi x1 = clamp_int(trunc(uc * inv_tile + r) + 1, tiles_x);
+    vi y0 = clamp_int(trunc(vc * inv_tile - r), tiles_y);
+    vi y1 = clamp_int(trunc(vc * inv_tile + r) + 1, tiles_y);
+    if (tight) {
+      // alpha_extent: the half-extents of sigma <= level; none where level <= 0.
+      const vf det = c0 * c2 - c1 * c1;
+      const vf two_level = 2.0f * simd::max(level, vf{});
+      const simd::mask some = simd::less(vf{}, level);
+      const vf ext_x = simd::select(
+          some, simd::sqrt_nonnegative(two_level * (c2 / det)) * kRelMargin + kAbsMargin, vf{});
+      const vf ext_y = simd::select(
+          some, simd::sqrt_nonnegative(two_level * (c0 / det)) * kRelMargin + kAbsMargin, vf{});
+      x0 = simd::max(x0, floor_tile(u - ext_x));
+      x1 = simd::min(x1, floor_tile(u + ext_x) + 1);
+      y0 = simd::max(y0, floor_tile(v - ext_y));
+      y1 = simd::min(y1, floor_tile(v + ext_y) + 1);
+    }
+    for (int l = 0; l < count; ++l) {
+      const bool empty = radius[l] <= 0 || x1[l] <= x0[l] || y1[l] <= y0[l];
+      rects[first + l] = empty ? TileRect{} : TileRect{x0[l], y0[l], x1[l], y1[l]};
+    }
+  }
+}
+
 }  // namespace
 
 TileBins bin_tiles(const Projected& projected, const float* opacities, int width, int height,
@@ -54,15 +120,11 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
 
   // Tile rectangles; Gaussians that reach no tile are dropped here.
   std::vector<TileRect> rects(n);  // [N]
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(n); ++i) {
-    if (projected.radii[i] <= 0) continue;
-    rects[i] =
-        blend_tile_rect(&projected.means2d[2 * i], &projected.conics[3 * i], projected.radii[i],
-                        opacities[i], bins.tiles_x, bins.tiles_y, options);
-  }
+  blend_tile_rects(projected, opacities, bins.tiles_x, bins.tiles_y, options, rects);
   std::vector<std::uint32_t> depth_keys;        // [V] float bits of a positive depth sort as uints
   std::vector<std::int32_t> gaussian_by_depth;  // [V]
+  depth_keys.reserve(n);
+  gaussian_by_depth.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (rects[i].area() <= 0) continue;
     depth_keys.push_back(std::bit_cast<std::uint32_t>(projected.depths[i]));
