@@ -36,6 +36,7 @@ constexpr int kBlockSide = 4;                             // pixels per block si
 constexpr int kBlocksPerSide = kTileSize / kBlockSide;    // 4
 constexpr int kBlocks = kBlocksPerSide * kBlocksPerSide;  // per tile
 static_assert(kBlockSide * kBlockSide == kLanes, "one vector per block");
+static_assert(sizeof(CacheLine) == sizeof(vf), "records are whole vectors");
 static_assert(kTileSize == kLanes, "footprint_blocks: one lane per tile row");
 static_assert(kBlocks <= 16, "block masks are saved as 16 bits");
 constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
@@ -81,14 +82,17 @@ struct Context {
   const BlendInputs* in;
   const TileBins* bins;
   const RenderOptions* options;
-  int channels_ext;  // C (+ 1 when depth is composited)
-  int stride;        // kHeader + channels_ext, rounded up to whole cache lines
-  // [N, stride] floats, 64-byte aligned; rows of culled Gaussians (never binned) are left
-  // uninitialised.
-  std::unique_ptr<vf[]> packed;
+  int channels_ext;               // C (+ 1 when depth is composited)
+  int stride;                     // kHeader + channels_ext, rounded up to whole cache lines
   std::vector<float> background;  // [channels_ext]
+  // [N, stride] floats, 64-byte aligned, in `records` or borrowed from the forward; rows of
+  // culled Gaussians (never binned) are left uninitialised.
+  std::vector<CacheLine> records;
+  const float* packed = nullptr;
 
-  Context(const BlendInputs& blend_in, const TileBins& tile_bins, const RenderOptions& opts)
+  // Packs the records, or borrows `saved` (from blend_forward with the same inputs) when given.
+  Context(const BlendInputs& blend_in, const TileBins& tile_bins, const RenderOptions& opts,
+          const std::vector<CacheLine>* saved = nullptr)
       : in(&blend_in), bins(&tile_bins), options(&opts) {
     const Projected& p = *in->projected;
     const int c = in->channels;
@@ -97,12 +101,18 @@ struct Context {
     background.assign(channels_ext, 0.0f);
     if (in->background) std::copy(in->background, in->background + c, background.begin());
     const std::size_t n = p.size();
-    packed.reset(new vf[n * stride / kLanes]);
+    const std::size_t lines = n * stride / kLanes;
+    if (saved && lines > 0 && saved->size() == lines) {
+      packed = saved->front().values;
+      return;
+    }
+    records.resize(lines);
+    packed = lines > 0 ? records.front().values : nullptr;
     const float log_min_alpha = options->min_alpha > 0 ? std::log(options->min_alpha) : 0.0f;
 #pragma omp parallel for schedule(static)
     for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(n); ++g) {
       if (p.radii[g] <= 0) continue;
-      float* s = reinterpret_cast<float*>(packed.get()) + g * stride;
+      float* s = records[std::size_t(g) * stride / kLanes].values;
       const float opacity = in->opacities[g];
       s[kU] = p.means2d[2 * g];
       s[kV] = p.means2d[2 * g + 1];
@@ -133,7 +143,7 @@ struct Context {
   }
 
   const float* splat(std::int32_t g) const {
-    return reinterpret_cast<const float*>(packed.get()) + std::size_t(g) * stride;
+    return packed + std::size_t(g) * stride;
   }
 };
 
@@ -500,7 +510,7 @@ void check_inputs(const BlendInputs& in, const TileBins& bins) {
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
                           const RenderOptions& options) {
   check_inputs(in, bins);
-  const Context ctx(in, bins, options);
+  Context ctx(in, bins, options);
   const Rule rule(options);
   const std::size_t pixels = std::size_t(in.width) * in.height;
   BlendOutput out;
@@ -523,6 +533,7 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
       }
     }
   });
+  out.records = std::move(ctx.records);  // the buffer moves: ctx.packed is not used again
   return out;
 }
 
@@ -535,7 +546,7 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
     fail("blend_backward: v_depth given but the forward did not render depth");
   if (forward.footprint_blocks.size() != bins.num_intersections())
     fail("blend_backward: the saved forward does not match these tile bins");
-  const Context ctx(in, bins, options);
+  const Context ctx(in, bins, options, &forward.records);
   const Rule rule(options);
   const std::size_t n = in.projected->size();
   const int c = in.channels;

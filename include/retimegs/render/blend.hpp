@@ -23,6 +23,13 @@ struct BlendInputs {
   int width = 0, height = 0;
 };
 
+// 64 bytes, the unit of the blend's packed Gaussian records. Default construction leaves it
+// uninitialised: the records are written once, in parallel.
+struct alignas(64) CacheLine {
+  float values[16];
+  CacheLine() {}  // NOLINT: no zero-fill
+};
+
 struct BlendOutput {
   Image image;               // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
   std::vector<float> alpha;  // [H, W] 1 - T_final
@@ -36,6 +43,9 @@ struct BlendOutput {
   // column) that hold a pixel centre of the Gaussian's alpha >= min_alpha ellipse. Set for the
   // intersections that the forward reached before its tile saturated (all the backward visits).
   std::vector<std::uint16_t> footprint_blocks;
+  // [N, lines per Gaussian] the Gaussians packed for the blend (blend.cpp's record layout), so
+  // that the backward does not pack them again.
+  std::vector<CacheLine> records;
 };
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
