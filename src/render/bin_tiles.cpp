@@ -19,28 +19,44 @@ constexpr int kRadixBits = 8;
 constexpr int kRadixBuckets = 1 << kRadixBits;
 constexpr int kKeyBits = 32;
 
-// Stable LSD radix sort of (key, value) pairs by key, one byte per pass, skipping bytes in which
-// all keys agree (depths in [3, 6] share their top byte). Serial: a few milliseconds for 300k
-// Gaussians, and no barriers for a busy core to hold up.
-void radix_sort_pairs(std::vector<std::uint32_t>& keys, std::vector<std::int32_t>& values) {
-  const std::size_t n = keys.size();
-  std::uint32_t varying = 0;  // bits in which some key differs from the first
-  for (std::size_t i = 1; i < n; ++i) varying |= keys[i] ^ keys[0];
-  std::vector<std::uint32_t> keys_tmp(n);
-  std::vector<std::int32_t> values_tmp(n);
+// Stable LSD radix sort of 64-bit items by their upper 32 bits (the key; the lower half is the
+// value), one byte per pass, skipping bytes in which all keys agree (depths in [3, 6] share
+// their top byte). Each pass splits the items into one contiguous run per thread: the threads
+// count their run's digits, the offsets of (digit, thread) are summed in that order, and each
+// thread scatters its run; a stable sort has one result, whatever the thread count.
+void radix_sort_by_key(std::vector<std::uint64_t>& items) {
+  constexpr int kValueBits = 32;
+  const std::size_t n = items.size();
+  std::uint64_t varying = 0;  // bits in which some key differs from the first
+  for (std::size_t i = 1; i < n; ++i) varying |= items[i] ^ items[0];
+  varying >>= kValueBits;
+  constexpr std::size_t kItemsPerThread = 16384;  // below: one thread (fork/join would dominate)
+  const int threads = int(std::min<std::size_t>(omp_get_max_threads(), n / kItemsPerThread + 1));
+  std::vector<std::uint64_t> sorted(n);
+  std::vector<std::size_t> offsets(std::size_t(threads) * kRadixBuckets);  // [threads, buckets]
   for (int shift = 0; shift < kKeyBits; shift += kRadixBits) {
     if (((varying >> shift) & (kRadixBuckets - 1)) == 0) continue;  // one bucket: order kept
-    std::size_t offsets[kRadixBuckets] = {};
-    for (std::size_t i = 0; i < n; ++i) ++offsets[(keys[i] >> shift) & (kRadixBuckets - 1)];
-    std::size_t offset = 0;
-    for (std::size_t& o : offsets) offset += std::exchange(o, offset);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t dst = offsets[(keys[i] >> shift) & (kRadixBuckets - 1)]++;
-      keys_tmp[dst] = keys[i];
-      values_tmp[dst] = values[i];
+    const auto digit = [&](std::uint64_t item) {
+      return std::size_t(item >> (kValueBits + shift)) & (kRadixBuckets - 1);
+    };
+#pragma omp parallel num_threads(threads)
+    {
+      const int t = omp_get_thread_num();
+      const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
+      std::size_t* own = &offsets[std::size_t(t) * kRadixBuckets];
+      std::fill(own, own + kRadixBuckets, 0);
+      for (std::size_t i = begin; i < end; ++i) ++own[digit(items[i])];
+#pragma omp barrier
+#pragma omp single
+      {
+        std::size_t offset = 0;
+        for (int d = 0; d < kRadixBuckets; ++d)
+          for (int u = 0; u < threads; ++u)
+            offset += std::exchange(offsets[std::size_t(u) * kRadixBuckets + d], offset);
+      }
+      for (std::size_t i = begin; i < end; ++i) sorted[own[digit(items[i])]++] = items[i];
     }
-    keys.swap(keys_tmp);
-    values.swap(values_tmp);
+    items.swap(sorted);
   }
 }
 
@@ -121,23 +137,24 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
   // Tile rectangles; Gaussians that reach no tile are dropped here.
   std::vector<TileRect> rects(n);  // [N]
   blend_tile_rects(projected, opacities, bins.tiles_x, bins.tiles_y, options, rects);
-  std::vector<std::uint32_t> depth_keys;        // [V] float bits of a positive depth sort as uints
-  std::vector<std::int32_t> gaussian_by_depth;  // [V]
-  depth_keys.reserve(n);
-  gaussian_by_depth.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (rects[i].area() <= 0) continue;
-    depth_keys.push_back(std::bit_cast<std::uint32_t>(projected.depths[i]));
-    gaussian_by_depth.push_back(std::int32_t(i));
-  }
-  radix_sort_pairs(depth_keys, gaussian_by_depth);
+  // [V] (depth << 32 | Gaussian): the float bits of a positive depth sort as uints.
+  std::vector<std::uint64_t> by_depth;
+  by_depth.reserve(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (rects[i].area() > 0)
+      by_depth.push_back(std::uint64_t(std::bit_cast<std::uint32_t>(projected.depths[i])) << 32 |
+                         std::uint32_t(i));
+  radix_sort_by_key(by_depth);
+  std::vector<std::int32_t> gaussian_by_depth(by_depth.size());  // [V]
 
   // The rectangles in depth order: the two passes below then read them sequentially.
   const std::size_t v = gaussian_by_depth.size();
   std::vector<TileRect> rects_by_depth(v);  // [V]
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(v); ++k)
+  for (std::ptrdiff_t k = 0; k < std::ptrdiff_t(v); ++k) {
+    gaussian_by_depth[k] = std::int32_t(by_depth[k] & 0xffffffffu);
     rects_by_depth[k] = rects[gaussian_by_depth[k]];
+  }
 
   // Counting sort by tile: each thread takes a contiguous run of the depth order, counts its
   // intersections per tile, and scatters them after those of the threads before it.
