@@ -190,19 +190,18 @@ inline std::int32_t reduce_max(vi v) {
   return r;
 }
 
-// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and e^x by
-// its degree-6 Taylor polynomial (relative remainder (ln(2) / 2)^7 / 7! = 1.2e-7), the factor
-// sqrt(2) folded into the coefficients.
+// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and
+// sqrt(2) e^x by the degree-5 polynomial that interpolates it at the 6 Chebyshev nodes of that
+// interval (relative error 1.0e-7, below the 1.6e-7 of the degree-6 Taylor polynomial).
 inline vf exp2_fraction(vf f) {
-  constexpr float kLn2 = 0.693147180559945f, kSqrt2 = 1.41421356237310f;
+  constexpr float kLn2 = 0.693147180559945f;
   const vf x = f * kLn2 - 0.5f * kLn2;
-  vf p = splat(kSqrt2 / 720);
-  p = p * x + kSqrt2 / 120;
-  p = p * x + kSqrt2 / 24;
-  p = p * x + kSqrt2 / 6;
-  p = p * x + kSqrt2 / 2;
-  p = p * x + kSqrt2;
-  p = p * x + kSqrt2;
+  vf p = splat(0.011835763f);
+  p = p * x + 0.059280306f;
+  p = p * x + 0.23569998f;
+  p = p * x + 0.70709080f;
+  p = p * x + 1.4142135f;
+  p = p * x + 1.4142137f;
   return p;
 }
 
