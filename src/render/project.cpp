@@ -4,21 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include <Eigen/Core>
 
+#include "project_lanes.hpp"
+
 namespace retimegs::render {
 namespace {
-
-// gsplat v0.1.13 compute_radius: lambda = b + sqrt(max(b^2 - det, 0.1)); the floor keeps the
-// square root of a round-off-negative discriminant finite.
-constexpr double kRadiusDiscriminantFloor = 0.1;
-constexpr double kRadiusSigmas = 3.0;  // the footprint is 3 standard deviations of the major axis
-// Field-of-view guard of the Jacobian: x/z is clamped to the image plus 30 % of its half-width
-// (gsplat: lim = 1.3 * tan_fov, measured from the principal point).
-constexpr double kFovGuard = 0.3;
-// Pixel coordinates are clamped to this before integer conversion (far off-image anyway).
-constexpr double kMaxPixelCoordinate = 1e8;
 
 template <typename T>
 using Mat3 = Eigen::Matrix<T, 3, 3>;
@@ -172,9 +165,10 @@ TileRect blend_tile_rect(const T* mean2d, const T* conic, int radius, T opacity,
   return rect;
 }
 
+// One Gaussian at a time: the double-precision reference's path.
 template <typename T>
-ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
-                              const RenderOptions& options) {
+ProjectedT<T> project_forward_scalar(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                                     const RenderOptions& options) {
   const std::size_t n = g.size();
   ProjectedT<T> out;
   out.means2d.assign(2 * n, T(0));
@@ -218,9 +212,9 @@ ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
 }
 
 template <typename T>
-void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
-                      const ProjectedT<T>& projected, const RenderOptions& options,
-                      GaussianGradsT<T>& grads) {
+void project_backward_scalar(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                             const ProjectedT<T>& projected, const RenderOptions& options,
+                             GaussianGradsT<T>& grads) {
   const std::size_t n = g.size();
   // Every row is written below.
   grads.v_means.resize(3 * n);
@@ -288,6 +282,28 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
     }
     const Vec3<T> v_mean = rv.transpose() * v_p;
     for (int k = 0; k < 3; ++k) grads.v_means[3 * i + k] = v_mean[k];
+  }
+}
+
+// Float goes 16 Gaussians at a time (project_lanes.cpp).
+template <typename T>
+ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                              const RenderOptions& options) {
+  if constexpr (std::is_same_v<T, float>) {
+    return project_forward_lanes(g, camera, options);
+  } else {
+    return project_forward_scalar(g, camera, options);
+  }
+}
+
+template <typename T>
+void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                      const ProjectedT<T>& projected, const RenderOptions& options,
+                      GaussianGradsT<T>& grads) {
+  if constexpr (std::is_same_v<T, float>) {
+    project_backward_lanes(g, camera, projected, options, grads);
+  } else {
+    project_backward_scalar(g, camera, projected, options, grads);
   }
 }
 

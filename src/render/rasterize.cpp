@@ -1,8 +1,11 @@
 // The rasteriser pipeline: validation, then project -> bin_tiles -> blend, and back.
 #include "retimegs/render/rasterize.hpp"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <string>
+#include <type_traits>
 
 #include "retimegs/core/error.hpp"
 
@@ -16,8 +19,20 @@ void check_size(const std::vector<T>& v, std::size_t expected, const char* field
     fail("gaussians.{}: has {} values, expected {} ({})", field, v.size(), expected, shape);
 }
 
+// Whether every value is finite (exponent bits not all ones), as an or-reduction over the bits
+// that the compiler vectorises; the caller then looks for the first bad value only on failure.
+template <typename T>
+bool all_finite(const std::vector<T>& v) {
+  using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+  constexpr Bits kExponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
+  Bits bad = 0;
+  for (const T x : v) bad |= Bits((std::bit_cast<Bits>(x) & kExponent) == kExponent);
+  return bad == 0;
+}
+
 template <typename T>
 void check_finite(const std::vector<T>& v, int row_size, const char* field) {
+  if (all_finite(v)) return;
   for (std::size_t k = 0; k < v.size(); ++k)
     if (!std::isfinite(v[k]))
       fail("gaussians.{}[{}][{}] is {} (must be finite)", field, k / row_size, k % row_size,
@@ -52,6 +67,14 @@ void check_gaussians(const GaussiansT<T>& g) {
   check_finite(g.quats, 4, "quats");
   check_finite(g.opacities, 1, "opacities");
   check_finite(g.features, g.channels, "features");
+  // Opacities in [0, 1] and non-zero quaternions: a vectorisable pass first, the message second.
+  bool bad = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    const T* q = &g.quats[4 * i];
+    bad |= !(g.opacities[i] >= 0 && g.opacities[i] <= 1) |
+           (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] == 0);
+  }
+  if (!bad) return;
   for (std::size_t i = 0; i < n; ++i) {
     if (!(g.opacities[i] >= 0 && g.opacities[i] <= 1))
       fail("gaussians.opacities[{}] is {} (must be in [0, 1])", i, double(g.opacities[i]));

@@ -1,5 +1,5 @@
 #pragma once
-// 16-lane float vectors for the per-pixel loops: one lane per pixel of a 16-pixel tile row.
+// 16-lane float vectors for the per-pixel loops: one lane per pixel of a 4x4-pixel block.
 // Values are GCC/Clang vector extensions, so arithmetic compiles for any instruction set; lane
 // masks are AVX-512 mask registers where available (comparisons, blends and masked updates are
 // then one instruction each), and all-ones/all-zeros integer lanes elsewhere.
@@ -62,6 +62,10 @@ inline mask and_not(mask a, mask b) {
 inline bool any(mask m) {
   return m != 0;
 }
+// Bit l set iff lane l is.
+inline std::uint32_t bits(mask m) {
+  return m;
+}
 // m ? a : b, lane-wise.
 inline vf select(mask m, vf a, vf b) {
   return _mm512_mask_blend_ps(m, b, a);
@@ -104,6 +108,11 @@ inline bool any(mask m) {
   for (int l = 0; l < kLanes; ++l) r |= m[l];
   return r != 0;
 }
+inline std::uint32_t bits(mask m) {
+  std::uint32_t r = 0;
+  for (int l = 0; l < kLanes; ++l) r |= std::uint32_t(m[l] != 0) << l;
+  return r;
+}
 inline vf select(mask m, vf a, vf b) {
   return (vf)(((vi)a & m) | ((vi)b & ~m));
 }
@@ -122,29 +131,93 @@ inline vf min(vf a, vf b) {
   return select(less(a, b), a, b);
 }
 
-// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and e^x by
-// its degree-6 Taylor polynomial (relative remainder (ln(2) / 2)^7 / 7! = 1.2e-7).
+// sqrt(max(x, 0)), lane-wise.
+inline vf sqrt_nonnegative(vf x) {
+#if defined(__AVX512F__)
+  return _mm512_maskz_sqrt_ps(kAllLanes, _mm512_maskz_max_ps(kAllLanes, x, _mm512_setzero_ps()));
+#else
+  vf r;
+  for (int l = 0; l < kLanes; ++l) r[l] = x[l] > 0.0f ? __builtin_sqrtf(x[l]) : 0.0f;
+  return r;
+#endif
+}
+
+// floor(x) and ceil(x) as integers, for |x| < 2^31.
+inline vi floor_to_int(vf x) {
+#if defined(__AVX512F__)
+  return (vi)_mm512_maskz_cvt_roundps_epi32(kAllLanes, x,
+                                            _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+#else
+  vi r;
+  for (int l = 0; l < kLanes; ++l) r[l] = std::int32_t(__builtin_floorf(x[l]));
+  return r;
+#endif
+}
+inline vi ceil_to_int(vf x) {
+#if defined(__AVX512F__)
+  return (vi)_mm512_maskz_cvt_roundps_epi32(kAllLanes, x,
+                                            _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC);
+#else
+  vi r;
+  for (int l = 0; l < kLanes; ++l) r[l] = std::int32_t(__builtin_ceilf(x[l]));
+  return r;
+#endif
+}
+
+inline vf max(vf a, vf b) {
+  return select(less(a, b), b, a);
+}
+inline vi min(vi a, vi b) {
+  return select(less(a, b), a, b);
+}
+inline vi max(vi a, vi b) {
+  return select(less(a, b), b, a);
+}
+
+// Bitwise or, and largest, of the lanes, by pairwise halving in registers.
+inline std::uint32_t reduce_or(vi v) {
+  using vi8 = std::int32_t __attribute__((vector_size(8 * sizeof(std::int32_t))));
+  using vi4 = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
+  const vi8 r8 = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) |
+                 __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
+  const vi4 r4 =
+      __builtin_shufflevector(r8, r8, 0, 1, 2, 3) | __builtin_shufflevector(r8, r8, 4, 5, 6, 7);
+  return std::uint32_t((r4[0] | r4[2]) | (r4[1] | r4[3]));
+}
+inline std::int32_t reduce_max(vi v) {
+  std::int32_t r = v[0];
+  for (int l = 1; l < kLanes; ++l) r = r > v[l] ? r : v[l];
+  return r;
+}
+
+// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and
+// sqrt(2) e^x by the degree-5 polynomial that interpolates it at the 6 Chebyshev nodes of that
+// interval (relative error 1.0e-7, below the 1.6e-7 of the degree-6 Taylor polynomial).
 inline vf exp2_fraction(vf f) {
-  constexpr float kLn2 = 0.693147180559945f, kSqrt2 = 1.41421356237310f;
-  const vf x = (f - 0.5f) * kLn2;
-  vf p = splat(1.0f / 720);
-  p = p * x + 1.0f / 120;
-  p = p * x + 1.0f / 24;
-  p = p * x + 1.0f / 6;
-  p = p * x + 0.5f;
-  p = p * x + 1.0f;
-  p = p * x + 1.0f;
-  return p * kSqrt2;
+  constexpr float kLn2 = 0.693147180559945f;
+  const vf x = f * kLn2 - 0.5f * kLn2;
+  vf p = splat(0.011835763f);
+  p = p * x + 0.059280306f;
+  p = p * x + 0.23569998f;
+  p = p * x + 0.70709080f;
+  p = p * x + 1.4142135f;
+  p = p * x + 1.4142137f;
+  return p;
 }
 
 // opacity * exp(-sigma) = 2^y, y = log2(opacity) - sigma log2(e), for finite sigma >= 0, as
 // 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under 2^-126 are ~0.
 inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
   constexpr float kLog2e = 1.44269504088896341f;
-#if defined(__AVX512F__)
+#if defined(__AVX512F__) && defined(__AVX512DQ__)
   const vf y = log2_opacity - sigma * kLog2e;
-  // The all-lanes masked forms: GCC 12 warns (falsely) about the unmasked ones' undefined
-  // pass-through.
+  // vreduceps: y - floor(y) exactly, in one instruction; vscalefps multiplies by 2^floor(y)
+  // itself. (The all-lanes masked forms: GCC 12 warns (falsely) about the unmasked ones'
+  // undefined pass-through.)
+  const vf f = _mm512_maskz_reduce_ps(kAllLanes, y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  return _mm512_maskz_scalef_ps(kAllLanes, exp2_fraction(f), y);
+#elif defined(__AVX512F__)
+  const vf y = log2_opacity - sigma * kLog2e;
   const vf n = _mm512_maskz_roundscale_ps(kAllLanes, y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
   return _mm512_maskz_scalef_ps(kAllLanes, exp2_fraction(y - n), n);
 #else
@@ -178,6 +251,31 @@ inline float sum(vf v) {
   const vf4 s4 =
       __builtin_shufflevector(s8, s8, 0, 1, 2, 3) + __builtin_shufflevector(s8, s8, 4, 5, 6, 7);
   return (s4[0] + s4[2]) + (s4[1] + s4[3]);
+}
+
+// Lane sums of 8 vectors at once: lane j of the result (j < 8) is the sum of v[j]'s lanes.
+// A transposing tree (each level halves the partial sums per vector and doubles the vectors per
+// register): 16 shuffles and 8 additions instead of 8 x 8 for eight separate sums.
+inline vf sum8(const vf (&v)[8]) {
+  vf c[4];  // c[i] = [8 partials of v[2i] | 8 of v[2i + 1]]
+  for (int i = 0; i < 4; ++i)
+    c[i] = __builtin_shufflevector(v[2 * i], v[2 * i + 1], 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19,
+                                   20, 21, 22, 23) +
+           __builtin_shufflevector(v[2 * i], v[2 * i + 1], 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26,
+                                   27, 28, 29, 30, 31);
+  vf d[2];  // d[i] = 4 partials each of v[4i], v[4i + 1], v[4i + 2], v[4i + 3]
+  for (int i = 0; i < 2; ++i)
+    d[i] = __builtin_shufflevector(c[2 * i], c[2 * i + 1], 0, 1, 2, 3, 8, 9, 10, 11, 16, 17, 18, 19,
+                                   24, 25, 26, 27) +
+           __builtin_shufflevector(c[2 * i], c[2 * i + 1], 4, 5, 6, 7, 12, 13, 14, 15, 20, 21, 22,
+                                   23, 28, 29, 30, 31);
+  // e = 2 partials each of v[0] .. v[7]
+  const vf e = __builtin_shufflevector(d[0], d[1], 0, 1, 4, 5, 8, 9, 12, 13, 16, 17, 20, 21, 24, 25,
+                                       28, 29) +
+               __builtin_shufflevector(d[0], d[1], 2, 3, 6, 7, 10, 11, 14, 15, 18, 19, 22, 23, 26,
+                                       27, 30, 31);
+  return __builtin_shufflevector(e, e, 0, 2, 4, 6, 8, 10, 12, 14, 0, 2, 4, 6, 8, 10, 12, 14) +
+         __builtin_shufflevector(e, e, 1, 3, 5, 7, 9, 11, 13, 15, 1, 3, 5, 7, 9, 11, 13, 15);
 }
 
 // Starts loading the cache line at p. An asm statement, because GCC 12 drops __builtin_prefetch

@@ -147,5 +147,21 @@ TEST(RenderDeterminism, SameThreadCountIsBitIdentical) {
   EXPECT_LT(max_abs_diff(v_means[0], v_means[2]), 1e-5 * max_abs(v_means[0]));
 }
 
+// min_alpha = 0 turns the footprint test off (every block of every binned tile is visited).
+TEST(RenderFastVsReferenceOptions, ZeroMinAlphaMatches) {
+  render::RenderOptions options;
+  options.min_alpha = 0.0f;
+  const Camera camera = test_camera(50, 37);
+  const Gaussians g = cast_gaussians<float>(random_gaussians<double>(camera, 300, 3, 41));
+  const GaussiansT<double> gd = cast_gaussians<double>(g);
+  const std::vector<double> background = {0.3, 0.2, 0.1};
+  const std::vector<float> background_f(background.begin(), background.end());
+  const auto ref = render::reference_forward(gd, camera, background.data(), options);
+  const auto fast = render::rasterize_forward(g, camera, background_f.data(), options);
+  EXPECT_LT(max_abs_diff(fast.blend.image.data, ref.image), 1e-5);
+  EXPECT_EQ(std::vector<std::int32_t>(fast.blend.n_contrib.begin(), fast.blend.n_contrib.end()),
+            ref.n_contrib);
+}
+
 }  // namespace
 }  // namespace retimegs::test

@@ -23,6 +23,13 @@ struct BlendInputs {
   int width = 0, height = 0;
 };
 
+// 64 bytes, the unit of the blend's packed Gaussian records. Default construction leaves it
+// uninitialised: the records are written once, in parallel.
+struct alignas(64) CacheLine {
+  float values[16];
+  CacheLine() {}  // NOLINT: no zero-fill
+};
+
 struct BlendOutput {
   Image image;               // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
   std::vector<float> alpha;  // [H, W] 1 - T_final
@@ -32,15 +39,23 @@ struct BlendOutput {
   std::vector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
                                                // Gaussian composited; 0 = none
   std::vector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
+  // [M] per tile intersection: the 4x4-pixel blocks of its tile (bit 4 * block row + block
+  // column) that hold a pixel centre of the Gaussian's alpha >= min_alpha ellipse. Set for the
+  // intersections that the forward reached before its tile saturated (all the backward visits).
+  std::vector<std::uint16_t> footprint_blocks;
+  // [N, lines per Gaussian] the Gaussians packed for the blend (blend.cpp's record layout), so
+  // that the backward does not pack them again.
+  std::vector<CacheLine> records;
 };
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
                           const RenderOptions& options);
 
 // Upstream gradients v_image [H, W, C] (required), v_alpha [H, W] and v_depth [H, W] (nullptr =
-// zero; v_depth requires options.render_depth). Sets grads.v_means2d, v_conics, v_opacities,
-// v_features and v_depths. Per-thread gradient buffers over a static tile schedule, summed in
-// thread order: deterministic for a given thread count.
+// zero; v_depth requires options.render_depth). `forward` must come from blend_forward with the
+// same inputs and bins: its footprint_blocks and records are reused, not recomputed. Sets
+// grads.v_means2d, v_conics, v_opacities, v_features and v_depths. Per-thread gradient buffers
+// over a static tile schedule, summed in thread order: deterministic for a given thread count.
 void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
                     const BlendOutput& forward, const float* v_image, const float* v_alpha,
                     const float* v_depth, GaussianGrads& grads);

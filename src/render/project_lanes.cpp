@@ -1,0 +1,326 @@
+// Stage 1 in float, one Gaussian per simd lane: EWA projection and its vector-Jacobian product,
+// formula for formula the scalar code of project.cpp (see there for the derivations), with the
+// culling and clamping branches as lane masks.
+#include "project_lanes.hpp"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+#include <vector>
+
+#include "simd.hpp"
+
+namespace retimegs::render {
+namespace {
+
+using simd::vf;
+using simd::vi;
+constexpr int kLanes = simd::kLanes;
+
+// The Gaussians [first, first + count) of a batch, count <= 16. Lanes past `count` repeat the
+// last Gaussian, so that they compute finite values; their results are never stored.
+struct Batch {
+  std::size_t first;
+  int count;
+
+  // Component k of each lane's row of a [N, width] array.
+  template <typename T>
+  auto load(const std::vector<T>& data, int width, int k) const {
+    using V = std::conditional_t<std::is_same_v<T, float>, vf, vi>;
+    V v{};
+    for (int l = 0; l < kLanes; ++l) v[l] = data[(first + std::min(l, count - 1)) * width + k];
+    return v;
+  }
+  // Writes lane l of v to component k of row first + l, for the lanes set in `lanes`.
+  void store(std::vector<float>& data, int width, int k, vf v, std::uint32_t lanes) const {
+    for (int l = 0; l < count; ++l)
+      if (lanes >> l & 1u) data[(first + l) * width + k] = v[l];
+  }
+  std::uint32_t all() const { return simd::bits(simd::lanes_below(count)); }
+};
+
+// The camera's numbers that every lane shares.
+struct CameraConstants {
+  float rv[9];  // [3, 3] world -> camera rotation, row-major
+  float t[3];
+  float fx, fy, cx, cy;
+  float lim_x_pos, lim_x_neg, lim_y_pos, lim_y_neg;  // field-of-view guard of x/z and y/z
+
+  explicit CameraConstants(const PinholeT<float>& camera)
+      : fx(camera.fx), fy(camera.fy), cx(camera.cx), cy(camera.cy) {
+    std::copy(camera.rotation.begin(), camera.rotation.end(), rv);
+    std::copy(camera.translation.begin(), camera.translation.end(), t);
+    const float tan_x = 0.5f * camera.width / camera.fx, tan_y = 0.5f * camera.height / camera.fy;
+    lim_x_pos = (camera.width - camera.cx) / camera.fx + float(kFovGuard) * tan_x;
+    lim_x_neg = camera.cx / camera.fx + float(kFovGuard) * tan_x;
+    lim_y_pos = (camera.height - camera.cy) / camera.fy + float(kFovGuard) * tan_y;
+    lim_y_neg = camera.cy / camera.fy + float(kFovGuard) * tan_y;
+  }
+};
+
+// e^x for |x| < 87 (log-scales), from the blend's 2^y.
+inline vf exp_lanes(vf x) {
+  return simd::opacity_times_exp_neg(-x, 0.0f);
+}
+
+// Everything the forward computes for a batch that the backward needs again (project.cpp's
+// Geometry, one value per lane). Symmetric 3x3 matrices keep 6 entries: 00 01 02 11 12 22.
+struct GeometryLanes {
+  vf p[3];                  // camera-space mean
+  vf qnorm, q[4];           // |q| and the normalised quaternion (w, x, y, z)
+  vf rq[9];                 // [3, 3] rotation of the Gaussian
+  vf scale[3];              // exp(log_scale)
+  vf m[9];                  // [3, 3] rq diag(scale)
+  vf cov_cam[6];            // camera-space 3-D covariance
+  vf j00, j02, j11, j12;    // the non-zero entries of the Jacobian d pixel / d camera point
+  vf jc[2][3];              // [2, 3] J cov_cam
+  vf tx_over_z, ty_over_z;  // guarded x/z, y/z
+  simd::mask clamped_x, clamped_y;
+  vf cov2d[3];  // blurred 2-D covariance: 00 01 11
+};
+
+constexpr int kSym[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};  // (i, j) -> symmetric entry
+
+GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const CameraConstants& cam,
+                       float low_pass) {
+  GeometryLanes geo;
+  const vf mean[3] = {batch.load(g.means, 3, 0), batch.load(g.means, 3, 1),
+                      batch.load(g.means, 3, 2)};
+  for (int i = 0; i < 3; ++i)
+    geo.p[i] = cam.rv[3 * i] * mean[0] + cam.rv[3 * i + 1] * mean[1] + cam.rv[3 * i + 2] * mean[2] +
+               cam.t[i];
+  vf q[4];
+  for (int k = 0; k < 4; ++k) q[k] = batch.load(g.quats, 4, k);
+  geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  for (int k = 0; k < 4; ++k) geo.q[k] = q[k] / geo.qnorm;
+  const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
+  vf* r = geo.rq;
+  r[0] = 1.0f - 2.0f * (y * y + z * z), r[1] = 2.0f * (x * y - w * z),
+  r[2] = 2.0f * (x * z + w * y);
+  r[3] = 2.0f * (x * y + w * z), r[4] = 1.0f - 2.0f * (x * x + z * z),
+  r[5] = 2.0f * (y * z - w * x);
+  r[6] = 2.0f * (x * z - w * y), r[7] = 2.0f * (y * z + w * x),
+  r[8] = 1.0f - 2.0f * (x * x + y * y);
+  for (int k = 0; k < 3; ++k) geo.scale[k] = exp_lanes(batch.load(g.log_scales, 3, k));
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) geo.m[3 * i + k] = r[3 * i + k] * geo.scale[k];
+  // cov_world = m m^T, cov_cam = rv cov_world rv^T.
+  vf cov_world[6];
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j)
+      cov_world[kSym[i][j]] = geo.m[3 * i] * geo.m[3 * j] + geo.m[3 * i + 1] * geo.m[3 * j + 1] +
+                              geo.m[3 * i + 2] * geo.m[3 * j + 2];
+  vf rc[9];  // rv cov_world
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      rc[3 * i + j] = cam.rv[3 * i] * cov_world[kSym[0][j]] +
+                      cam.rv[3 * i + 1] * cov_world[kSym[1][j]] +
+                      cam.rv[3 * i + 2] * cov_world[kSym[2][j]];
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j)
+      geo.cov_cam[kSym[i][j]] = rc[3 * i] * cam.rv[3 * j] + rc[3 * i + 1] * cam.rv[3 * j + 1] +
+                                rc[3 * i + 2] * cam.rv[3 * j + 2];
+
+  const vf pz = geo.p[2];
+  const vf xz = geo.p[0] / pz, yz = geo.p[1] / pz;
+  geo.clamped_x = ~(simd::greater_equal(xz, simd::splat(-cam.lim_x_neg)) &
+                    simd::less_equal(xz, simd::splat(cam.lim_x_pos)));
+  geo.clamped_y = ~(simd::greater_equal(yz, simd::splat(-cam.lim_y_neg)) &
+                    simd::less_equal(yz, simd::splat(cam.lim_y_pos)));
+  geo.tx_over_z = simd::min(simd::max(xz, simd::splat(-cam.lim_x_neg)), simd::splat(cam.lim_x_pos));
+  geo.ty_over_z = simd::min(simd::max(yz, simd::splat(-cam.lim_y_neg)), simd::splat(cam.lim_y_pos));
+  const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
+  geo.j00 = cam.fx / pz;
+  geo.j02 = -cam.fx * tx / (pz * pz);
+  geo.j11 = cam.fy / pz;
+  geo.j12 = -cam.fy * ty / (pz * pz);
+  const vf* c = geo.cov_cam;
+  for (int j = 0; j < 3; ++j) {
+    geo.jc[0][j] = geo.j00 * c[kSym[0][j]] + geo.j02 * c[kSym[2][j]];
+    geo.jc[1][j] = geo.j11 * c[kSym[1][j]] + geo.j12 * c[kSym[2][j]];
+  }
+  geo.cov2d[0] = geo.jc[0][0] * geo.j00 + geo.jc[0][2] * geo.j02 + low_pass;
+  geo.cov2d[1] = geo.jc[0][1] * geo.j11 + geo.jc[0][2] * geo.j12;
+  geo.cov2d[2] = geo.jc[1][1] * geo.j11 + geo.jc[1][2] * geo.j12 + low_pass;
+  return geo;
+}
+
+// Lanes whose radius_tile_rect (project.cpp) is not empty, with C-style truncation.
+simd::mask tile_rect_not_empty(vf u, vf v, vi radius, int tiles_x, int tiles_y) {
+  const vf lim = simd::splat(float(kMaxPixelCoordinate));
+  const float inv_tile = 1.0f / kTileSize;  // exact: a power of two
+  u = simd::min(simd::max(u, -lim), lim);
+  v = simd::min(simd::max(v, -lim), lim);
+  const vf r = __builtin_convertvector(radius, vf) * inv_tile;
+  const auto clamp = [](vi a, int hi) {
+    return simd::min(simd::max(a, vi{}), simd::splat_int(hi));
+  };
+  const auto trunc = [](vf a) { return __builtin_convertvector(a, vi); };
+  const vi x0 = clamp(trunc(u * inv_tile - r), tiles_x);
+  const vi x1 = clamp(trunc(u * inv_tile + r) + 1, tiles_x);
+  const vi y0 = clamp(trunc(v * inv_tile - r), tiles_y);
+  const vi y1 = clamp(trunc(v * inv_tile + r) + 1, tiles_y);
+  return simd::less(x0, x1) & simd::less(y0, y1);
+}
+
+}  // namespace
+
+ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,
+                                        const RenderOptions& options) {
+  const std::size_t n = g.size();
+  ProjectedT<float> out;
+  out.means2d.assign(2 * n, 0.0f);
+  out.conics.assign(3 * n, 0.0f);
+  out.depths.assign(n, 0.0f);
+  out.radii.assign(n, 0);
+  const CameraConstants cam(camera);
+  const int tiles_x = (camera.width + kTileSize - 1) / kTileSize;
+  const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
+  const float min_opacity = std::max(options.min_alpha, 0.0f);
+  const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
+
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t b = 0; b < batches; ++b) {
+    const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
+    const vf opacity = batch.load(g.opacities, 1, 0);
+    const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
+    const vf z = geo.p[2];
+    const vf* cov = geo.cov2d;
+    const vf det = cov[0] * cov[2] - cov[1] * cov[1];
+    const vf half_trace = 0.5f * (cov[0] + cov[2]);
+    const vf lambda = half_trace + simd::sqrt_nonnegative(
+                                       simd::max(half_trace * half_trace - det,
+                                                 simd::splat(float(kRadiusDiscriminantFloor))));
+    const vi radius = simd::ceil_to_int(float(kRadiusSigmas) * simd::sqrt_nonnegative(lambda));
+    const vf zc = z + options.centre_depth_offset;
+    const vf u = cam.fx * geo.p[0] / zc + cam.cx, v = cam.fy * geo.p[1] / zc + cam.cy;
+    // Culled: opacity <= 0 or < min_alpha, z < near plane, singular covariance, off image.
+    const simd::mask visible = simd::less(simd::splat(0.0f), opacity) &
+                               simd::greater_equal(opacity, simd::splat(min_opacity)) &
+                               simd::greater_equal(z, simd::splat(options.near_plane)) &
+                               simd::less(simd::splat(0.0f), det) &
+                               tile_rect_not_empty(u, v, radius, tiles_x, tiles_y);
+    const std::uint32_t lanes = simd::bits(visible) & batch.all();
+    if (!lanes) continue;
+    batch.store(out.means2d, 2, 0, u, lanes);
+    batch.store(out.means2d, 2, 1, v, lanes);
+    batch.store(out.conics, 3, 0, cov[2] / det, lanes);
+    batch.store(out.conics, 3, 1, -cov[1] / det, lanes);
+    batch.store(out.conics, 3, 2, cov[0] / det, lanes);
+    batch.store(out.depths, 1, 0, z, lanes);
+    for (int l = 0; l < batch.count; ++l)
+      if (lanes >> l & 1u) out.radii[batch.first + l] = radius[l];
+  }
+  return out;
+}
+
+void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,
+                            const ProjectedT<float>& projected, const RenderOptions& options,
+                            GaussianGradsT<float>& grads) {
+  const std::size_t n = g.size();
+  // Every row is written below.
+  grads.v_means.resize(3 * n);
+  grads.v_log_scales.resize(3 * n);
+  grads.v_quats.resize(4 * n);
+  const CameraConstants cam(camera);
+  const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
+
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t b = 0; b < batches; ++b) {
+    const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
+    const std::uint32_t visible =
+        simd::bits(simd::less(vi{}, batch.load(projected.radii, 1, 0))) & batch.all();
+    const std::uint32_t culled = batch.all() & ~visible;
+    for (int k = 0; k < 3; ++k) {
+      batch.store(grads.v_means, 3, k, vf{}, culled);
+      batch.store(grads.v_log_scales, 3, k, vf{}, culled);
+    }
+    for (int k = 0; k < 4; ++k) batch.store(grads.v_quats, 4, k, vf{}, culled);
+    if (!visible) continue;
+    const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
+
+    // conic = cov2d^-1: d loss / d cov2d = -conic V conic, V the symmetric form of v_conics.
+    const vf ca = batch.load(projected.conics, 3, 0), cb = batch.load(projected.conics, 3, 1),
+             cc = batch.load(projected.conics, 3, 2);
+    const vf va = batch.load(grads.v_conics, 3, 0), vb = 0.5f * batch.load(grads.v_conics, 3, 1),
+             vc = batch.load(grads.v_conics, 3, 2);
+    const vf cv[2][2] = {{ca * va + cb * vb, ca * vb + cb * vc},
+                         {cb * va + cc * vb, cb * vb + cc * vc}};
+    const vf v_cov2d[2][2] = {{-(cv[0][0] * ca + cv[0][1] * cb), -(cv[0][0] * cb + cv[0][1] * cc)},
+                              {-(cv[1][0] * ca + cv[1][1] * cb), -(cv[1][0] * cb + cv[1][1] * cc)}};
+
+    // cov2d = J cov_cam J^T (+ low-pass, constant): v_jac = 2 v_cov2d J cov_cam,
+    // v_cov_cam = J^T v_cov2d J.
+    vf v_jac[2][3];
+    for (int r = 0; r < 2; ++r)
+      for (int j = 0; j < 3; ++j)
+        v_jac[r][j] = 2.0f * (v_cov2d[r][0] * geo.jc[0][j] + v_cov2d[r][1] * geo.jc[1][j]);
+    const vf jac[2][3] = {{geo.j00, vf{}, geo.j02}, {vf{}, geo.j11, geo.j12}};
+    vf wj[2][3];  // v_cov2d J
+    for (int r = 0; r < 2; ++r)
+      for (int j = 0; j < 3; ++j) wj[r][j] = v_cov2d[r][0] * jac[0][j] + v_cov2d[r][1] * jac[1][j];
+    vf v_cov_cam[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) v_cov_cam[i][j] = jac[0][i] * wj[0][j] + jac[1][i] * wj[1][j];
+    // cov_cam = Rv (M M^T) Rv^T, M = Rq diag(s).
+    vf tmp[3][3], v_cov3d[3][3];  // v_cov_cam Rv, Rv^T v_cov_cam Rv
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        tmp[i][j] = v_cov_cam[i][0] * cam.rv[j] + v_cov_cam[i][1] * cam.rv[3 + j] +
+                    v_cov_cam[i][2] * cam.rv[6 + j];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        v_cov3d[i][j] =
+            cam.rv[i] * tmp[0][j] + cam.rv[3 + i] * tmp[1][j] + cam.rv[6 + i] * tmp[2][j];
+    vf v_m[3][3], v_rq[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        v_m[i][j] = 2.0f * (v_cov3d[i][0] * geo.m[j] + v_cov3d[i][1] * geo.m[3 + j] +
+                            v_cov3d[i][2] * geo.m[6 + j]);
+        v_rq[i][j] = v_m[i][j] * geo.scale[j];
+      }
+    for (int k = 0; k < 3; ++k) {
+      const vf v_scale =
+          v_m[0][k] * geo.rq[k] + v_m[1][k] * geo.rq[3 + k] + v_m[2][k] * geo.rq[6 + k];
+      batch.store(grads.v_log_scales, 3, k, v_scale * geo.scale[k], visible);
+    }
+    // quat_to_rotation_vjp (project.cpp), then through the normalisation.
+    const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
+    const auto& v = v_rq;
+    const vf v_qhat[4] = {
+        2.0f * (-z * v[0][1] + y * v[0][2] + z * v[1][0] - x * v[1][2] - y * v[2][0] + x * v[2][1]),
+        2.0f * (y * v[0][1] + z * v[0][2] + y * v[1][0] - 2.0f * x * v[1][1] - w * v[1][2] +
+                z * v[2][0] + w * v[2][1] - 2.0f * x * v[2][2]),
+        2.0f * (-2.0f * y * v[0][0] + x * v[0][1] + w * v[0][2] + x * v[1][0] + z * v[1][2] -
+                w * v[2][0] + z * v[2][1] - 2.0f * y * v[2][2]),
+        2.0f * (-2.0f * z * v[0][0] - w * v[0][1] + x * v[0][2] + w * v[1][0] - 2.0f * z * v[1][1] +
+                y * v[1][2] + x * v[2][0] + y * v[2][1])};
+    const vf dot = w * v_qhat[0] + x * v_qhat[1] + y * v_qhat[2] + z * v_qhat[3];
+    for (int k = 0; k < 4; ++k)
+      batch.store(grads.v_quats, 4, k, (v_qhat[k] - geo.q[k] * dot) / geo.qnorm, visible);
+
+    // Camera-space mean: through the pixel centre, the Jacobian and the depth.
+    const vf v_u = batch.load(grads.v_means2d, 2, 0), v_v = batch.load(grads.v_means2d, 2, 1);
+    const vf px = geo.p[0], py = geo.p[1], pz = geo.p[2];
+    const vf rzc = 1.0f / (pz + options.centre_depth_offset);
+    vf v_p[3] = {
+        cam.fx * rzc * v_u, cam.fy * rzc * v_v,
+        -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths, 1, 0)};
+    const vf rz = 1.0f / pz, rz2 = rz * rz, rz3 = rz2 * rz;
+    const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
+    v_p[2] += -cam.fx * rz2 * v_jac[0][0] - cam.fy * rz2 * v_jac[1][1] +
+              2.0f * cam.fx * tx * rz3 * v_jac[0][2] + 2.0f * cam.fy * ty * rz3 * v_jac[1][2];
+    const vf v_tx = -cam.fx * rz2 * v_jac[0][2], v_ty = -cam.fy * rz2 * v_jac[1][2];
+    // A clamped direction's x/z is a constant times z.
+    v_p[2] += simd::select(geo.clamped_x, v_tx * geo.tx_over_z, vf{}) +
+              simd::select(geo.clamped_y, v_ty * geo.ty_over_z, vf{});
+    v_p[0] += simd::select(geo.clamped_x, vf{}, v_tx);
+    v_p[1] += simd::select(geo.clamped_y, vf{}, v_ty);
+    for (int k = 0; k < 3; ++k)
+      batch.store(grads.v_means, 3, k,
+                  cam.rv[k] * v_p[0] + cam.rv[3 + k] * v_p[1] + cam.rv[6 + k] * v_p[2], visible);
+  }
+}
+
+}  // namespace retimegs::render
