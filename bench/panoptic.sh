@@ -4,7 +4,8 @@
 # the 27 training cameras (full recipe and the STGS baseline) -> score the odd frames on the
 # training cameras (masked) and on the 4 held-out test cameras (novel views, no masks: whole
 # image), next to cross-fade and nearest. Writes bench/results/panoptic.md and
-# bench/results/panoptic_sheet.png (ground truth | ours | cross-fade at held-out frames).
+# bench/results/panoptic_sheet_{train,test}.png (ground truth | ours | cross-fade at held-out
+# frame 7).
 #
 #   bash bench/panoptic.sh                 # ITERS=3000 CAP=30000 POINTS=colmap
 set -euo pipefail
@@ -40,15 +41,22 @@ for v in full stgs crossfade nearest; do
     full|stgs) source=(--model "$work/$v/model.rgs") ;;
     *) source=(--baseline "$v") ;;
   esac
-  renders=()
-  [ "$v" = full ] || [ "$v" = crossfade ] && renders=(--save-renders "$work/renders_$v")
-  [ -f "$work/${v}_train.json" ] || "$bin" eval "${source[@]}" --scene "$scene" --frames odd \
-    --cameras "$train_cams" "${renders[@]}" --out "$work/${v}_train.json"
-  [ -f "$work/${v}_test.json" ] || "$bin" eval "${source[@]}" --scene "$scene" --frames odd \
-    --cameras "$test_cams" "${renders[@]}" --out "$work/${v}_test.json"
+  for split in train test; do
+    cams=$train_cams
+    [ "$split" = test ] && cams=$test_cams
+    renders=()  # --save-renders replaces its folder: one per method and split
+    [ "$v" = full ] || [ "$v" = crossfade ] && renders=(--save-renders "$work/renders/$v-$split")
+    [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" --frames odd \
+      --cameras "$cams" "${renders[@]}" --out "$work/${v}_$split.json"
+  done
 done
-"$bin" sheet --scene "$scene" --cameras 5,18,0,30 --frames 7 --tile-width 320 \
-  --renders "$work/renders_full,$work/renders_crossfade" --out "$root/bench/results/panoptic_sheet.png"
+for split in train test; do
+  cams=5,18
+  [ "$split" = test ] && cams=0,30
+  "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 \
+    --renders "$work/renders/full-$split,$work/renders/crossfade-$split" \
+    --out "$root/bench/results/panoptic_sheet_$split.png"
+done
 
 metric() { grep -o "^  \"$2\": [^,]*" "$1" | head -1 | sed 's/.*: //'; }
 {
