@@ -20,6 +20,14 @@ double finite_number(const nlohmann::json& v, const std::string& file, const std
   return v.get<double>();
 }
 
+std::pair<int, int> frame_range(const ImportOptions& options, int steps, const std::string& what) {
+  const int first = options.first_frame;
+  const int last = options.last_frame < 0 ? steps - 1 : options.last_frame;
+  if (first < 0 || last >= steps || first > last)
+    fail("--frames: {}:{} is outside the frames 0:{} of {}", first, last, steps - 1, what);
+  return {first, last};
+}
+
 void check_downscale(double downscale) {
   if (!(downscale >= 1.0) || !std::isfinite(downscale))
     fail("--downscale: must be a finite number >= 1, got {}", downscale);

@@ -3,6 +3,7 @@
 // pinhole camera, and the parallel write loop with its progress bar.
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -12,6 +13,7 @@
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/data/colmap.hpp"
+#include "retimegs/data/import.hpp"
 
 namespace retimegs::data::detail {
 
@@ -20,6 +22,10 @@ double finite_number(const nlohmann::json& v, const std::string& file, const std
 
 // The camera with its image size divided by `downscale` (rounded) and intrinsics scaled to match.
 Camera downscaled(Camera camera, double downscale);
+
+// The first and last source frame that --frames selects out of `steps` (last_frame < 0: to the
+// end); throws "--frames: A:B is outside the frames 0:N of <what>".
+std::pair<int, int> frame_range(const ImportOptions& options, int steps, const std::string& what);
 
 // Checks --downscale (finite, >= 1).
 void check_downscale(double downscale);

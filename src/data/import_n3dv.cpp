@@ -90,10 +90,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
   for (const auto& path : videos) probed.push_back(probe(path));
   int steps = probed[0].frames;
   for (const auto& v : probed) steps = std::min(steps, v.frames);
-  const int first = options.first_frame;
-  const int last = options.last_frame < 0 ? steps - 1 : options.last_frame;
-  if (first < 0 || last >= steps || first > last)
-    fail("--frames: {}:{} is outside the videos' frames 0:{}", first, last, steps - 1);
+  const auto [first, last] = detail::frame_range(options, steps, "the videos");
 
   Scene scene;
   scene.num_frames = last - first + 1;

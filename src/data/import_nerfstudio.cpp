@@ -266,10 +266,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
     for (const auto& e : entries) camera_names.push_back(e.camera);
   }
   const int steps = int(times.size());
-  const int first = options.first_frame;
-  const int last = options.last_frame < 0 ? steps - 1 : options.last_frame;
-  if (first < 0 || last >= steps || first > last)
-    fail("--frames: {}:{} is outside the source's frames 0:{}", first, last, steps - 1);
+  const auto [first, last] = detail::frame_range(options, steps, "the source");
 
   // grid[camera][frame] = entry index.
   std::map<std::string, int> camera_index;

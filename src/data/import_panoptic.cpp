@@ -120,10 +120,7 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
     if (int(c.files.size()) != steps)
       fail("{}: train and test metadata have different frame counts ({} vs {})", source.string(),
            steps, c.files.size());
-  const int first = options.first_frame;
-  const int last = options.last_frame < 0 ? steps - 1 : options.last_frame;
-  if (first < 0 || last >= steps || first > last)
-    fail("--frames: {}:{} is outside the source's frames 0:{}", first, last, steps - 1);
+  const auto [first, last] = detail::frame_range(options, steps, "the source");
 
   Scene scene;
   scene.num_frames = last - first + 1;
