@@ -12,7 +12,7 @@ factors=${FACTORS:-0.25 0.5 1 2 4}
 cameras=${CAMERAS:-12}
 size=${SIZE:-256x192}
 cap=${CAP:-30000}
-base_lr=1.6e-4  # TrainConfig::lr_means; the sweep chose lr_velocity = 4 x this
+base_lr=1.6e-4  # TrainConfig::lr_velocity and lr_means (default kept: see README)
 work=${WORK:-$root/bench/results/quality}
 bin="$root/build/apps/retimegs"
 [ -x "$bin" ] || "$root/scripts/setup.sh"
