@@ -1,5 +1,6 @@
 #pragma once
 // Shared helpers for the test suites: the reference data folder, scratch folders, running the CLI.
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -66,6 +67,22 @@ inline CommandResult run_cli(const std::string& args) {
   ss << in.rdbuf();
   result.err = ss.str();
   return result;
+}
+
+// `retimegs import FORMAT --in dir/src --out dir/out ARGS` must be refused: exit status 2, one line
+// naming every fragment, no dir/out and no temporary "*.out*" left in dir.
+inline void expect_import_refused(const std::string& format, const std::filesystem::path& dir,
+                                  std::initializer_list<std::string> fragments,
+                                  const std::string& args = "") {
+  const auto r = run_cli("import " + format + " --in " + (dir / "src").string() + " --out " +
+                         (dir / "out").string() + args);
+  EXPECT_EQ(r.status, 2) << r.err;
+  for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".out"), std::string::npos)
+        << "temporary left behind: " << entry.path();
 }
 
 inline void write_text(const std::filesystem::path& path, const std::string& text) {

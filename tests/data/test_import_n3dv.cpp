@@ -123,15 +123,7 @@ class N3dvBadInput : public ::testing::Test {
  protected:
   void SetUp() override { make_source(dir_ / "src"); }
   void expect_error(std::initializer_list<std::string> fragments, const std::string& extra = "") {
-    const auto r = test::run_cli("import n3dv --in " + (dir_ / "src").string() + " --out " +
-                                 (dir_ / "out").string() + extra);
-    EXPECT_EQ(r.status, 2) << r.err;
-    for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_FALSE(fs::exists(dir_ / "out"));
-    for (const auto& entry : fs::directory_iterator(dir_.path()))
-      EXPECT_EQ(entry.path().filename().string().find(".out"), std::string::npos)
-          << "temporary left behind: " << entry.path();
+    test::expect_import_refused("n3dv", dir_.path(), fragments, extra);
   }
   test::TempDir dir_;
 };
