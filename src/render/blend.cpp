@@ -212,6 +212,14 @@ struct TileList {
   float du(const float* s) const { return s[kU] - (float(x0) + 0.5f); }
   float dv(const float* s) const { return s[kV] - (float(y0) + 0.5f); }
 
+  // Pixel centres of block b's lanes (exact: integers + 1/2).
+  vf pixel_x(int block) const {
+    return (float(x0) + 0.5f + float(block % kBlocksPerSide * kBlockSide)) + kLaneColumn;
+  }
+  vf pixel_y(int block) const {
+    return (float(y0) + 0.5f + float(block / kBlocksPerSide * kBlockSide)) + kLaneRow;
+  }
+
   // Lanes of block b whose pixel is inside the image.
   simd::mask pixels_in_image(int block) const {
     const vf column = kLaneColumn + float(block % kBlocksPerSide * kBlockSide);
@@ -219,18 +227,6 @@ struct TileList {
     return simd::less(column, simd::splat(float(columns))) &
            simd::less(row, simd::splat(float(rows)));
   }
-};
-
-// Column and row of each block's first pixel in its tile.
-constexpr float kBlockColumn[kBlocks] = {0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12};
-constexpr float kBlockRow[kBlocks] = {0, 0, 0, 0, 4, 4, 4, 4, 8, 8, 8, 8, 12, 12, 12, 12};
-
-// Offsets u - px and v - py of a Gaussian's centre from the pixel centres of a tile's blocks.
-struct PixelOffsets {
-  vf du, dv;  // from the pixel centres of block 0
-  PixelOffsets(float du0, float dv0) : du(du0 - kLaneColumn), dv(dv0 - kLaneRow) {}
-  vf dx(int block) const { return du - kBlockColumn[block]; }
-  vf dy(int block) const { return dv - kBlockRow[block]; }
 };
 
 // sigma = 0.5 (a dx^2 + c dy^2) + b dx dy (gsplat's convention). sigma >= 0 for a
@@ -275,15 +271,49 @@ auto* lanes_of(std::vector<V>& v) {
   return reinterpret_cast<std::remove_reference_t<decltype(v[0][0])>*>(v.data());
 }
 
-// Front to back over the tile's list; each Gaussian updates the blocks of its footprint that
-// still have live pixels, without data-dependent branches inside a block update.
+// Intersections whose footprints are found together; each block then runs over its members of
+// the chunk with its state in registers. 64: one bit per entry in a block's member mask, and the
+// chunk's records (4 KB for C <= 6) stay in L1 while the 16 blocks read them.
+constexpr int kChunk = 64;
+
+// members[b] bit j = footprint[j] has block b, for j < n (the transposed 64 x 16 bit matrix).
+inline void block_members(const std::uint16_t* footprint, int n,
+                          std::uint64_t (&members)[kBlocks]) {
+#if defined(__AVX512BW__)
+  alignas(64) std::uint16_t padded[kChunk] = {};
+  std::copy(footprint, footprint + n, padded);
+  const __m512i low = _mm512_load_si512(padded), high = _mm512_load_si512(padded + 32);
+  for (int b = 0; b < kBlocks; ++b) {
+    const __m512i bit = _mm512_set1_epi16(short(1 << b));
+    members[b] = std::uint64_t(_mm512_test_epi16_mask(low, bit)) |
+                 std::uint64_t(_mm512_test_epi16_mask(high, bit)) << 32;
+  }
+#else
+  for (int b = 0; b < kBlocks; ++b) {
+    std::uint64_t m = 0;
+    for (int j = 0; j < n; ++j) m |= std::uint64_t(footprint[j] >> b & 1) << j;
+    members[b] = m;
+  }
+#endif
+}
+
+// Pops the lowest set bit of a 64-bit mask and returns its index.
+inline int pop_bit64(std::uint64_t& mask) {
+  const int bit = std::countr_zero(mask);
+  mask &= mask - 1;
+  return bit;
+}
+
+// Front to back over the tile's list, a chunk at a time: the footprints of the chunk's Gaussians
+// first, then each block that still has live pixels composites the chunk's Gaussians that reach
+// it, with its pixel state in registers, until its pixels saturate. Per pixel this is the same
+// sequence of operations as one Gaussian at a time over the whole tile, so the same bits.
 template <int kC>
 void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, TileState& st,
                   BlendOutput& out) {
   const int channels = kC > 0 ? kC : ctx.channels_ext;
   const int c_image = ctx.in->channels, width = ctx.in->width;
   st.reset(channels);
-  vf* acc = st.channel_a.data();  // [C', 16] sum of f alpha T
   std::uint32_t live_blocks = 0;
   for (int block = 0; block < kBlocks; ++block) {
     st.transmittance[block] = simd::splat(1.0f);
@@ -291,34 +321,53 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
     live_blocks |= std::uint32_t(simd::any(st.alive[block])) << block;
   }
   for (int k = 0; k < kPrefetchDistance; ++k) list.prefetch(k);
-  for (int k = 0; k < list.count && live_blocks; ++k) {
-    list.prefetch(k + kPrefetchDistance);
-    const float* s = list.splat(k);
-    const float du = list.du(s), dv = list.dv(s);
-    const std::uint32_t footprint = footprint_blocks(s, du, dv);
-    out.footprint_blocks[list.begin + k] = std::uint16_t(footprint);
-    std::uint32_t todo = live_blocks & footprint;
-    if (!todo) continue;
-    const vi index = simd::splat_int(k + 1);
-    const PixelOffsets offsets(du, dv);
-    while (todo) {
+  std::uint16_t* footprint = out.footprint_blocks.data() + list.begin;  // [count]
+  for (int chunk = 0; chunk < list.count && live_blocks; chunk += kChunk) {
+    const int n = std::min(kChunk, list.count - chunk);
+    for (int j = 0; j < n; ++j) {
+      list.prefetch(chunk + j + kPrefetchDistance);
+      const float* s = list.splat(chunk + j);
+      footprint[chunk + j] = std::uint16_t(footprint_blocks(s, list.du(s), list.dv(s)));
+    }
+    std::uint64_t members[kBlocks];
+    block_members(footprint + chunk, n, members);
+    for (std::uint32_t todo = live_blocks; todo;) {
       const int block = pop_bit(todo);
-      const vf sigma_px = sigma(s, offsets.dx(block), offsets.dy(block));
-      const vf alpha_raw = simd::opacity_times_exp_neg(sigma_px, s[kLog2Opacity]);
-      const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
-      const simd::mask composite = st.alive[block] & simd::greater_equal(alpha, rule.min_alpha);
-      const vf t = st.transmittance[block];
-      const vf next_t = t - alpha * t;
-      const simd::mask stop = composite & simd::less(next_t, rule.stop_below);
-      const simd::mask add = simd::and_not(composite, stop);
-      const vf weight = simd::mul_or_zero(add, alpha, t);
-      for (int c = 0; c < channels; ++c) acc[c * kBlocks + block] += weight * s[kHeader + c];
-      st.transmittance[block] = simd::select(add, next_t, t);
-      st.last[block] = simd::select(add, index, st.last[block]);
-      st.count[block] = simd::count_if(st.count[block], add);
-      const simd::mask still_alive = simd::and_not(st.alive[block], stop);
-      st.alive[block] = still_alive;
-      live_blocks &= ~(std::uint32_t(!simd::any(still_alive)) << block);
+      std::uint64_t member = members[block];
+      if (!member) continue;
+      // The block's state, in registers for the loop.
+      vf t = st.transmittance[block];
+      vi last = st.last[block], count = st.count[block];
+      simd::mask alive = st.alive[block];
+      vf acc_fixed[kC > 0 ? kC : 1];
+      vf* acc = kC > 0 ? acc_fixed : st.channel_b.data();  // [C']
+      for (int c = 0; c < channels; ++c) acc[c] = st.channel_a[c * kBlocks + block];
+      const vf px = list.pixel_x(block), py = list.pixel_y(block);
+      while (member) {
+        const int k = chunk + pop_bit64(member);
+        const float* s = list.splat(k);
+        const vf alpha_raw =
+            simd::opacity_times_exp_neg(sigma(s, s[kU] - px, s[kV] - py), s[kLog2Opacity]);
+        const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
+        const simd::mask composite = alive & simd::greater_equal(alpha, rule.min_alpha);
+        const vf next_t = t - alpha * t;
+        const simd::mask stop = composite & simd::less(next_t, rule.stop_below);
+        const simd::mask add = simd::and_not(composite, stop);
+        const vf weight = simd::mul_or_zero(add, alpha, t);
+        for (int c = 0; c < channels; ++c) acc[c] += weight * s[kHeader + c];
+        t = simd::select(add, next_t, t);
+        last = simd::select(add, simd::splat_int(k + 1), last);
+        count = simd::count_if(count, add);
+        alive = simd::and_not(alive, stop);
+        // Checked only when a pixel saturated (rare, so well predicted).
+        if (simd::any(stop) && !simd::any(alive)) break;
+      }
+      if (!simd::any(alive)) live_blocks &= ~(1u << block);
+      st.transmittance[block] = t;
+      st.last[block] = last;
+      st.count[block] = count;
+      st.alive[block] = alive;
+      for (int c = 0; c < channels; ++c) st.channel_a[c * kBlocks + block] = acc[c];
     }
   }
   const float* t = lanes_of(st.transmittance);
@@ -385,6 +434,11 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
       }
     }
   }
+  vf px[kBlocks], py[kBlocks];  // pixel centres of each block's lanes
+  for (int block = 0; block < kBlocks; ++block) {
+    px[block] = list.pixel_x(block);
+    py[block] = list.pixel_y(block);
+  }
   vi block_last{};  // [16 blocks] largest last contributor of each block
   for (int block = 0; block < kBlocks; ++block)
     block_last[block] = simd::reduce_max(st.last[block]);
@@ -406,17 +460,15 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
                          fwd.footprint_blocks[list.begin + k];
     if (!todo) continue;
     const float* s = list.splat(k);
-    const float du = list.du(s), dv = list.dv(s);
     const float a = 2.0f * s[kHalfA], b = s[kB], c_conic = 2.0f * s[kHalfC];
     // With w = d loss / d alpha_raw * alpha_raw = -d loss / d sigma per pixel, the gradient is
     // sum w, sum w dx, sum w dy, sum w dx^2, sum w dx dy, sum w dy^2 (combined after the loop).
     vf w_sum{}, w_dx_sum{}, w_dy_sum{}, w_dx2_sum{}, w_dxdy_sum{}, w_dy2_sum{};
     for (int c = 0; c < channels; ++c) v_feat[c] = vf{};
     const vi index = simd::splat_int(k);
-    const PixelOffsets offsets(du, dv);
     while (todo) {
       const int block = pop_bit(todo);
-      const vf dx = offsets.dx(block), dy = offsets.dy(block);
+      const vf dx = s[kU] - px[block], dy = s[kV] - py[block];
       const vf alpha_raw = simd::opacity_times_exp_neg(sigma(s, dx, dy), s[kLog2Opacity]);
       const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
       const simd::mask composite =

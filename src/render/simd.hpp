@@ -57,7 +57,7 @@ inline mask less(vi a, vi b) {
   return _mm512_cmplt_epi32_mask((__m512i)a, (__m512i)b);
 }
 inline mask and_not(mask a, mask b) {
-  return mask(a & ~b);
+  return _kandn_mask16(b, a);
 }
 inline bool any(mask m) {
   return m != 0;
@@ -127,8 +127,13 @@ inline vi count_if(vi c, mask m) {
 }  // m is -1 where set
 #endif
 
+// a < b ? a : b and a < b ? b : a, lane-wise (vminps / vmaxps compute exactly these).
 inline vf min(vf a, vf b) {
+#if defined(__AVX512F__)
+  return _mm512_maskz_min_ps(kAllLanes, a, b);
+#else
   return select(less(a, b), a, b);
+#endif
 }
 
 // sqrt(max(x, 0)), lane-wise.
@@ -165,7 +170,11 @@ inline vi ceil_to_int(vf x) {
 }
 
 inline vf max(vf a, vf b) {
+#if defined(__AVX512F__)
+  return _mm512_maskz_max_ps(kAllLanes, b, a);
+#else
   return select(less(a, b), b, a);
+#endif
 }
 inline vi min(vi a, vi b) {
   return select(less(a, b), a, b);
