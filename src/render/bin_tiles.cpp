@@ -24,7 +24,7 @@ constexpr int kKeyBits = 32;
 // their top byte). Each pass splits the items into one contiguous run per thread: the threads
 // count their run's digits, the offsets of (digit, thread) are summed in that order, and each
 // thread scatters its run; a stable sort has one result, whatever the thread count.
-void radix_sort_by_key(std::vector<std::uint64_t>& items) {
+void radix_sort_by_key(UninitVector<std::uint64_t>& items) {
   constexpr int kValueBits = 32;
   const std::size_t n = items.size();
   std::uint64_t varying = 0;  // bits in which some key differs from the first
@@ -32,7 +32,7 @@ void radix_sort_by_key(std::vector<std::uint64_t>& items) {
   varying >>= kValueBits;
   constexpr std::size_t kItemsPerThread = 16384;  // below: one thread (fork/join would dominate)
   const int threads = int(std::min<std::size_t>(omp_get_max_threads(), n / kItemsPerThread + 1));
-  std::vector<std::uint64_t> sorted(n);
+  UninitVector<std::uint64_t> sorted(n);
   std::vector<std::size_t> offsets(std::size_t(threads) * kRadixBuckets);  // [threads, buckets]
   for (int shift = 0; shift < kKeyBits; shift += kRadixBits) {
     if (((varying >> shift) & (kRadixBuckets - 1)) == 0) continue;  // one bucket: order kept
@@ -138,14 +138,14 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
   std::vector<TileRect> rects(n);  // [N]
   blend_tile_rects(projected, opacities, bins.tiles_x, bins.tiles_y, options, rects);
   // [V] (depth << 32 | Gaussian): the float bits of a positive depth sort as uints.
-  std::vector<std::uint64_t> by_depth;
+  UninitVector<std::uint64_t> by_depth;
   by_depth.reserve(n);
   for (std::size_t i = 0; i < n; ++i)
     if (rects[i].area() > 0)
       by_depth.push_back(std::uint64_t(std::bit_cast<std::uint32_t>(projected.depths[i])) << 32 |
                          std::uint32_t(i));
   radix_sort_by_key(by_depth);
-  std::vector<std::int32_t> gaussian_by_depth(by_depth.size());  // [V]
+  UninitVector<std::int32_t> gaussian_by_depth(by_depth.size());  // [V]
 
   // The rectangles in depth order: the two passes below then read them sequentially.
   const std::size_t v = gaussian_by_depth.size();

@@ -1,13 +1,18 @@
 // Stage 3: tile-based front-to-back compositing and its back-to-front vector-Jacobian product.
 //
 // A 16x16 tile is 4x4 blocks of 4x4 pixels, one simd::vf per block (lane 4 * row + column of
-// the block); a tile's per-pixel state (16 vectors per quantity) stays in L1. For each Gaussian
-// of the tile's depth-ordered list, footprint_blocks finds in closed form the blocks that hold a
-// pixel centre of its alpha >= min_alpha ellipse, and only those that still have live pixels are
-// updated: square blocks hug the small footprints of typical scenes (sigma 1.5-4 px) far better
-// than 16x1 rows, which left two thirds of the lanes idle. The backward walks the list back to
-// front from the last contributor, accumulating each Gaussian's gradient in registers over its
-// blocks, then adds it to the thread's gradient buffer.
+// the block). For each Gaussian of the tile's depth-ordered list, footprint_blocks finds in
+// closed form the blocks that hold a pixel centre of its alpha >= min_alpha ellipse, and only
+// those blocks are visited: square blocks hug the small footprints of typical scenes (sigma
+// 1.5-4 px) far better than 16x1 rows, which left two thirds of the lanes idle.
+//
+// The forward goes block-major over chunks of 64 list entries: the chunk's footprints first,
+// then each block with live pixels runs over the chunk entries that reach it with its pixel
+// state (transmittance, colour, last contributor) in registers and stops when its pixels
+// saturate. (Gaussian-major, the state of 16 blocks lived in memory: every update was a chain
+// of loads and stores, and the forward took ~1.4x as long.) The backward walks the list back to
+// front from the last contributor, Gaussian-major: each Gaussian's gradient is accumulated in
+// registers over its blocks, then added to the thread's gradient buffer once.
 //
 // Threads: tiles are independent in the forward (dynamic schedule). The backward uses a static
 // round-robin tile schedule and one gradient buffer per thread, summed in thread order, so that
@@ -87,12 +92,12 @@ struct Context {
   std::vector<float> background;  // [channels_ext]
   // [N, stride] floats, 64-byte aligned, in `records` or borrowed from the forward; rows of
   // culled Gaussians (never binned) are left uninitialised.
-  std::vector<CacheLine> records;
+  UninitVector<CacheLine> records;
   const float* packed = nullptr;
 
   // Packs the records, or borrows `saved` (from blend_forward with the same inputs) when given.
   Context(const BlendInputs& blend_in, const TileBins& tile_bins, const RenderOptions& opts,
-          const std::vector<CacheLine>* saved = nullptr)
+          const UninitVector<CacheLine>* saved = nullptr)
       : in(&blend_in), bins(&tile_bins), options(&opts) {
     const Projected& p = *in->projected;
     const int c = in->channels;
@@ -609,7 +614,7 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
   // Left uninitialised here and zeroed by its own thread (in parallel, and first touch puts the
   // pages near that thread).
   const std::size_t buffer_size = n * grad_stride;
-  const std::unique_ptr<float[]> buffers(new float[threads * buffer_size]);
+  UninitVector<float> buffers(threads * buffer_size);
   dispatch_channels(ctx.channels_ext, [&]<int kC>() {
 #pragma omp parallel num_threads(threads)
     {

@@ -163,7 +163,7 @@ class NerfstudioBadInput : public ::testing::Test {
                                  (dir_ / "out").string());
     EXPECT_EQ(r.status, 2) << r.err;
     for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_TRUE(test::is_one_error_line(r.err)) << r.err;
     EXPECT_FALSE(fs::exists(dir_ / "out"));
   }
   test::TempDir dir_;

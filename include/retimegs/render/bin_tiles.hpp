@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "retimegs/core/uninit_vector.hpp"
 #include "retimegs/render/options.hpp"
 #include "retimegs/render/project.hpp"
 
@@ -13,7 +14,7 @@ namespace retimegs::render {
 struct TileBins {
   int tiles_x = 0, tiles_y = 0;             // tile t = ty * tiles_x + tx
   std::vector<std::int32_t> isect_offsets;  // [tiles + 1] tile t owns [offsets[t], offsets[t+1])
-  std::vector<std::int32_t> gaussian_from_isect;  // [M] Gaussian index of each intersection
+  UninitVector<std::int32_t> gaussian_from_isect;  // [M] Gaussian index of each intersection
 
   int num_tiles() const { return tiles_x * tiles_y; }
   std::size_t num_intersections() const { return gaussian_from_isect.size(); }

@@ -7,6 +7,7 @@
 
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/core/image.hpp"
+#include "retimegs/core/uninit_vector.hpp"
 #include "retimegs/render/bin_tiles.hpp"
 #include "retimegs/render/options.hpp"
 #include "retimegs/render/project.hpp"
@@ -23,11 +24,9 @@ struct BlendInputs {
   int width = 0, height = 0;
 };
 
-// 64 bytes, the unit of the blend's packed Gaussian records. Default construction leaves it
-// uninitialised: the records are written once, in parallel.
+// 64 bytes, the unit of the blend's packed Gaussian records (written once, in parallel).
 struct alignas(64) CacheLine {
   float values[16];
-  CacheLine() {}  // NOLINT: no zero-fill
 };
 
 struct BlendOutput {
@@ -41,11 +40,12 @@ struct BlendOutput {
   std::vector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
   // [M] per tile intersection: the 4x4-pixel blocks of its tile (bit 4 * block row + block
   // column) that hold a pixel centre of the Gaussian's alpha >= min_alpha ellipse. Set for the
-  // intersections that the forward reached before its tile saturated (all the backward visits).
-  std::vector<std::uint16_t> footprint_blocks;
+  // intersections that the forward reached before its tile saturated (all the backward visits);
+  // the others are left unset.
+  UninitVector<std::uint16_t> footprint_blocks;
   // [N, lines per Gaussian] the Gaussians packed for the blend (blend.cpp's record layout), so
   // that the backward does not pack them again.
-  std::vector<CacheLine> records;
+  UninitVector<CacheLine> records;
 };
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
