@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "retimegs/core/memory.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/data/npy.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -184,4 +185,12 @@ BENCHMARK(BM_Stage)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// As the retimegs program does: freed blocks stay in the heap between iterations.
+int main(int argc, char** argv) {
+  retimegs::keep_freed_memory();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

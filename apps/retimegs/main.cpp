@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/memory.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "retimegs 0.1.0");
   spdlog::set_pattern("[%H:%M:%S] %v");
+  retimegs::keep_freed_memory();  // training renders allocate ~100 MB per step
 
   retimegs::app::add_synth_command(app);
   retimegs::app::add_import_command(app);

@@ -236,8 +236,11 @@ struct TileList {
 
 // sigma = 0.5 (a dx^2 + c dy^2) + b dx dy (gsplat's convention). sigma >= 0 for a
 // positive-definite conic, so (unlike gsplat) there is no sigma < 0 test.
+inline vf sigma(vf half_a, vf b, vf half_c, vf dx, vf dy) {
+  return dx * (half_a * dx + b * dy) + (half_c * dy) * dy;
+}
 inline vf sigma(const float* s, vf dx, vf dy) {
-  return dx * (s[kHalfA] * dx + s[kB] * dy) + (s[kHalfC] * dy) * dy;
+  return sigma(simd::splat(s[kHalfA]), simd::splat(s[kB]), simd::splat(s[kHalfC]), dx, dy);
 }
 
 // Compositing rule constants as vectors. Both stop rules become one `<` comparison:
@@ -471,10 +474,19 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     vf w_sum{}, w_dx_sum{}, w_dy_sum{}, w_dx2_sum{}, w_dxdy_sum{}, w_dy2_sum{};
     for (int c = 0; c < channels; ++c) v_feat[c] = vf{};
     const vi index = simd::splat_int(k);
+    // The record as vectors, once per Gaussian (the state stores below may alias it otherwise).
+    const vf u = simd::splat(s[kU]), v = simd::splat(s[kV]);
+    const vf half_a = simd::splat(s[kHalfA]), b_conic = simd::splat(s[kB]),
+             half_c = simd::splat(s[kHalfC]);
+    const float log2_opacity = s[kLog2Opacity];
+    vf feature_fixed[kC > 0 ? kC : 1];
+    if constexpr (kC > 0)
+      for (int c = 0; c < kC; ++c) feature_fixed[c] = simd::splat(s[kHeader + c]);
     while (todo) {
       const int block = pop_bit(todo);
-      const vf dx = s[kU] - px[block], dy = s[kV] - py[block];
-      const vf alpha_raw = simd::opacity_times_exp_neg(sigma(s, dx, dy), s[kLog2Opacity]);
+      const vf dx = u - px[block], dy = v - py[block];
+      const vf alpha_raw =
+          simd::opacity_times_exp_neg(sigma(half_a, b_conic, half_c, dx, dy), log2_opacity);
       const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
       const simd::mask composite =
           simd::less(index, st.last[block]) & simd::greater_equal(alpha, rule.min_alpha);
@@ -488,7 +500,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
       for (int c = 0; c < channels; ++c) {
         const vf v_o = v_out[c * kBlocks + block];
         v_feat[c] += weight * v_o;
-        v_out_dot_f += v_o * s[kHeader + c];
+        v_out_dot_f += v_o * (kC > 0 ? feature_fixed[c] : simd::splat(s[kHeader + c]));
       }
       // d out_c / d alpha = f_c T - behind_c / (1 - alpha); d alpha_out / d alpha = T_f / (1-alpha)
       const vf v_alpha_px =

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "retimegs/core/uninit_vector.hpp"
+#include "retimegs/core/memory.hpp"
 #include "retimegs/render/options.hpp"
 #include "retimegs/render/project.hpp"
 

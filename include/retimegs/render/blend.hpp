@@ -7,7 +7,7 @@
 
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/core/image.hpp"
-#include "retimegs/core/uninit_vector.hpp"
+#include "retimegs/core/memory.hpp"
 #include "retimegs/render/bin_tiles.hpp"
 #include "retimegs/render/options.hpp"
 #include "retimegs/render/project.hpp"

@@ -1,13 +1,24 @@
 #pragma once
-// A std::vector whose resize() leaves trivially constructible elements unset, for the large
-// per-call arrays of the rasteriser that their writer fills completely (or reads only where it
-// wrote): value-initialising them is a serial pass over tens of megabytes per call.
+// Memory for the rasteriser's large per-call arrays (tens of megabytes per render and per
+// gradient, allocated and freed every training step).
 #include <cstddef>
 #include <new>
 #include <utility>
 #include <vector>
 
 namespace retimegs {
+
+// Keeps freed blocks of up to 32 MiB in the process heap instead of returning them to the kernel
+// (glibc's mallopt; no effect elsewhere). By default glibc gives large freed blocks back (unmaps
+// them, or trims the heap top), so every step of a render loop faults in and zeroes its memory
+// again, a 4 KiB page at a time: ~10 000 page faults per forward + backward of the 300k-Gaussian
+// 960x540 benchmark scene.
+// Called once by the `retimegs` program and the benchmarks; memory stays at the peak of a step.
+void keep_freed_memory();
+
+// A std::vector whose resize() leaves trivially constructible elements unset, for arrays that
+// their writer fills completely (or that are read only where written): value-initialising them
+// is a serial pass over tens of megabytes per call.
 
 template <typename T>
 struct UninitAllocator {
