@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Interleaved A/B timing of render_bench binaries on a shared, noisy machine: each round runs
+# every binary once (4 repetitions each), and the figure kept per benchmark and binary is the
+# minimum wall time over all rounds (the run least disturbed by other jobs).
+#
+#   bash bench/render_ab.sh 'BM_ForwardBackward' 4 build/bench/render_bench /tmp/old/render_bench
+set -euo pipefail
+if [[ $# -lt 3 ]]; then
+  echo "usage: $0 FILTER ROUNDS BINARY [BINARY...]" >&2
+  exit 2
+fi
+filter=$1 rounds=$2
+shift 2
+for ((round = 0; round < rounds; ++round)); do
+  for binary in "$@"; do
+    "$binary" --benchmark_filter="$filter" --benchmark_repetitions=4 --benchmark_format=csv \
+      2>/dev/null | grep '^"BM' | grep -v '_mean"\|_median"\|_stddev"\|_cv"' |
+      awk -F, -v binary="$binary" '{ gsub(/"|\/process_time\/real_time/, "", $1); print binary, $1, $3 }'
+  done
+done | awk '{ key = $2 " " $1; if (!(key in best) || $3 < best[key]) best[key] = $3 }
+            END { for (key in best) printf "%-45s %8.2f ms\n", key, best[key] }' | sort
