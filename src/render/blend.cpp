@@ -49,9 +49,11 @@ constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a
 // Lane l of a block is pixel (row l / 4, column l % 4) of the block.
 const vf kLaneColumn = {0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3};
 const vf kLaneRow = {0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3};
-// footprint_blocks puts the 16 rows of a tile in the lanes: row index and block-row bit offset.
+// footprint_blocks puts the 16 rows of a tile in the lanes.
 const vf kTileRow = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-const vi kBlockRowShift = {0, 0, 0, 0, 4, 4, 4, 4, 8, 8, 8, 8, 12, 12, 12, 12};
+// Lane 4r + j of footprint_blocks' result is block (r, j): its first and last tile column.
+const vf kBlockFirstColumn = {0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12};
+const vf kBlockLastColumn = kBlockFirstColumn + float(kBlockSide - 1);
 static_assert(kBlocksPerSide == 4, "the lane tables above are for 4x4 blocks of 4x4 pixels");
 
 // Where tile pixel (row, column) lives in the block-major state: [block, lane] flattened.
@@ -155,28 +157,22 @@ struct Context {
 // Blocks of a tile that may hold a pixel centre where the Gaussian's alpha >= min_alpha.
 // du = u - (x0 + 0.5), dv = v - (y0 + 0.5): the centre relative to the tile's first pixel centre.
 // For a fixed row, sigma is a quadratic in the column, so the columns with sigma <= level form
-// one interval; the lanes hold the tile's 16 rows, and a block is kept when the interval of one
-// of its rows overlaps its 4 columns (a slightly wider test than "holds an integer column").
+// one interval [lo, hi]; the lanes hold the tile's 16 rows. A block row (4 tile rows, lanes
+// 4r .. 4r + 3) takes the hull of its rows' intervals, and block (r, j) is kept when that hull
+// overlaps the block's columns 4j .. 4j + 3: lane 4r + j of the last comparison, i.e. bit
+// 4r + j of the result. (The hull can add a block between two rows' intervals: a superset is
+// all the blend needs, and the test is ~10 instructions shorter than the union per row.)
 inline std::uint32_t footprint_blocks(const float* s, float du, float dv) {
   const vf dy = dv - kTileRow;  // [16 rows]
   const vf half_width2 = s[kHalfWidth2Level] - s[kHalfWidth2Slope] * dy * dy;
+  const simd::mask row_hit = simd::greater_equal(half_width2, simd::splat(0.0f));
   const vf half_width = simd::sqrt_nonnegative(half_width2);
   const vf centre = du + s[kRowCentreSlope] * dy;
-  // Block column j (columns 4j .. 4j + 3) is reached iff lo <= 4j + 3 and hi >= 4j, i.e.
-  // j in [ceil((lo - 3) / 4), floor(hi / 4)], clamped to [0, 3] (as floats first: +-inf).
-  constexpr float kInvBlockSide = 1.0f / kBlockSide;
-  const vf first_f = ((centre - half_width) - float(kBlockSide - 1)) * kInvBlockSide;
-  const vf last_f = (centre + half_width) * kInvBlockSide;
-  const vi first = simd::ceil_to_int(
-      simd::min(simd::max(first_f, simd::splat(0.0f)), simd::splat(float(kBlocksPerSide))));
-  const vi last = simd::floor_to_int(
-      simd::min(simd::max(last_f, simd::splat(-1.0f)), simd::splat(float(kBlocksPerSide - 1))));
-  const vi one = simd::splat_int(1);
-  // Bits first .. last (none when last < first: the difference is then negative).
-  const vi columns = simd::max((one << (last + 1)) - (one << first), vi{});
-  const vi bits = simd::select(simd::greater_equal(half_width2, simd::splat(0.0f)),
-                               columns << kBlockRowShift, vi{});
-  return simd::reduce_or(bits);
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const vf lo = simd::group4_min(simd::select(row_hit, centre - half_width, simd::splat(kInf)));
+  const vf hi = simd::group4_max(simd::select(row_hit, centre + half_width, simd::splat(-kInf)));
+  return simd::bits(simd::less_equal(lo, kBlockLastColumn) &
+                    simd::greater_equal(hi, kBlockFirstColumn));
 }
 
 // Pops the lowest set bit of `mask` and returns its index.

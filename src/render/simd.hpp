@@ -183,16 +183,22 @@ inline vi max(vi a, vi b) {
   return select(less(a, b), b, a);
 }
 
-// Bitwise or, and largest, of the lanes, by pairwise halving in registers.
-inline std::uint32_t reduce_or(vi v) {
-  using vi8 = std::int32_t __attribute__((vector_size(8 * sizeof(std::int32_t))));
-  using vi4 = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
-  const vi8 r8 = __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7) |
-                 __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
-  const vi4 r4 =
-      __builtin_shufflevector(r8, r8, 0, 1, 2, 3) | __builtin_shufflevector(r8, r8, 4, 5, 6, 7);
-  return std::uint32_t((r4[0] | r4[2]) | (r4[1] | r4[3]));
+// Minimum and maximum over each group of 4 lanes (4g .. 4g + 3), in every lane of the group:
+// two in-lane shuffles each.
+inline vf group4_min(vf v) {
+  const vf pairs =
+      min(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14));
+  return min(pairs, __builtin_shufflevector(pairs, pairs, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14,
+                                            15, 12, 13));
 }
+inline vf group4_max(vf v) {
+  const vf pairs =
+      max(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14));
+  return max(pairs, __builtin_shufflevector(pairs, pairs, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14,
+                                            15, 12, 13));
+}
+
+// Largest lane.
 inline std::int32_t reduce_max(vi v) {
   std::int32_t r = v[0];
   for (int l = 1; l < kLanes; ++l) r = r > v[l] ? r : v[l];
