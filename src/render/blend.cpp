@@ -10,7 +10,7 @@
 // then each block with live pixels runs over the chunk entries that reach it with its pixel
 // state (transmittance, colour, last contributor) in registers and stops when its pixels
 // saturate. (Gaussian-major, the state of 16 blocks lived in memory: every update was a chain
-// of loads and stores, and the forward took ~1.4x as long.) The backward walks the list back to
+// of loads and stores, and the blend took 1.2-1.4x as long.) The backward walks the list back to
 // front from the last contributor, Gaussian-major: each Gaussian's gradient is accumulated in
 // registers over its blocks, then added to the thread's gradient buffer once.
 //
