@@ -176,7 +176,8 @@ inline std::uint32_t footprint_blocks(const float* s, float du, float dv) {
 }
 
 // Pops the lowest set bit of `mask` and returns its index.
-inline int pop_bit(std::uint32_t& mask) {
+template <typename Bits>
+inline int pop_bit(Bits& mask) {
   const int bit = std::countr_zero(mask);
   mask &= mask - 1;
   return bit;
@@ -301,13 +302,6 @@ inline void block_members(const std::uint16_t* footprint, int n,
 #endif
 }
 
-// Pops the lowest set bit of a 64-bit mask and returns its index.
-inline int pop_bit64(std::uint64_t& mask) {
-  const int bit = std::countr_zero(mask);
-  mask &= mask - 1;
-  return bit;
-}
-
 // Front to back over the tile's list, a chunk at a time: the footprints of the chunk's Gaussians
 // first, then each block that still has live pixels composites the chunk's Gaussians that reach
 // it, with its pixel state in registers, until its pixels saturate. Per pixel this is the same
@@ -348,7 +342,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       for (int c = 0; c < channels; ++c) acc[c] = st.channel_a[c * kBlocks + block];
       const vf px = list.pixel_x(block), py = list.pixel_y(block);
       while (member) {
-        const int k = chunk + pop_bit64(member);
+        const int k = chunk + pop_bit(member);
         const float* s = list.splat(k);
         const vf alpha_raw =
             simd::opacity_times_exp_neg(sigma(s, s[kU] - px, s[kV] - py), s[kLog2Opacity]);

@@ -185,17 +185,18 @@ inline vi max(vi a, vi b) {
 
 // Minimum and maximum over each group of 4 lanes (4g .. 4g + 3), in every lane of the group:
 // two in-lane shuffles each.
-inline vf group4_min(vf v) {
+template <typename Op>
+inline vf group4(vf v, Op op) {
   const vf pairs =
-      min(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14));
-  return min(pairs, __builtin_shufflevector(pairs, pairs, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14,
-                                            15, 12, 13));
+      op(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14));
+  return op(pairs, __builtin_shufflevector(pairs, pairs, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14,
+                                           15, 12, 13));
+}
+inline vf group4_min(vf v) {
+  return group4(v, [](vf a, vf b) { return min(a, b); });
 }
 inline vf group4_max(vf v) {
-  const vf pairs =
-      max(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14));
-  return max(pairs, __builtin_shufflevector(pairs, pairs, 2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14,
-                                            15, 12, 13));
+  return group4(v, [](vf a, vf b) { return max(a, b); });
 }
 
 // Largest lane.

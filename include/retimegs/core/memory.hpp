@@ -19,7 +19,6 @@ void keep_freed_memory();
 // A std::vector whose resize() leaves trivially constructible elements unset, for arrays that
 // their writer fills completely (or that are read only where written): value-initialising them
 // is a serial pass over tens of megabytes per call.
-
 template <typename T>
 struct UninitAllocator {
   using value_type = T;
