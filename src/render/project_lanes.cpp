@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <type_traits>
 #include <vector>
 
@@ -18,26 +19,52 @@ using simd::vf;
 using simd::vi;
 constexpr int kLanes = simd::kLanes;
 
-// The Gaussians [first, first + count) of a batch, count <= 16. Lanes past `count` repeat the
-// last Gaussian, so that they compute finite values; their results are never stored.
+// The Gaussians [first, first + count) of a batch, count <= 16. In a partial batch (the last),
+// lanes past `count` repeat the last Gaussian, so that they compute finite values; their results
+// are never stored.
 struct Batch {
   std::size_t first;
   int count;
 
-  // Component k of each lane's row of a [N, width] array.
-  template <typename T>
-  auto load(const std::vector<T>& data, int width, int k) const {
-    using V = std::conditional_t<std::is_same_v<T, float>, vf, vi>;
-    V v{};
-    for (int l = 0; l < kLanes; ++l) v[l] = data[(first + std::min(l, count - 1)) * width + k];
+  bool full() const { return count == kLanes; }
+  std::uint32_t all() const { return simd::bits(simd::lanes_below(count)); }
+
+  // columns[k] = component k of each lane's row of a [N, W] array.
+  template <int W>
+  void load(const std::vector<float>& data, vf (&columns)[W]) const {
+    if (full()) return simd::load_columns<W>(&data[first * W], columns);
+    for (int l = 0; l < kLanes; ++l)
+      for (int k = 0; k < W; ++k) columns[k][l] = data[(first + std::min(l, count - 1)) * W + k];
+  }
+  vf load(const std::vector<float>& data) const {
+    vf column[1];
+    load<1>(data, column);
+    return column[0];
+  }
+  vi load(const std::vector<std::int32_t>& data) const {
+    vi v{};
+    if (full()) std::memcpy(&v, &data[first], sizeof(v));
+    for (int l = 0; l < kLanes && !full(); ++l) v[l] = data[first + std::min(l, count - 1)];
     return v;
   }
-  // Writes lane l of v to component k of row first + l, for the lanes set in `lanes`.
-  void store(std::vector<float>& data, int width, int k, vf v, std::uint32_t lanes) const {
+  // Writes the batch's rows of a [N, W] array: the columns' values in the lanes of `keep`, zero
+  // in the others.
+  template <int W>
+  void store(std::vector<float>& data, const vf (&columns)[W], simd::mask keep) const {
+    vf kept[W];
+    for (int k = 0; k < W; ++k) kept[k] = simd::select(keep, columns[k], vf{});
+    if (full()) return simd::store_columns<W>(&data[first * W], kept);
     for (int l = 0; l < count; ++l)
-      if (lanes >> l & 1u) data[(first + l) * width + k] = v[l];
+      for (int k = 0; k < W; ++k) data[(first + l) * W + k] = kept[k][l];
   }
-  std::uint32_t all() const { return simd::bits(simd::lanes_below(count)); }
+  void store(std::vector<float>& data, vf column, simd::mask keep) const {
+    store<1>(data, {column}, keep);
+  }
+  void store(std::vector<std::int32_t>& data, vi column, simd::mask keep) const {
+    const vi kept = simd::select(keep, column, vi{});
+    if (full()) return std::memcpy(&data[first], &kept, sizeof(kept)), void();
+    for (int l = 0; l < count; ++l) data[first + l] = kept[l];
+  }
 };
 
 // The camera's numbers that every lane shares.
@@ -85,13 +112,13 @@ constexpr int kSym[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};  // (i, j) -> symm
 GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const CameraConstants& cam,
                        float low_pass) {
   GeometryLanes geo;
-  const vf mean[3] = {batch.load(g.means, 3, 0), batch.load(g.means, 3, 1),
-                      batch.load(g.means, 3, 2)};
+  vf mean[3];
+  batch.load<3>(g.means, mean);
   for (int i = 0; i < 3; ++i)
     geo.p[i] = cam.rv[3 * i] * mean[0] + cam.rv[3 * i + 1] * mean[1] + cam.rv[3 * i + 2] * mean[2] +
                cam.t[i];
   vf q[4];
-  for (int k = 0; k < 4; ++k) q[k] = batch.load(g.quats, 4, k);
+  batch.load<4>(g.quats, q);
   geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   for (int k = 0; k < 4; ++k) geo.q[k] = q[k] / geo.qnorm;
   const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
@@ -102,7 +129,8 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   r[5] = 2.0f * (y * z - w * x);
   r[6] = 2.0f * (x * z - w * y), r[7] = 2.0f * (y * z + w * x),
   r[8] = 1.0f - 2.0f * (x * x + y * y);
-  for (int k = 0; k < 3; ++k) geo.scale[k] = exp_lanes(batch.load(g.log_scales, 3, k));
+  batch.load<3>(g.log_scales, geo.scale);
+  for (vf& scale : geo.scale) scale = exp_lanes(scale);
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 3; ++k) geo.m[3 * i + k] = r[3 * i + k] * geo.scale[k];
   // cov_world = m m^T, cov_cam = rv cov_world rv^T.
@@ -183,7 +211,7 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
-    const vf opacity = batch.load(g.opacities, 1, 0);
+    const vf opacity = batch.load(g.opacities);
     const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
     const vf z = geo.p[2];
     const vf* cov = geo.cov2d;
@@ -201,16 +229,11 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
                                simd::greater_equal(z, simd::splat(options.near_plane)) &
                                simd::less(simd::splat(0.0f), det) &
                                tile_rect_not_empty(u, v, radius, tiles_x, tiles_y);
-    const std::uint32_t lanes = simd::bits(visible) & batch.all();
-    if (!lanes) continue;
-    batch.store(out.means2d, 2, 0, u, lanes);
-    batch.store(out.means2d, 2, 1, v, lanes);
-    batch.store(out.conics, 3, 0, cov[2] / det, lanes);
-    batch.store(out.conics, 3, 1, -cov[1] / det, lanes);
-    batch.store(out.conics, 3, 2, cov[0] / det, lanes);
-    batch.store(out.depths, 1, 0, z, lanes);
-    for (int l = 0; l < batch.count; ++l)
-      if (lanes >> l & 1u) out.radii[batch.first + l] = radius[l];
+    if (!(simd::bits(visible) & batch.all())) continue;
+    batch.store<2>(out.means2d, {u, v}, visible);
+    batch.store<3>(out.conics, {cov[2] / det, -cov[1] / det, cov[0] / det}, visible);
+    batch.store(out.depths, z, visible);
+    batch.store(out.radii, radius, visible);
   }
   return out;
 }
@@ -229,22 +252,23 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
-    const std::uint32_t visible =
-        simd::bits(simd::less(vi{}, batch.load(projected.radii, 1, 0))) & batch.all();
-    const std::uint32_t culled = batch.all() & ~visible;
-    for (int k = 0; k < 3; ++k) {
-      batch.store(grads.v_means, 3, k, vf{}, culled);
-      batch.store(grads.v_log_scales, 3, k, vf{}, culled);
+    // The stores below write zero rows for the culled lanes.
+    const simd::mask visible = simd::less(vi{}, batch.load(projected.radii));
+    if (!(simd::bits(visible) & batch.all())) {
+      const vf zero[4] = {};
+      batch.store<3>(grads.v_means, {zero[0], zero[1], zero[2]}, visible);
+      batch.store<3>(grads.v_log_scales, {zero[0], zero[1], zero[2]}, visible);
+      batch.store<4>(grads.v_quats, zero, visible);
+      continue;
     }
-    for (int k = 0; k < 4; ++k) batch.store(grads.v_quats, 4, k, vf{}, culled);
-    if (!visible) continue;
     const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
 
     // conic = cov2d^-1: d loss / d cov2d = -conic V conic, V the symmetric form of v_conics.
-    const vf ca = batch.load(projected.conics, 3, 0), cb = batch.load(projected.conics, 3, 1),
-             cc = batch.load(projected.conics, 3, 2);
-    const vf va = batch.load(grads.v_conics, 3, 0), vb = 0.5f * batch.load(grads.v_conics, 3, 1),
-             vc = batch.load(grads.v_conics, 3, 2);
+    vf conic[3], v_conic[3];
+    batch.load<3>(projected.conics, conic);
+    batch.load<3>(grads.v_conics, v_conic);
+    const vf ca = conic[0], cb = conic[1], cc = conic[2];
+    const vf va = v_conic[0], vb = 0.5f * v_conic[1], vc = v_conic[2];
     const vf cv[2][2] = {{ca * va + cb * vb, ca * vb + cb * vc},
                          {cb * va + cc * vb, cb * vb + cc * vc}};
     const vf v_cov2d[2][2] = {{-(cv[0][0] * ca + cv[0][1] * cb), -(cv[0][0] * cb + cv[0][1] * cc)},
@@ -280,11 +304,13 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
                             v_cov3d[i][2] * geo.m[6 + j]);
         v_rq[i][j] = v_m[i][j] * geo.scale[j];
       }
+    vf v_log_scale[3];
     for (int k = 0; k < 3; ++k) {
       const vf v_scale =
           v_m[0][k] * geo.rq[k] + v_m[1][k] * geo.rq[3 + k] + v_m[2][k] * geo.rq[6 + k];
-      batch.store(grads.v_log_scales, 3, k, v_scale * geo.scale[k], visible);
+      v_log_scale[k] = v_scale * geo.scale[k];
     }
+    batch.store<3>(grads.v_log_scales, v_log_scale, visible);
     // quat_to_rotation_vjp (project.cpp), then through the normalisation.
     const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
     const auto& v = v_rq;
@@ -297,16 +323,18 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
         2.0f * (-2.0f * z * v[0][0] - w * v[0][1] + x * v[0][2] + w * v[1][0] - 2.0f * z * v[1][1] +
                 y * v[1][2] + x * v[2][0] + y * v[2][1])};
     const vf dot = w * v_qhat[0] + x * v_qhat[1] + y * v_qhat[2] + z * v_qhat[3];
-    for (int k = 0; k < 4; ++k)
-      batch.store(grads.v_quats, 4, k, (v_qhat[k] - geo.q[k] * dot) / geo.qnorm, visible);
+    vf v_quat[4];
+    for (int k = 0; k < 4; ++k) v_quat[k] = (v_qhat[k] - geo.q[k] * dot) / geo.qnorm;
+    batch.store<4>(grads.v_quats, v_quat, visible);
 
     // Camera-space mean: through the pixel centre, the Jacobian and the depth.
-    const vf v_u = batch.load(grads.v_means2d, 2, 0), v_v = batch.load(grads.v_means2d, 2, 1);
+    vf v_mean2d[2];
+    batch.load<2>(grads.v_means2d, v_mean2d);
+    const vf v_u = v_mean2d[0], v_v = v_mean2d[1];
     const vf px = geo.p[0], py = geo.p[1], pz = geo.p[2];
     const vf rzc = 1.0f / (pz + options.centre_depth_offset);
-    vf v_p[3] = {
-        cam.fx * rzc * v_u, cam.fy * rzc * v_v,
-        -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths, 1, 0)};
+    vf v_p[3] = {cam.fx * rzc * v_u, cam.fy * rzc * v_v,
+                 -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths)};
     const vf rz = 1.0f / pz, rz2 = rz * rz, rz3 = rz2 * rz;
     const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
     v_p[2] += -cam.fx * rz2 * v_jac[0][0] - cam.fy * rz2 * v_jac[1][1] +
@@ -317,9 +345,10 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
               simd::select(geo.clamped_y, v_ty * geo.ty_over_z, vf{});
     v_p[0] += simd::select(geo.clamped_x, vf{}, v_tx);
     v_p[1] += simd::select(geo.clamped_y, vf{}, v_ty);
+    vf v_mean[3];
     for (int k = 0; k < 3; ++k)
-      batch.store(grads.v_means, 3, k,
-                  cam.rv[k] * v_p[0] + cam.rv[3 + k] * v_p[1] + cam.rv[6 + k] * v_p[2], visible);
+      v_mean[k] = cam.rv[k] * v_p[0] + cam.rv[3 + k] * v_p[1] + cam.rv[6 + k] * v_p[2];
+    batch.store<3>(grads.v_means, v_mean, visible);
   }
 }
 
