@@ -20,9 +20,9 @@ constexpr int kRadixBits = 8;
 constexpr int kRadixBuckets = 1 << kRadixBits;
 constexpr int kKeyBits = 32;
 
-// A visible Gaussian in the depth sort: (depth bits << 32 | Gaussian index), and its tile rect,
-// which travels with it so that the passes after the sort read the rects in depth order without a
-// random gather (~8 ms for scene b's 300k Gaussians, a cache miss each).
+// A visible Gaussian in the depth sort: (depth bits << 32 | Gaussian index) — the float bits of a
+// positive depth sort as uints — and its tile rect, which travels with it so that the passes
+// after the sort read the rects in depth order instead of gathering them (a cache miss each).
 struct DepthItem {
   std::uint64_t key_index;
   std::uint16_t x0, y0, x1, y1;  // TileRect; bin_tiles checks that tile counts fit 16 bits
@@ -32,10 +32,10 @@ struct DepthItem {
 static_assert(sizeof(DepthItem) == 16);
 
 // Stable LSD radix sort of the items by the upper 32 bits of key_index (the key), one byte per
-// pass, skipping bytes in which all keys agree (depths in [3, 6] share
-// their top byte). Each pass splits the items into one contiguous run per thread: the threads
-// count their run's digits, the offsets of (digit, thread) are summed in that order, and each
-// thread scatters its run; a stable sort has one result, whatever the thread count.
+// pass, skipping bytes in which all keys agree (depths in [3, 6] share their top byte). Each pass
+// splits the items into one contiguous run per thread: the threads count their run's digits, the
+// offsets of (digit, thread) are summed in that order, and each thread scatters its run; a stable
+// sort has one result, whatever the thread count.
 void radix_sort_by_key(UninitVector<DepthItem>& items) {
   constexpr int kValueBits = 32;
   const std::size_t n = items.size();
@@ -154,7 +154,6 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
   // Tile rectangles; Gaussians that reach no tile are dropped here.
   std::vector<TileRect> rects(n);  // [N]
   blend_tile_rects(projected, opacities, bins.tiles_x, bins.tiles_y, options, rects);
-  // The float bits of a positive depth sort as uints.
   if (bins.tiles_x > UINT16_MAX || bins.tiles_y > UINT16_MAX)
     fail("bin_tiles: a {}x{} image has more than {} tiles on a side", width, height, UINT16_MAX);
   UninitVector<DepthItem> by_depth;  // [V]

@@ -7,7 +7,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <type_traits>
 #include <vector>
 
 #include "simd.hpp"
@@ -42,9 +41,11 @@ struct Batch {
     return column[0];
   }
   vi load(const std::vector<std::int32_t>& data) const {
-    vi v{};
-    if (full()) std::memcpy(&v, &data[first], sizeof(v));
-    for (int l = 0; l < kLanes && !full(); ++l) v[l] = data[first + std::min(l, count - 1)];
+    vi v;
+    if (full())
+      std::memcpy(&v, &data[first], sizeof(v));
+    else
+      for (int l = 0; l < kLanes; ++l) v[l] = data[first + std::min(l, count - 1)];
     return v;
   }
   // Writes the batch's rows of a [N, W] array: the columns' values in the lanes of `keep`, zero
@@ -62,8 +63,10 @@ struct Batch {
   }
   void store(std::vector<std::int32_t>& data, vi column, simd::mask keep) const {
     const vi kept = simd::select(keep, column, vi{});
-    if (full()) return std::memcpy(&data[first], &kept, sizeof(kept)), void();
-    for (int l = 0; l < count; ++l) data[first + l] = kept[l];
+    if (full())
+      std::memcpy(&data[first], &kept, sizeof(kept));
+    else
+      for (int l = 0; l < count; ++l) data[first + l] = kept[l];
   }
 };
 

@@ -298,8 +298,8 @@ inline vf sum8(const vf (&v)[8]) {
 
 // Rows <-> columns of a [16, W] row-major block (W <= 4): column k holds component k of row l in
 // lane l. Contiguous vector loads or stores and at most three two-vector shuffles per result
-// (vpermt2ps), in place of the 16-element gathers GCC emits for the per-lane form, which take a
-// quarter of the projection's time.
+// (GCC's __builtin_shuffle: vpermt2ps on AVX-512), in place of the 16-element gathers GCC emitted
+// for the per-lane form, which took a quarter of the projection's time.
 namespace detail {
 using Index = std::array<std::int32_t, kLanes>;
 
@@ -334,12 +334,15 @@ struct Transpose {
     return v;
   }
   static vf apply(const vf* s) {
-    if constexpr (W == 1) return s[0];
-    vf r = __builtin_shuffle(s[0], s[1], index(low));
-    if constexpr (W == 3) r = __builtin_shuffle(r, s[2], index(merge));
-    if constexpr (W == 4)
-      r = __builtin_shuffle(r, __builtin_shuffle(s[2], s[3], index(high)), index(merge));
-    return r;
+    if constexpr (W == 1) {
+      return s[0];
+    } else {
+      vf r = __builtin_shuffle(s[0], s[1], index(low));
+      if constexpr (W == 3) r = __builtin_shuffle(r, s[2], index(merge));
+      if constexpr (W == 4)
+        r = __builtin_shuffle(r, __builtin_shuffle(s[2], s[3], index(high)), index(merge));
+      return r;
+    }
   }
 };
 
