@@ -7,7 +7,6 @@
 #include <bit>
 #include <climits>
 #include <cmath>
-#include <cstring>
 #include <utility>
 
 #include "retimegs/core/error.hpp"
@@ -96,22 +95,13 @@ void blend_tile_rects(const Projected& p, const float* opacities, int tiles_x, i
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const std::size_t first = std::size_t(b) * kLanes;
     const int count = int(std::min<std::size_t>(kLanes, n - first));
-    vf mean[2]{}, conic[3]{}, level{};
-    vi radius{};
-    if (count == kLanes) {
-      simd::load_columns<2>(&p.means2d[2 * first], mean);
-      simd::load_columns<3>(&p.conics[3 * first], conic);
-      std::memcpy(&radius, &p.radii[first], sizeof(radius));
-    }
-    for (int l = 0; l < count; ++l) {
-      const std::size_t i = first + l;
-      if (count < kLanes) {
-        for (int k = 0; k < 2; ++k) mean[k][l] = p.means2d[2 * i + k];
-        for (int k = 0; k < 3; ++k) conic[k][l] = p.conics[3 * i + k];
-        radius[l] = p.radii[i];
-      }
-      if (tight && radius[l] > 0) level[l] = std::log(opacities[i] / options.min_alpha);
-    }
+    // Lanes past `count` repeat the last Gaussian; their rects are not stored.
+    vf mean[2], conic[3], level{};
+    simd::load_columns<2>(&p.means2d[2 * first], count, mean);
+    simd::load_columns<3>(&p.conics[3 * first], count, conic);
+    const vi radius = simd::load_lanes(&p.radii[first], count);
+    for (int l = 0; l < count; ++l)
+      if (tight && radius[l] > 0) level[l] = std::log(opacities[first + l] / options.min_alpha);
     const vf u = mean[0], v = mean[1], c0 = conic[0], c1 = conic[1], c2 = conic[2];
     // radius_tile_rect: C-style truncation toward zero, as gsplat v0.1.13.
     const vf uc = simd::min(simd::max(u, -lim), lim), vc = simd::min(simd::max(v, -lim), lim);

@@ -31,9 +31,7 @@ struct Batch {
   // columns[k] = component k of each lane's row of a [N, W] array.
   template <int W>
   void load(const std::vector<float>& data, vf (&columns)[W]) const {
-    if (full()) return simd::load_columns<W>(&data[first * W], columns);
-    for (int l = 0; l < kLanes; ++l)
-      for (int k = 0; k < W; ++k) columns[k][l] = data[(first + std::min(l, count - 1)) * W + k];
+    simd::load_columns<W>(&data[first * W], count, columns);
   }
   vf load(const std::vector<float>& data) const {
     vf column[1];
@@ -41,12 +39,7 @@ struct Batch {
     return column[0];
   }
   vi load(const std::vector<std::int32_t>& data) const {
-    vi v;
-    if (full())
-      std::memcpy(&v, &data[first], sizeof(v));
-    else
-      for (int l = 0; l < kLanes; ++l) v[l] = data[first + std::min(l, count - 1)];
-    return v;
+    return simd::load_lanes(&data[first], count);
   }
   // Writes the batch's rows of a [N, W] array: the columns' values in the lanes of `keep`, zero
   // in the others.

@@ -360,6 +360,24 @@ inline void load_columns(const float* rows, vf (&columns)[W]) {
   detail::transpose<W, false>(memory, columns, std::make_index_sequence<W>());
 }
 
+// The same for the first `count` rows (1 <= count <= 16); lanes past `count` repeat the last row.
+template <int W>
+inline void load_columns(const float* rows, int count, vf (&columns)[W]) {
+  if (count == kLanes) return load_columns<W>(rows, columns);
+  for (vf& column : columns) column = vf{};  // written lane by lane below
+  for (int l = 0; l < kLanes; ++l)
+    for (int k = 0; k < W; ++k) columns[k][l] = rows[W * (l < count ? l : count - 1) + k];
+}
+inline vi load_lanes(const std::int32_t* values, int count) {
+  vi v{};
+  if (count == kLanes) {
+    std::memcpy(&v, values, sizeof(v));
+  } else {
+    for (int l = 0; l < kLanes; ++l) v[l] = values[l < count ? l : count - 1];
+  }
+  return v;
+}
+
 // rows[W * l + k] = columns[k][l], l < 16.
 template <int W>
 inline void store_columns(float* rows, const vf (&columns)[W]) {
