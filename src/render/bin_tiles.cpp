@@ -22,9 +22,14 @@ constexpr int kKeyBits = 32;
 // A visible Gaussian in the depth sort: (depth bits << 32 | Gaussian index) — the float bits of a
 // positive depth sort as uints — and its tile rect, which travels with it so that the passes
 // after the sort read the rects in depth order instead of gathering them (a cache miss each).
+// A TileRect in 16 bits per side (bin_tiles checks that the tile counts fit).
+struct Rect16 {
+  std::uint16_t x0, y0, x1, y1;
+};
+
 struct DepthItem {
   std::uint64_t key_index;
-  std::uint16_t x0, y0, x1, y1;  // TileRect; bin_tiles checks that tile counts fit 16 bits
+  Rect16 rect;
 
   std::int32_t gaussian() const { return std::int32_t(key_index & 0xffffffffu); }
 };
@@ -34,13 +39,11 @@ static_assert(sizeof(DepthItem) == 16);
 // pass, skipping bytes in which all keys agree (depths in [3, 6] share their top byte). Each pass
 // splits the items into one contiguous run per thread: the threads count their run's digits, the
 // offsets of (digit, thread) are summed in that order, and each thread scatters its run; a stable
-// sort has one result, whatever the thread count.
-void radix_sort_by_key(UninitVector<DepthItem>& items) {
+// sort has one result, whatever the thread count. `varying`: the key bits in which some keys
+// differ.
+void radix_sort_by_key(UninitVector<DepthItem>& items, std::uint32_t varying) {
   constexpr int kValueBits = 32;
   const std::size_t n = items.size();
-  std::uint64_t varying = 0;  // bits in which some key differs from the first
-  for (std::size_t i = 1; i < n; ++i) varying |= items[i].key_index ^ items[0].key_index;
-  varying >>= kValueBits;
   constexpr std::size_t kItemsPerThread = 16384;  // below: one thread (fork/join would dominate)
   const int threads = int(std::min<std::size_t>(omp_get_max_threads(), n / kItemsPerThread + 1));
   UninitVector<DepthItem> sorted(n);
@@ -72,9 +75,13 @@ void radix_sort_by_key(UninitVector<DepthItem>& items) {
 }
 
 // blend_tile_rect (project.cpp) of 16 Gaussians at a time, operation for operation in float, the
-// logarithm per lane. Lanes of culled Gaussians (radius 0) get an empty rect.
-void blend_tile_rects(const Projected& p, const float* opacities, int tiles_x, int tiles_y,
-                      const RenderOptions& options, std::vector<TileRect>& rects) {
+// logarithm per lane, then the visible ones (non-empty rect) as depth items in index order.
+// Each thread takes a contiguous run of the Gaussians: it computes their rects and counts the
+// visible ones, the counts are summed in thread order, and each thread writes its items.
+// `varying`: the key bits in which some items differ (for radix_sort_by_key).
+UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, int tiles_x,
+                                    int tiles_y, const RenderOptions& options,
+                                    std::uint32_t& varying) {
   using simd::vf;
   using simd::vi;
   constexpr int kLanes = simd::kLanes;
@@ -90,45 +97,86 @@ void blend_tile_rects(const Projected& p, const float* opacities, int tiles_x, i
   };
   const bool tight = options.tight_tile_bounds && options.min_alpha > 0;
   constexpr float kRelMargin = 1.001f, kAbsMargin = 0.01f;  // as alpha_extent
-  const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t b = 0; b < batches; ++b) {
-    const std::size_t first = std::size_t(b) * kLanes;
-    const int count = int(std::min<std::size_t>(kLanes, n - first));
-    // Lanes past `count` repeat the last Gaussian; their rects are not stored.
-    vf mean[2], conic[3], level{};
-    simd::load_columns<2>(&p.means2d[2 * first], count, mean);
-    simd::load_columns<3>(&p.conics[3 * first], count, conic);
-    const vi radius = simd::load_lanes(&p.radii[first], count);
-    for (int l = 0; l < count; ++l)
-      if (tight && radius[l] > 0) level[l] = std::log(opacities[first + l] / options.min_alpha);
-    const vf u = mean[0], v = mean[1], c0 = conic[0], c1 = conic[1], c2 = conic[2];
-    // radius_tile_rect: C-style truncation toward zero, as gsplat v0.1.13.
-    const vf uc = simd::min(simd::max(u, -lim), lim), vc = simd::min(simd::max(v, -lim), lim);
-    const vf r = __builtin_convertvector(radius, vf) * inv_tile;
-    vi x0 = clamp_int(trunc(uc * inv_tile - r), tiles_x);
-    vi x1 = clamp_int(trunc(uc * inv_tile + r) + 1, tiles_x);
-    vi y0 = clamp_int(trunc(vc * inv_tile - r), tiles_y);
-    vi y1 = clamp_int(trunc(vc * inv_tile + r) + 1, tiles_y);
-    if (tight) {
-      // alpha_extent: the half-extents of sigma <= level; none where level <= 0.
-      const vf det = c0 * c2 - c1 * c1;
-      const vf two_level = 2.0f * simd::max(level, vf{});
-      const simd::mask some = simd::less(vf{}, level);
-      const vf ext_x = simd::select(
-          some, simd::sqrt_nonnegative(two_level * (c2 / det)) * kRelMargin + kAbsMargin, vf{});
-      const vf ext_y = simd::select(
-          some, simd::sqrt_nonnegative(two_level * (c0 / det)) * kRelMargin + kAbsMargin, vf{});
-      x0 = simd::max(x0, floor_tile(u - ext_x));
-      x1 = simd::min(x1, floor_tile(u + ext_x) + 1);
-      y0 = simd::max(y0, floor_tile(v - ext_y));
-      y1 = simd::min(y1, floor_tile(v + ext_y) + 1);
+  const std::size_t batches = (n + kLanes - 1) / kLanes;
+  constexpr std::size_t kBatchesPerThread = 256;  // below: one thread (fork/join would dominate)
+  const int threads =
+      int(std::min<std::size_t>(omp_get_max_threads(), batches / kBatchesPerThread + 1));
+  UninitVector<Rect16> rects(n);                        // [N] empty: x1 == x0
+  std::vector<std::size_t> first_item(threads + 1, 0);  // [threads + 1]
+  std::vector<std::uint64_t> key_or(threads, 0), key_and(threads, ~std::uint64_t{0});
+  UninitVector<DepthItem> items;  // [V]
+#pragma omp parallel num_threads(threads)
+  {
+    const int t = omp_get_thread_num();
+    const std::size_t begin = batches * t / threads * kLanes;
+    const std::size_t end = std::min(n, batches * (t + 1) / threads * kLanes);
+    std::size_t visible = 0;
+    for (std::size_t first = begin; first < end; first += kLanes) {
+      const int count = int(std::min<std::size_t>(kLanes, n - first));
+      // Lanes past `count` repeat the last Gaussian; their rects are not stored.
+      vf mean[2], conic[3], level{};
+      simd::load_columns<2>(&p.means2d[2 * first], count, mean);
+      simd::load_columns<3>(&p.conics[3 * first], count, conic);
+      const vi radius = simd::load_lanes(&p.radii[first], count);
+      for (int l = 0; l < count; ++l)
+        if (tight && radius[l] > 0) level[l] = std::log(opacities[first + l] / options.min_alpha);
+      const vf u = mean[0], v = mean[1], c0 = conic[0], c1 = conic[1], c2 = conic[2];
+      // radius_tile_rect: C-style truncation toward zero, as gsplat v0.1.13.
+      const vf uc = simd::min(simd::max(u, -lim), lim), vc = simd::min(simd::max(v, -lim), lim);
+      const vf r = __builtin_convertvector(radius, vf) * inv_tile;
+      vi x0 = clamp_int(trunc(uc * inv_tile - r), tiles_x);
+      vi x1 = clamp_int(trunc(uc * inv_tile + r) + 1, tiles_x);
+      vi y0 = clamp_int(trunc(vc * inv_tile - r), tiles_y);
+      vi y1 = clamp_int(trunc(vc * inv_tile + r) + 1, tiles_y);
+      if (tight) {
+        // alpha_extent: the half-extents of sigma <= level; none where level <= 0.
+        const vf det = c0 * c2 - c1 * c1;
+        const vf two_level = 2.0f * simd::max(level, vf{});
+        const simd::mask some = simd::less(vf{}, level);
+        const vf ext_x = simd::select(
+            some, simd::sqrt_nonnegative(two_level * (c2 / det)) * kRelMargin + kAbsMargin, vf{});
+        const vf ext_y = simd::select(
+            some, simd::sqrt_nonnegative(two_level * (c0 / det)) * kRelMargin + kAbsMargin, vf{});
+        x0 = simd::max(x0, floor_tile(u - ext_x));
+        x1 = simd::min(x1, floor_tile(u + ext_x) + 1);
+        y0 = simd::max(y0, floor_tile(v - ext_y));
+        y1 = simd::min(y1, floor_tile(v + ext_y) + 1);
+      }
+      for (int l = 0; l < count; ++l) {
+        const bool empty = radius[l] <= 0 || x1[l] <= x0[l] || y1[l] <= y0[l];
+        rects[first + l] = empty ? Rect16{}
+                                 : Rect16{std::uint16_t(x0[l]), std::uint16_t(y0[l]),
+                                          std::uint16_t(x1[l]), std::uint16_t(y1[l])};
+        visible += !empty;
+      }
     }
-    for (int l = 0; l < count; ++l) {
-      const bool empty = radius[l] <= 0 || x1[l] <= x0[l] || y1[l] <= y0[l];
-      rects[first + l] = empty ? TileRect{} : TileRect{x0[l], y0[l], x1[l], y1[l]};
+    first_item[t + 1] = visible;
+#pragma omp barrier
+#pragma omp single
+    {
+      for (int u = 0; u < threads; ++u) first_item[u + 1] += first_item[u];
+      items.resize(first_item[threads]);
     }
+    std::size_t k = first_item[t];
+    std::uint64_t any_set = 0, all_set = ~std::uint64_t{0};  // OR and AND of the keys
+    for (std::size_t i = begin; i < end; ++i) {
+      const Rect16 rect = rects[i];
+      if (rect.x1 == rect.x0) continue;
+      const std::uint64_t key = std::bit_cast<std::uint32_t>(p.depths[i]);
+      items[k++] = {key << 32 | std::uint32_t(i), rect};
+      any_set |= key;
+      all_set &= key;
+    }
+    key_or[t] = any_set;
+    key_and[t] = all_set;
   }
+  std::uint64_t any_set = 0, all_set = ~std::uint64_t{0};
+  for (int t = 0; t < threads; ++t) {
+    any_set |= key_or[t];
+    all_set &= key_and[t];
+  }
+  varying = std::uint32_t(any_set & ~all_set);
+  return items;
 }
 
 }  // namespace
@@ -139,24 +187,14 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
   bins.tiles_x = (width + kTileSize - 1) / kTileSize;
   bins.tiles_y = (height + kTileSize - 1) / kTileSize;
   const int num_tiles = bins.num_tiles();
-  const std::size_t n = projected.size();
 
-  // Tile rectangles; Gaussians that reach no tile are dropped here.
-  std::vector<TileRect> rects(n);  // [N]
-  blend_tile_rects(projected, opacities, bins.tiles_x, bins.tiles_y, options, rects);
+  // The visible Gaussians in depth order; those that reach no tile are dropped here.
   if (bins.tiles_x > UINT16_MAX || bins.tiles_y > UINT16_MAX)
     fail("bin_tiles: a {}x{} image has more than {} tiles on a side", width, height, UINT16_MAX);
-  UninitVector<DepthItem> by_depth;  // [V]
-  by_depth.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const TileRect& r = rects[i];
-    if (r.area() > 0)
-      by_depth.push_back({std::uint64_t(std::bit_cast<std::uint32_t>(projected.depths[i])) << 32 |
-                              std::uint32_t(i),
-                          std::uint16_t(r.x0), std::uint16_t(r.y0), std::uint16_t(r.x1),
-                          std::uint16_t(r.y1)});
-  }
-  radix_sort_by_key(by_depth);
+  std::uint32_t varying = 0;
+  UninitVector<DepthItem> by_depth =
+      depth_items(projected, opacities, bins.tiles_x, bins.tiles_y, options, varying);
+  radix_sort_by_key(by_depth, varying);
   const std::size_t v = by_depth.size();
 
   // Counting sort by tile: each thread takes a contiguous run of the depth order, counts its
@@ -171,7 +209,7 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
     const std::size_t begin = v * t / threads, end = v * (t + 1) / threads;
     std::int64_t* count = &tile_counts[std::size_t(t) * num_tiles];
     for (std::size_t k = begin; k < end; ++k) {
-      const DepthItem& r = by_depth[k];
+      const Rect16& r = by_depth[k].rect;
       for (int ty = r.y0; ty < r.y1; ++ty)
         for (int tx = r.x0; tx < r.x1; ++tx) ++count[ty * bins.tiles_x + tx];
     }
@@ -193,8 +231,8 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
     }
     if (!too_many)
       for (std::size_t k = begin; k < end; ++k) {
-        const DepthItem& r = by_depth[k];
-        const std::int32_t g = r.gaussian();
+        const Rect16& r = by_depth[k].rect;
+        const std::int32_t g = by_depth[k].gaussian();
         for (int ty = r.y0; ty < r.y1; ++ty)
           for (int tx = r.x0; tx < r.x1; ++tx)
             bins.gaussian_from_isect[count[ty * bins.tiles_x + tx]++] = g;

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "render_test_util.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/render/bin_tiles.hpp"
 #include "retimegs/render/project.hpp"
 
@@ -38,6 +39,37 @@ TEST(RenderBinTiles, EveryGaussianIsInExactlyTheTilesOfItsBlendTileRect) {
     }
     EXPECT_GT(binned, int(g.size()) / 2);
   }
+}
+
+// Enough Gaussians that every pass splits over the threads (with ties in depth and more than one
+// radix pass): each tile's list is front to back, ties by index, and 1 and 2 threads agree.
+TEST(RenderBinTiles, TileListsAreInDepthOrderForAnyThreadCount) {
+  const Camera camera = test_camera(300, 200);
+  Gaussians g = cast_gaussians<float>(random_gaussians<double>(camera, 20001, 3, 32, 12.0));
+  render::RenderOptions options;
+  const render::Projected p = render::project_forward(g, render::PinholeT<float>(camera), options);
+  std::vector<float> depths = p.depths;
+  for (std::size_t i = 0; i + 1 < depths.size(); i += 7) depths[i + 1] = depths[i];  // ties
+  render::Projected tied = p;
+  tied.depths = depths;
+  const int threads_before = max_threads();
+  std::vector<render::TileBins> bins;
+  for (const int threads : {1, 2}) {
+    set_threads(threads);
+    bins.push_back(
+        render::bin_tiles(tied, g.opacities.data(), camera.width, camera.height, options));
+  }
+  set_threads(threads_before);
+  EXPECT_EQ(bins[0].isect_offsets, bins[1].isect_offsets);
+  EXPECT_EQ(bins[0].gaussian_from_isect, bins[1].gaussian_from_isect);
+  const render::TileBins& b = bins[1];
+  EXPECT_GT(b.num_intersections(), g.size());
+  for (int t = 0; t < b.num_tiles(); ++t)
+    for (int m = b.isect_offsets[t] + 1; m < b.isect_offsets[t + 1]; ++m) {
+      const std::int32_t front = b.gaussian_from_isect[m - 1], back = b.gaussian_from_isect[m];
+      ASSERT_TRUE(depths[front] < depths[back] || (depths[front] == depths[back] && front < back))
+          << "tile " << t << ", intersection " << m;
+    }
 }
 
 }  // namespace
