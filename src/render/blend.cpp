@@ -598,6 +598,7 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
   const std::size_t pixels = std::size_t(in.width) * in.height;
   BlendOutput out;
   out.image = Image(in.width, in.height, in.channels);
+  // Left unset here: every tile writes all its pixels.
   out.alpha.resize(pixels);
   if (options.render_depth) out.depth.resize(pixels);
   out.final_T.resize(pixels);

@@ -30,31 +30,27 @@ struct Batch {
 
   // columns[k] = component k of each lane's row of a [N, W] array.
   template <int W>
-  void load(const std::vector<float>& data, vf (&columns)[W]) const {
+  void load(const float* data, vf (&columns)[W]) const {
     simd::load_columns<W>(&data[first * W], count, columns);
   }
-  vf load(const std::vector<float>& data) const {
+  vf load(const float* data) const {  // [N]
     vf column[1];
     load<1>(data, column);
     return column[0];
   }
-  vi load(const std::vector<std::int32_t>& data) const {
-    return simd::load_lanes(&data[first], count);
-  }
+  vi load(const std::int32_t* data) const { return simd::load_lanes(&data[first], count); }
   // Writes the batch's rows of a [N, W] array: the columns' values in the lanes of `keep`, zero
   // in the others.
   template <int W>
-  void store(std::vector<float>& data, const vf (&columns)[W], simd::mask keep) const {
+  void store(float* data, const vf (&columns)[W], simd::mask keep) const {
     vf kept[W];
     for (int k = 0; k < W; ++k) kept[k] = simd::select(keep, columns[k], vf{});
     if (full()) return simd::store_columns<W>(&data[first * W], kept);
     for (int l = 0; l < count; ++l)
       for (int k = 0; k < W; ++k) data[(first + l) * W + k] = kept[k][l];
   }
-  void store(std::vector<float>& data, vf column, simd::mask keep) const {
-    store<1>(data, {column}, keep);
-  }
-  void store(std::vector<std::int32_t>& data, vi column, simd::mask keep) const {
+  void store(float* data, vf column, simd::mask keep) const { store<1>(data, {column}, keep); }
+  void store(std::int32_t* data, vi column, simd::mask keep) const {  // [N]
     const vi kept = simd::select(keep, column, vi{});
     if (full())
       std::memcpy(&data[first], &kept, sizeof(kept));
@@ -109,12 +105,12 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
                        float low_pass) {
   GeometryLanes geo;
   vf mean[3];
-  batch.load<3>(g.means, mean);
+  batch.load<3>(g.means.data(), mean);
   for (int i = 0; i < 3; ++i)
     geo.p[i] = cam.rv[3 * i] * mean[0] + cam.rv[3 * i + 1] * mean[1] + cam.rv[3 * i + 2] * mean[2] +
                cam.t[i];
   vf q[4];
-  batch.load<4>(g.quats, q);
+  batch.load<4>(g.quats.data(), q);
   geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   for (int k = 0; k < 4; ++k) geo.q[k] = q[k] / geo.qnorm;
   const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
@@ -125,7 +121,7 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   r[5] = 2.0f * (y * z - w * x);
   r[6] = 2.0f * (x * z - w * y), r[7] = 2.0f * (y * z + w * x),
   r[8] = 1.0f - 2.0f * (x * x + y * y);
-  batch.load<3>(g.log_scales, geo.scale);
+  batch.load<3>(g.log_scales.data(), geo.scale);
   for (vf& scale : geo.scale) scale = exp_lanes(scale);
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 3; ++k) geo.m[3 * i + k] = r[3 * i + k] * geo.scale[k];
@@ -194,10 +190,11 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
                                         const RenderOptions& options) {
   const std::size_t n = g.size();
   ProjectedT<float> out;
-  out.means2d.assign(2 * n, 0.0f);
-  out.conics.assign(3 * n, 0.0f);
-  out.depths.assign(n, 0.0f);
-  out.radii.assign(n, 0);
+  // Every row is written below (zero for the culled).
+  out.means2d.resize(2 * n);
+  out.conics.resize(3 * n);
+  out.depths.resize(n);
+  out.radii.resize(n);
   const CameraConstants cam(camera);
   const int tiles_x = (camera.width + kTileSize - 1) / kTileSize;
   const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
@@ -207,7 +204,7 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
-    const vf opacity = batch.load(g.opacities);
+    const vf opacity = batch.load(g.opacities.data());
     const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
     const vf z = geo.p[2];
     const vf* cov = geo.cov2d;
@@ -225,11 +222,10 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
                                simd::greater_equal(z, simd::splat(options.near_plane)) &
                                simd::less(simd::splat(0.0f), det) &
                                tile_rect_not_empty(u, v, radius, tiles_x, tiles_y);
-    if (!(simd::bits(visible) & batch.all())) continue;
-    batch.store<2>(out.means2d, {u, v}, visible);
-    batch.store<3>(out.conics, {cov[2] / det, -cov[1] / det, cov[0] / det}, visible);
-    batch.store(out.depths, z, visible);
-    batch.store(out.radii, radius, visible);
+    batch.store<2>(out.means2d.data(), {u, v}, visible);
+    batch.store<3>(out.conics.data(), {cov[2] / det, -cov[1] / det, cov[0] / det}, visible);
+    batch.store(out.depths.data(), z, visible);
+    batch.store(out.radii.data(), radius, visible);
   }
   return out;
 }
@@ -249,20 +245,20 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
     // The stores below write zero rows for the culled lanes.
-    const simd::mask visible = simd::less(vi{}, batch.load(projected.radii));
+    const simd::mask visible = simd::less(vi{}, batch.load(projected.radii.data()));
     if (!(simd::bits(visible) & batch.all())) {
       const vf zero[4] = {};
-      batch.store<3>(grads.v_means, {zero[0], zero[1], zero[2]}, visible);
-      batch.store<3>(grads.v_log_scales, {zero[0], zero[1], zero[2]}, visible);
-      batch.store<4>(grads.v_quats, zero, visible);
+      batch.store<3>(grads.v_means.data(), {zero[0], zero[1], zero[2]}, visible);
+      batch.store<3>(grads.v_log_scales.data(), {zero[0], zero[1], zero[2]}, visible);
+      batch.store<4>(grads.v_quats.data(), zero, visible);
       continue;
     }
     const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
 
     // conic = cov2d^-1: d loss / d cov2d = -conic V conic, V the symmetric form of v_conics.
     vf conic[3], v_conic[3];
-    batch.load<3>(projected.conics, conic);
-    batch.load<3>(grads.v_conics, v_conic);
+    batch.load<3>(projected.conics.data(), conic);
+    batch.load<3>(grads.v_conics.data(), v_conic);
     const vf ca = conic[0], cb = conic[1], cc = conic[2];
     const vf va = v_conic[0], vb = 0.5f * v_conic[1], vc = v_conic[2];
     const vf cv[2][2] = {{ca * va + cb * vb, ca * vb + cb * vc},
@@ -306,7 +302,7 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
           v_m[0][k] * geo.rq[k] + v_m[1][k] * geo.rq[3 + k] + v_m[2][k] * geo.rq[6 + k];
       v_log_scale[k] = v_scale * geo.scale[k];
     }
-    batch.store<3>(grads.v_log_scales, v_log_scale, visible);
+    batch.store<3>(grads.v_log_scales.data(), v_log_scale, visible);
     // quat_to_rotation_vjp (project.cpp), then through the normalisation.
     const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
     const auto& v = v_rq;
@@ -321,16 +317,17 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     const vf dot = w * v_qhat[0] + x * v_qhat[1] + y * v_qhat[2] + z * v_qhat[3];
     vf v_quat[4];
     for (int k = 0; k < 4; ++k) v_quat[k] = (v_qhat[k] - geo.q[k] * dot) / geo.qnorm;
-    batch.store<4>(grads.v_quats, v_quat, visible);
+    batch.store<4>(grads.v_quats.data(), v_quat, visible);
 
     // Camera-space mean: through the pixel centre, the Jacobian and the depth.
     vf v_mean2d[2];
-    batch.load<2>(grads.v_means2d, v_mean2d);
+    batch.load<2>(grads.v_means2d.data(), v_mean2d);
     const vf v_u = v_mean2d[0], v_v = v_mean2d[1];
     const vf px = geo.p[0], py = geo.p[1], pz = geo.p[2];
     const vf rzc = 1.0f / (pz + options.centre_depth_offset);
-    vf v_p[3] = {cam.fx * rzc * v_u, cam.fy * rzc * v_v,
-                 -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths)};
+    vf v_p[3] = {
+        cam.fx * rzc * v_u, cam.fy * rzc * v_v,
+        -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths.data())};
     const vf rz = 1.0f / pz, rz2 = rz * rz, rz3 = rz2 * rz;
     const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
     v_p[2] += -cam.fx * rz2 * v_jac[0][0] - cam.fy * rz2 * v_jac[1][1] +
@@ -344,7 +341,7 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     vf v_mean[3];
     for (int k = 0; k < 3; ++k)
       v_mean[k] = cam.rv[k] * v_p[0] + cam.rv[3 + k] * v_p[1] + cam.rv[6 + k] * v_p[2];
-    batch.store<3>(grads.v_means, v_mean, visible);
+    batch.store<3>(grads.v_means.data(), v_mean, visible);
   }
 }
 

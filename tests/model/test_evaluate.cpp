@@ -158,7 +158,7 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
     auto loss = [&] {
       const auto e = evaluate(p, config, kGrid, c.t, cam, c.options);
       double sum = 0;
-      auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
+      auto dot = [&](const std::vector<double>& a, const UninitVector<double>& b) {
         for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
       };
       dot(e.gaussians.means, w.v_means), dot(e.gaussians.log_scales, w.v_log_scales);

@@ -121,8 +121,9 @@ inline std::vector<double> random_values(std::size_t n, unsigned seed) {
   return v;
 }
 
-template <typename A, typename B>
-double max_abs_diff(const std::vector<A>& a, const std::vector<B>& b) {
+// a, b: vectors of any arithmetic type and allocator.
+template <typename VectorA, typename VectorB>
+double max_abs_diff(const VectorA& a, const VectorB& b) {
   EXPECT_EQ(a.size(), b.size());
   double m = 0;
   for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
@@ -130,10 +131,10 @@ double max_abs_diff(const std::vector<A>& a, const std::vector<B>& b) {
   return m;
 }
 
-template <typename A>
-double max_abs(const std::vector<A>& a) {
+template <typename Vector>
+double max_abs(const Vector& a) {
   double m = 0;
-  for (const A& x : a) m = std::max(m, std::abs(double(x)));
+  for (const auto x : a) m = std::max(m, std::abs(double(x)));
   return m;
 }
 

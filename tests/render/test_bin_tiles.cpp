@@ -48,7 +48,7 @@ TEST(RenderBinTiles, TileListsAreInDepthOrderForAnyThreadCount) {
   Gaussians g = cast_gaussians<float>(random_gaussians<double>(camera, 20001, 3, 32, 12.0));
   render::RenderOptions options;
   const render::Projected p = render::project_forward(g, render::PinholeT<float>(camera), options);
-  std::vector<float> depths = p.depths;
+  UninitVector<float> depths = p.depths;
   for (std::size_t i = 0; i + 1 < depths.size(); i += 7) depths[i + 1] = depths[i];  // ties
   render::Projected tied = p;
   tied.depths = depths;

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
 #include "render_test_util.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/memory.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/render/reference.hpp"
 
@@ -142,6 +144,60 @@ TEST(RenderEdgeCases, OddImageSizes) {
     EXPECT_EQ(out.blend.image.width, w);
     EXPECT_EQ(out.blend.image.height, h);
     EXPECT_EQ(out.bins.num_tiles(), ((w + 15) / 16) * ((h + 15) / 16));
+  }
+}
+
+// The stages size their outputs without zeroing them (UninitVector) and then write every element.
+// Rendering into memory filled with 0xff bytes (NaN, -1) must give the same bits as into zeroed
+// memory, on a scene with culled Gaussians (behind the camera, off image, transparent), a
+// partial last batch of 16, depth, C = 7 and an image of partial tiles.
+TEST(RenderEdgeCases, EveryOutputElementIsWritten) {
+  const Camera camera = test_camera(37, 23);
+  Gaussians g = cast_gaussians<float>(random_gaussians<double>(camera, 61, 7, 8, 6.0));
+  g.means[3 * 1 + 2] *= -1.0f;                          // behind the camera
+  g.means[3 * 2 + 0] += 100.0f;                         // off image
+  for (int i = 16; i < 32; ++i) g.opacities[i] = 0.0f;  // a whole batch of 16 culled
+  const std::vector<float> background = {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f};
+  render::RenderOptions options;
+  options.render_depth = true;
+  const std::size_t pixels = std::size_t(camera.width) * camera.height;
+  const auto to_float = [](const std::vector<double>& v) {
+    return std::vector<float>(v.begin(), v.end());
+  };
+  const auto v_image = to_float(random_values(pixels * 7, 9));
+  const auto v_alpha = to_float(random_values(pixels, 10));
+  const auto v_depth = to_float(random_values(pixels, 11));
+  std::vector<render::RenderOutput> outs;
+  std::vector<GaussianGrads> grads;
+  for (const int poison : {0x00, 0xff}) {
+    set_uninit_poison(poison);
+    outs.push_back(render::rasterize_forward(g, camera, background.data(), options));
+    grads.push_back(render::rasterize_backward(g, camera, background.data(), options, outs.back(),
+                                               v_image.data(), v_alpha.data(), v_depth.data()));
+  }
+  set_uninit_poison(-1);
+  const auto same_bits = [](const auto& a, const auto& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0;
+  };
+  const render::RenderOutput &zeroed = outs[0], &poisoned = outs[1];
+  EXPECT_TRUE(same_bits(zeroed.projected.means2d, poisoned.projected.means2d));
+  EXPECT_TRUE(same_bits(zeroed.projected.conics, poisoned.projected.conics));
+  EXPECT_TRUE(same_bits(zeroed.projected.depths, poisoned.projected.depths));
+  EXPECT_TRUE(same_bits(zeroed.projected.radii, poisoned.projected.radii));
+  EXPECT_EQ(zeroed.projected.radii[1], 0);
+  EXPECT_EQ(zeroed.projected.radii[2], 0);
+  EXPECT_EQ(zeroed.projected.radii[16], 0);
+  EXPECT_TRUE(same_bits(zeroed.blend.image.data, poisoned.blend.image.data));
+  EXPECT_TRUE(same_bits(zeroed.blend.alpha, poisoned.blend.alpha));
+  EXPECT_TRUE(same_bits(zeroed.blend.depth, poisoned.blend.depth));
+  EXPECT_TRUE(same_bits(zeroed.blend.final_T, poisoned.blend.final_T));
+  EXPECT_TRUE(same_bits(zeroed.blend.last_contributor, poisoned.blend.last_contributor));
+  EXPECT_TRUE(same_bits(zeroed.blend.n_contrib, poisoned.blend.n_contrib));
+  for (const auto field :
+       {&GaussianGrads::v_means, &GaussianGrads::v_log_scales, &GaussianGrads::v_quats,
+        &GaussianGrads::v_opacities, &GaussianGrads::v_features, &GaussianGrads::v_means2d,
+        &GaussianGrads::v_conics, &GaussianGrads::v_depths}) {
+    EXPECT_TRUE(same_bits(grads[0].*field, grads[1].*field));
   }
 }
 

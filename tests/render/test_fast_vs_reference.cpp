@@ -99,8 +99,8 @@ TEST_P(RenderFastVsReference, BackwardMatches) {
                                                sc.depth ? v_depth_f.data() : nullptr);
   const struct {
     const char* name;
-    const std::vector<float>& got;
-    const std::vector<double>& expected;
+    const UninitVector<float>& got;
+    const UninitVector<double>& expected;
   } fields[] = {{"v_means", fast.v_means, ref.v_means},
                 {"v_log_scales", fast.v_log_scales, ref.v_log_scales},
                 {"v_quats", fast.v_quats, ref.v_quats},
@@ -131,7 +131,8 @@ TEST(RenderDeterminism, SameThreadCountIsBitIdentical) {
   const auto v_image_d = random_values(std::size_t(70) * 50 * 3, 22);
   const std::vector<float> v_image(v_image_d.begin(), v_image_d.end());
   const int threads_before = max_threads();
-  std::vector<std::vector<float>> v_means, images;
+  std::vector<UninitVector<float>> v_means;
+  std::vector<std::vector<float>> images;
   for (const int threads : {2, 2, 1}) {
     set_threads(threads);
     const auto out = render::rasterize_forward(g, camera, background.data());

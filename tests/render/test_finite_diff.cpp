@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <span>
 #include <string>
 
 #include "render_test_util.hpp"
@@ -23,8 +24,7 @@ render::RenderOptions smooth_options() {
 }
 
 // d loss / d x[i] for every i, by central differences.
-std::vector<double> central_differences(std::vector<double>& x,
-                                        const std::function<double()>& loss) {
+std::vector<double> central_differences(std::span<double> x, const std::function<double()>& loss) {
   std::vector<double> g(x.size());
   for (std::size_t i = 0; i < x.size(); ++i) {
     const double saved = x[i];
@@ -38,7 +38,7 @@ std::vector<double> central_differences(std::vector<double>& x,
   return g;
 }
 
-void expect_gradient(const char* name, const std::vector<double>& analytic,
+void expect_gradient(const char* name, std::span<const double> analytic,
                      const std::vector<double>& numeric) {
   ASSERT_EQ(analytic.size(), numeric.size()) << name;
   const double scale = max_abs(numeric);
@@ -53,7 +53,7 @@ void expect_gradient(const char* name, const std::vector<double>& analytic,
   std::printf("%-14s max |analytic - numeric| / max |numeric| = %.2g\n", name, worst);
 }
 
-double dot(const std::vector<double>& a, const std::vector<double>& b) {
+double dot(std::span<const double> a, std::span<const double> b) {
   double s = 0;
   for (std::size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];
   return s;
@@ -91,9 +91,9 @@ TEST(RenderFiniteDiff, ProjectionBackward) {
     return dot(p.means2d, v_means2d) + dot(p.conics, v_conics) + dot(p.depths, v_depths);
   };
   GaussianGradsT<double> grads(n, 3);
-  grads.v_means2d = v_means2d;
-  grads.v_conics = v_conics;
-  grads.v_depths = v_depths;
+  grads.v_means2d.assign(v_means2d.begin(), v_means2d.end());
+  grads.v_conics.assign(v_conics.begin(), v_conics.end());
+  grads.v_depths.assign(v_depths.begin(), v_depths.end());
   render::project_backward(g, pinhole, render::project_forward(g, pinhole, options), options,
                            grads);
   expect_gradient("v_means", grads.v_means, central_differences(g.means, loss));

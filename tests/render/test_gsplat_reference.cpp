@@ -117,8 +117,10 @@ TEST(RenderGsplatGrad, ProjectionGradientsMatchV130) {
     }
   EXPECT_EQ(rows, 329);
   GaussianGrads grads(n, 3);
-  grads.v_means2d = npy_floats(dir / "v_means2d.npy");
-  grads.v_conics = npy_floats(dir / "v_conics.npy");
+  const auto v_means2d = npy_floats(dir / "v_means2d.npy");
+  const auto v_conics = npy_floats(dir / "v_conics.npy");
+  grads.v_means2d.assign(v_means2d.begin(), v_means2d.end());
+  grads.v_conics.assign(v_conics.begin(), v_conics.end());
   render::project_backward(k.gaussians, camera, p, options, grads);
   // Scales: the reference differentiates the linear scale, we the log-scale (v_log = v_s * s).
   const auto scales = npy_floats(k.dir / "scales.npy");
@@ -126,7 +128,7 @@ TEST(RenderGsplatGrad, ProjectionGradientsMatchV130) {
   for (std::size_t i = 0; i < grad_scales.size(); ++i) grad_scales[i] *= scales[i];
   const struct {
     const char* name;
-    const std::vector<float>& got;
+    const UninitVector<float>& got;
     std::vector<float> expected;
   } fields[] = {{"means", grads.v_means, npy_floats(dir / "grad_means.npy")},
                 {"log_scales", grads.v_log_scales, grad_scales},

@@ -5,6 +5,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "retimegs/core/memory.hpp"
+
 namespace retimegs {
 
 template <typename T>
@@ -28,26 +30,26 @@ struct GaussiansT {
 template <typename T>
 struct GaussianGradsT {
   int channels = 3;
-  std::vector<T> v_means;       // [N, 3]
-  std::vector<T> v_log_scales;  // [N, 3]
-  std::vector<T> v_quats;       // [N, 4] with respect to the raw (unnormalised) quaternion
-  std::vector<T> v_opacities;   // [N]
-  std::vector<T> v_features;    // [N, C]
-  std::vector<T> v_means2d;     // [N, 2] intermediate: pixel centre (u, v)
-  std::vector<T> v_conics;      // [N, 3] intermediate: inverse 2-D covariance (a, b, c)
-  std::vector<T> v_depths;      // [N] intermediate: camera z (only the depth render feeds it)
+  UninitVector<T> v_means;       // [N, 3]
+  UninitVector<T> v_log_scales;  // [N, 3]
+  UninitVector<T> v_quats;       // [N, 4] with respect to the raw (unnormalised) quaternion
+  UninitVector<T> v_opacities;   // [N]
+  UninitVector<T> v_features;    // [N, C]
+  UninitVector<T> v_means2d;     // [N, 2] intermediate: pixel centre (u, v)
+  UninitVector<T> v_conics;      // [N, 3] intermediate: inverse 2-D covariance (a, b, c)
+  UninitVector<T> v_depths;      // [N] intermediate: camera z (only the depth render feeds it)
 
   GaussianGradsT() = default;
   GaussianGradsT(std::size_t n, int c)
       : channels(c),
-        v_means(3 * n),
-        v_log_scales(3 * n),
-        v_quats(4 * n),
-        v_opacities(n),
-        v_features(n * c),
-        v_means2d(2 * n),
-        v_conics(3 * n),
-        v_depths(n) {}
+        v_means(3 * n, T(0)),
+        v_log_scales(3 * n, T(0)),
+        v_quats(4 * n, T(0)),
+        v_opacities(n, T(0)),
+        v_features(n * c, T(0)),
+        v_means2d(2 * n, T(0)),
+        v_conics(3 * n, T(0)),
+        v_depths(n, T(0)) {}
 
   std::size_t size() const { return v_opacities.size(); }
 };

@@ -1,7 +1,9 @@
 #pragma once
 // Memory for the rasteriser's large per-call arrays (tens of megabytes per render and per
 // gradient, allocated and freed every training step).
+#include <atomic>
 #include <cstddef>
+#include <cstring>
 #include <new>
 #include <utility>
 #include <vector>
@@ -16,6 +18,17 @@ namespace retimegs {
 // Called once by the `retimegs` program and the benchmarks; memory stays at the peak of a step.
 void keep_freed_memory();
 
+namespace detail {
+inline std::atomic<int> uninit_poison{-1};
+}
+
+// Tests only: fill every later UninitAllocator allocation with this byte (0xff: NaN floats, -1
+// integers), so that an element that its writer leaves unset shows up; -1 (the default) leaves
+// the memory as operator new returns it.
+inline void set_uninit_poison(int byte) {
+  detail::uninit_poison.store(byte);
+}
+
 // A std::vector whose resize() leaves trivially constructible elements unset, for arrays that
 // their writer fills completely (or that are read only where written): value-initialising them
 // is a serial pass over tens of megabytes per call.
@@ -28,7 +41,12 @@ struct UninitAllocator {
   template <typename U>
   UninitAllocator(const UninitAllocator<U>&) {}  // NOLINT: rebinding is implicit
 
-  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), kAlignment)); }
+  T* allocate(std::size_t n) {
+    void* p = ::operator new(n * sizeof(T), kAlignment);
+    if (const int byte = detail::uninit_poison.load(std::memory_order_relaxed); byte >= 0)
+      std::memset(p, byte, n * sizeof(T));
+    return static_cast<T*>(p);
+  }
   void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, kAlignment); }
   // Default-initialisation instead of value-initialisation.
   template <typename U>

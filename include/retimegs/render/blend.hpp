@@ -30,14 +30,14 @@ struct alignas(64) CacheLine {
 };
 
 struct BlendOutput {
-  Image image;               // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
-  std::vector<float> alpha;  // [H, W] 1 - T_final
-  std::vector<float> depth;  // [H, W] sum_i z_i alpha_i T_i; empty unless render_depth
+  Image image;                // [H, W, C] sum_i f_i alpha_i T_i + T_final * background
+  UninitVector<float> alpha;  // [H, W] 1 - T_final
+  UninitVector<float> depth;  // [H, W] sum_i z_i alpha_i T_i; empty unless render_depth
   // Saved for the backward.
-  std::vector<float> final_T;                  // [H, W] transmittance left after compositing
-  std::vector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
-                                               // Gaussian composited; 0 = none
-  std::vector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
+  UninitVector<float> final_T;                  // [H, W] transmittance left after compositing
+  UninitVector<std::int32_t> last_contributor;  // [H, W] 1 + tile-list position of the last
+                                                // Gaussian composited; 0 = none
+  UninitVector<std::int32_t> n_contrib;         // [H, W] how many Gaussians were composited
   // [M] per tile intersection: the 4x4-pixel blocks of its tile (bit 4 * block row + block
   // column) that hold a pixel centre of the Gaussian's alpha >= min_alpha ellipse. Set for the
   // intersections that the forward reached before its tile saturated (all the backward visits);

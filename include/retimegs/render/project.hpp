@@ -26,10 +26,10 @@ struct PinholeT {
 // 2-D Gaussians, one row per input Gaussian. Culled rows have radius 0 and all-zero values.
 template <typename T>
 struct ProjectedT {
-  std::vector<T> means2d;  // [N, 2] pixel coordinates (u, v), pixel centres at +0.5
-  std::vector<T> conics;   // [N, 3] (a, b, c) of the inverse 2-D covariance [[a, b], [b, c]]
-  std::vector<T> depths;   // [N] camera z
-  std::vector<std::int32_t> radii;  // [N] ceil(3 sigma_max) in pixels; 0 = culled
+  UninitVector<T> means2d;  // [N, 2] pixel coordinates (u, v), pixel centres at +0.5
+  UninitVector<T> conics;   // [N, 3] (a, b, c) of the inverse 2-D covariance [[a, b], [b, c]]
+  UninitVector<T> depths;   // [N] camera z
+  UninitVector<std::int32_t> radii;  // [N] ceil(3 sigma_max) in pixels; 0 = culled
 
   std::size_t size() const { return radii.size(); }
 };
