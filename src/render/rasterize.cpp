@@ -19,14 +19,19 @@ void check_size(const std::vector<T>& v, std::size_t expected, const char* field
     fail("gaussians.{}: has {} values, expected {} ({})", field, v.size(), expected, shape);
 }
 
+constexpr std::size_t kParallelValues = 1 << 16;  // below: one thread (fork/join would dominate)
+
 // Whether every value is finite (exponent bits not all ones), as an or-reduction over the bits
-// that the compiler vectorises; the caller then looks for the first bad value only on failure.
+// that the compiler vectorises, split over the threads (tens of megabytes per training step); the
+// caller then looks for the first bad value only on failure.
 template <typename T>
 bool all_finite(const std::vector<T>& v) {
   using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
   constexpr Bits kExponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
   Bits bad = 0;
-  for (const T x : v) bad |= Bits((std::bit_cast<Bits>(x) & kExponent) == kExponent);
+#pragma omp parallel for simd schedule(static) reduction(| : bad) if (v.size() >= kParallelValues)
+  for (std::size_t k = 0; k < v.size(); ++k)
+    bad |= Bits((std::bit_cast<Bits>(v[k]) & kExponent) == kExponent);
   return bad == 0;
 }
 
@@ -69,6 +74,7 @@ void check_gaussians(const GaussiansT<T>& g) {
   check_finite(g.features, g.channels, "features");
   // Opacities in [0, 1] and non-zero quaternions: a vectorisable pass first, the message second.
   bool bad = false;
+#pragma omp parallel for schedule(static) reduction(| : bad) if (n >= kParallelValues)
   for (std::size_t i = 0; i < n; ++i) {
     const T* q = &g.quats[4 * i];
     bad |= !(g.opacities[i] >= 0 && g.opacities[i] <= 1) |
