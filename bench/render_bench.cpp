@@ -223,6 +223,11 @@ void BM_Stage(benchmark::State& state) {
         break;
     }
   }
+  // The work of the stages: visible Gaussians (radius > 0) and their tile intersections.
+  state.counters["visible"] =
+      double(std::count_if(out.projected.radii.begin(), out.projected.radii.end(),
+                           [](std::int32_t r) { return r > 0; }));
+  state.counters["intersections"] = double(out.bins.num_intersections());
 }
 
 void scenes_and_threads(benchmark::internal::Benchmark* b) {

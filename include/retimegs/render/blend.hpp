@@ -54,8 +54,9 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
 // Upstream gradients v_image [H, W, C] (required), v_alpha [H, W] and v_depth [H, W] (nullptr =
 // zero; v_depth requires options.render_depth). `forward` must come from blend_forward with the
 // same inputs and bins: its footprint_blocks and records are reused, not recomputed. Sets
-// grads.v_means2d, v_conics, v_opacities, v_features and v_depths. Per-thread gradient buffers
-// over a static tile schedule, summed in thread order: deterministic for a given thread count.
+// grads.v_means2d, v_conics, v_opacities, v_features and v_depths. Each thread takes one
+// contiguous run of tiles (balanced by the forward's n_contrib) into its own gradient buffer; the
+// buffers are summed in thread order: deterministic for a given thread count.
 void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
                     const BlendOutput& forward, const float* v_image, const float* v_alpha,
                     const float* v_depth, GaussianGrads& grads);
