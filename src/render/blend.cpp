@@ -446,11 +446,14 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   vf v_feat_fixed[kC > 0 ? kC : 1];
   std::vector<vf> v_feat_dynamic(kC > 0 ? 0 : channels);
   vf* v_feat = kC > 0 ? v_feat_fixed : v_feat_dynamic.data();
-  // The Gaussian's record and its row of the gradient buffer are both scattered in memory.
+  // The Gaussian's record and its row of the gradient buffer are both scattered in memory; a row
+  // (grad_stride floats, not padded) may straddle two cache lines: both are fetched.
   const auto prefetch = [&](int k) {
     if (k < 0) return;
     list.prefetch(k);
-    simd::prefetch(grad_buffer + std::size_t(list.gaussian[k]) * grad_stride);
+    const float* row = grad_buffer + std::size_t(list.gaussian[k]) * grad_stride;
+    simd::prefetch(row);
+    simd::prefetch(row + grad_stride - 1);
   };
   for (int k = max_last - 1; k >= max_last - 1 - kPrefetchDistance; --k) prefetch(k);
   for (int k = max_last - 1; k >= 0; --k) {
