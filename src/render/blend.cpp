@@ -207,8 +207,12 @@ struct TileList {
   }
 
   const float* splat(int k) const { return ctx->splat(gaussian[k]); }
+  // Both cache lines of a record that has two (more than 6 channels).
   void prefetch(int k) const {
-    if (k >= 0 && k < count) simd::prefetch(splat(k));
+    if (k < 0 || k >= count) return;
+    const float* s = splat(k);
+    simd::prefetch(s);
+    if (ctx->stride > kLanes) simd::prefetch(s + ctx->stride - 1);
   }
 
   // The centre of Gaussian s relative to the tile's first pixel centre (footprint_blocks).
