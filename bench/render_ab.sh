@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Interleaved A/B timing of render_bench binaries on a shared, noisy machine: each round runs
-# every binary once (4 repetitions each), and the figure kept per benchmark and binary is the
-# minimum wall time over all rounds (the run least disturbed by other jobs).
+# every binary once, and the figure kept per benchmark and binary is the
+# minimum wall time over all rounds (the run least disturbed by other jobs). REPETITIONS (default
+# 4) and MIN_TIME (seconds per repetition, default Google Benchmark's) set each run's length:
+# REPETITIONS=8 MIN_TIME=0.05 takes minima of near-single iterations, the most robust on a busy host.
 #
 #   bash bench/render_ab.sh 'BM_ForwardBackward' 4 build/bench/render_bench /tmp/old/render_bench
 set -euo pipefail
@@ -13,7 +15,8 @@ filter=$1 rounds=$2
 shift 2
 for ((round = 0; round < rounds; ++round)); do
   for binary in "$@"; do
-    "$binary" --benchmark_filter="$filter" --benchmark_repetitions=4 --benchmark_format=csv \
+    "$binary" --benchmark_filter="$filter" --benchmark_repetitions="${REPETITIONS:-4}" \
+      ${MIN_TIME:+--benchmark_min_time="$MIN_TIME"} --benchmark_format=csv \
       2>/dev/null | grep '^"BM' | grep -v '_mean"\|_median"\|_stddev"\|_cv"' |
       awk -F, -v binary="$binary" '{ gsub(/"|\/process_time\/real_time/, "", $1); print binary, $1, $3 }'
   done
