@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Interleaved A/B timing of render_bench binaries on a shared, noisy machine: each round runs
-# every binary once, and the figure kept per benchmark and binary is the
-# minimum wall time over all rounds (the run least disturbed by other jobs). REPETITIONS (default
-# 4) and MIN_TIME (seconds per repetition, default Google Benchmark's) set each run's length:
-# REPETITIONS=8 MIN_TIME=0.05 takes minima of near-single iterations, the most robust on a busy host.
+# every binary once, and the figure kept per benchmark and binary is the minimum wall time over
+# all rounds (the run least disturbed by other jobs). REPETITIONS (default 4) and MIN_TIME
+# (seconds per repetition, default Google Benchmark's) set each run's length: REPETITIONS=8
+# MIN_TIME=0.05 takes minima of near-single iterations, the most robust on a busy host.
 #
 #   bash bench/render_ab.sh 'BM_ForwardBackward' 4 build/bench/render_bench /tmp/old/render_bench
 set -euo pipefail

@@ -207,7 +207,8 @@ struct TileList {
   }
 
   const float* splat(int k) const { return ctx->splat(gaussian[k]); }
-  // Both cache lines of a record that has two (more than 6 channels).
+  // The record's first and last cache lines: a record with more than 6 features (+ depth) spans
+  // two (the lines between, from 23 on, are left to the hardware prefetcher).
   void prefetch(int k) const {
     if (k < 0 || k >= count) return;
     const float* s = splat(k);
