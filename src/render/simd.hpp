@@ -27,8 +27,10 @@ constexpr int kLanes = kTileSize;
 using vf = float __attribute__((vector_size(kLanes * sizeof(float))));
 using vi = std::int32_t __attribute__((vector_size(kLanes * sizeof(std::int32_t))));
 
+// x - 0 is x for every x (-0 included), so this is a plain broadcast; vf{} + x is not (-0 + 0 is
+// +0), and GCC computed the scalar sum before broadcasting it.
 inline vf splat(float x) {
-  return vf{} + x;
+  return x - vf{};
 }
 inline vi splat_int(std::int32_t x) {
   return vi{} + x;
