@@ -64,7 +64,7 @@ inline int state_index(int row, int column) {
 }
 
 // The footprint test widens the level sigma <= ln(opacity / min_alpha) by 1 % + 0.01, far more
-// than the float rounding of sigma (a few ulps of its largest term) and of the fast exp (3e-7):
+// than the float rounding of sigma (a few ulps of its largest term) and of the fast exp (2e-7):
 // a pixel that the blend composites is never left out. The cost is ~0.5 % more lanes.
 constexpr float kLevelRelMargin = 1.01f, kLevelAbsMargin = 0.01f;
 

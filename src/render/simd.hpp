@@ -210,18 +210,16 @@ inline std::int32_t reduce_max(vi v) {
   return r;
 }
 
-// 2^f for f in [0, 1): 2^f = sqrt(2) e^x with x = (f - 1/2) ln 2, |x| <= ln(2) / 2, and
-// sqrt(2) e^x by the degree-5 polynomial that interpolates it at the 6 Chebyshev nodes of that
-// interval (relative error 1.0e-7, below the 1.6e-7 of the degree-6 Taylor polynomial).
+// 2^f for f in [0, 1) by 1 + f q(f), q the degree-4 polynomial of least maximum relative error
+// (Lawson's iteration on 4001 points; float coefficients): 2^0 exactly, 1.4e-7 relative in float
+// arithmetic, and one multiply-add fewer than the former polynomial in (f - 1/2) ln 2 (1.8e-7).
 inline vf exp2_fraction(vf f) {
-  constexpr float kLn2 = 0.693147180559945f;
-  const vf x = f * kLn2 - 0.5f * kLn2;
-  vf p = splat(0.011835763f);
-  p = p * x + 0.059280306f;
-  p = p * x + 0.23569998f;
-  p = p * x + 0.70709080f;
-  p = p * x + 1.4142135f;
-  p = p * x + 1.4142137f;
+  vf p = splat(0.00186714449f);
+  p = p * f + 0.00901699997f;
+  p = p * f + 0.055799935f;
+  p = p * f + 0.240164444f;
+  p = p * f + 0.693151295f;
+  p = p * f + 1.0f;
   return p;
 }
 
