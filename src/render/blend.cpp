@@ -45,7 +45,8 @@ static_assert(kBlockSide * kBlockSide == kLanes, "one vector per block");
 static_assert(sizeof(CacheLine) == sizeof(vf), "records are whole vectors");
 static_assert(kTileSize == kLanes, "footprint_blocks: one lane per tile row");
 static_assert(kBlocks <= 16, "block masks are saved as 16 bits");
-constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
+constexpr int kMaxStaticChannels = 8;
+constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;  // channel counts (with depth) that get a compiled kernel
 
 // Lane l of a block is pixel (row l / 4, column l % 4) of the block.
 const vf kLaneColumn = {0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3};
@@ -74,9 +75,9 @@ constexpr float kLevelRelMargin = 1.01f, kLevelAbsMargin = 0.01f;
 enum Field {
   kU,
   kV,
-  kHalfA,
-  kB,
-  kHalfC,
+  kHalfA,  // a log2(e) / 2: the conic scaled so that sigma log2(e) comes out (log2_alpha)
+  kB,      // b log2(e)
+  kHalfC,  // c log2(e) / 2
   kOpacity,
   kLog2Opacity,
   kRowCentreSlope,   // b / a
@@ -124,9 +125,9 @@ struct Context {
       const float opacity = in->opacities[g];
       s[kU] = p.means2d[2 * g];
       s[kV] = p.means2d[2 * g + 1];
-      s[kHalfA] = 0.5f * p.conics[3 * g];
-      s[kB] = p.conics[3 * g + 1];
-      s[kHalfC] = 0.5f * p.conics[3 * g + 2];
+      s[kHalfA] = 0.5f * kLog2e * p.conics[3 * g];
+      s[kB] = kLog2e * p.conics[3 * g + 1];
+      s[kHalfC] = 0.5f * kLog2e * p.conics[3 * g + 2];
       s[kOpacity] = opacity;
       const float log2_opacity = std::log2(opacity);
       s[kLog2Opacity] = log2_opacity;
@@ -134,7 +135,6 @@ struct Context {
       const double a = p.conics[3 * g], b = p.conics[3 * g + 1], cc = p.conics[3 * g + 2];
       const double det = a * cc - b * b;
       if (options->min_alpha > 0 && a > 0 && det > 0) {
-        constexpr float kLn2 = 0.693147180559945f;
         const float level =
             std::max(0.0f, log2_opacity * kLn2 - log_min_alpha) * kLevelRelMargin + kLevelAbsMargin;
         s[kRowCentreSlope] = float(b / a);
@@ -237,13 +237,16 @@ struct TileList {
   }
 };
 
-// sigma = 0.5 (a dx^2 + c dy^2) + b dx dy (gsplat's convention). sigma >= 0 for a
-// positive-definite conic, so (unlike gsplat) there is no sigma < 0 test.
-inline vf sigma(vf half_a, vf b, vf half_c, vf dx, vf dy) {
-  return dx * (half_a * dx + b * dy) + (half_c * dy) * dy;
+// log2 of alpha before the clamp, log2(opacity) - sigma log2(e), with sigma = 0.5 (a dx^2 +
+// c dy^2) + b dx dy (gsplat's convention) and the record's conic scaled by log2(e): three
+// multiply-adds and two multiplies. sigma >= 0 for a positive-definite conic, so (unlike gsplat)
+// there is no sigma < 0 test.
+inline vf log2_alpha(vf half_a, vf b, vf half_c, vf log2_opacity, vf dx, vf dy) {
+  return (log2_opacity - (half_c * dy) * dy) - dx * (half_a * dx + b * dy);
 }
-inline vf sigma(const float* s, vf dx, vf dy) {
-  return sigma(simd::splat(s[kHalfA]), simd::splat(s[kB]), simd::splat(s[kHalfC]), dx, dy);
+inline vf log2_alpha(const float* s, vf dx, vf dy) {
+  return log2_alpha(simd::splat(s[kHalfA]), simd::splat(s[kB]), simd::splat(s[kHalfC]),
+                    simd::splat(s[kLog2Opacity]), dx, dy);
 }
 
 // Compositing rule constants as vectors. Both stop rules become one `<` comparison:
@@ -351,7 +354,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
         const int k = chunk + pop_bit(member);
         const float* s = list.splat(k);
         const vf alpha_raw =
-            simd::opacity_times_exp_neg(sigma(s, s[kU] - px, s[kV] - py), s[kLog2Opacity]);
+            simd::exp2_nonpositive(log2_alpha(s, s[kU] - px, s[kV] - py));
         const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
         const simd::mask composite = alive & simd::greater_equal(alpha, rule.min_alpha);
         const vf next_t = t - alpha * t;
@@ -467,7 +470,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
                          fwd.footprint_blocks[list.begin + k];
     if (!todo) continue;
     const float* s = list.splat(k);
-    const float a = 2.0f * s[kHalfA], b = s[kB], c_conic = 2.0f * s[kHalfC];
+    const float a = 2.0f * kLn2 * s[kHalfA], b = kLn2 * s[kB], c_conic = 2.0f * kLn2 * s[kHalfC];
     // With w = d loss / d alpha_raw * alpha_raw = -d loss / d sigma per pixel, the gradient is
     // sum w, sum w dx, sum w dy, sum w dx^2, sum w dx dy, sum w dy^2 (combined after the loop).
     vf w_sum{}, w_dx_sum{}, w_dy_sum{}, w_dx2_sum{}, w_dxdy_sum{}, w_dy2_sum{};
@@ -477,7 +480,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     const vf u = simd::splat(s[kU]), v = simd::splat(s[kV]);
     const vf half_a = simd::splat(s[kHalfA]), b_conic = simd::splat(s[kB]),
              half_c = simd::splat(s[kHalfC]);
-    const float log2_opacity = s[kLog2Opacity];
+    const vf log2_opacity = simd::splat(s[kLog2Opacity]);
     vf feature_fixed[kC > 0 ? kC : 1];
     if constexpr (kC > 0)
       for (int c = 0; c < kC; ++c) feature_fixed[c] = simd::splat(s[kHeader + c]);
@@ -485,7 +488,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
       const int block = pop_bit(todo);
       const vf dx = u - px[block], dy = v - py[block];
       const vf alpha_raw =
-          simd::opacity_times_exp_neg(sigma(half_a, b_conic, half_c, dx, dy), log2_opacity);
+          simd::exp2_nonpositive(log2_alpha(half_a, b_conic, half_c, log2_opacity, dx, dy));
       const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
       const simd::mask composite =
           simd::less(index, st.last[block]) & simd::greater_equal(alpha, rule.min_alpha);

@@ -223,30 +223,32 @@ inline vf exp2_fraction(vf f) {
   return p;
 }
 
-// opacity * exp(-sigma) = 2^y, y = log2(opacity) - sigma log2(e), for finite sigma >= 0, as
-// 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under 2^-126 are ~0.
-inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
-  constexpr float kLog2e = 1.44269504088896341f;
+// 2^y for finite y <= 0 as 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under
+// 2^-126 are ~0.
+inline vf exp2_nonpositive(vf y) {
 #if defined(__AVX512F__) && defined(__AVX512DQ__)
-  const vf y = log2_opacity - sigma * kLog2e;
   // vreduceps: y - floor(y) exactly, in one instruction; vscalefps multiplies by 2^floor(y)
   // itself. (The all-lanes masked forms: GCC 12 warns (falsely) about the unmasked ones'
   // undefined pass-through.)
   const vf f = _mm512_maskz_reduce_ps(kAllLanes, y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
   return _mm512_maskz_scalef_ps(kAllLanes, exp2_fraction(f), y);
 #elif defined(__AVX512F__)
-  const vf y = log2_opacity - sigma * kLog2e;
   const vf n = _mm512_maskz_roundscale_ps(kAllLanes, y, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
   return _mm512_maskz_scalef_ps(kAllLanes, exp2_fraction(y - n), n);
 #else
   constexpr float kMinExponent = -126.0f;  // below: 2^y would be denormal; flush to ~1e-38
-  const vf y_raw = log2_opacity - sigma * kLog2e;
-  const vf y = select(less(y_raw, splat(kMinExponent)), splat(kMinExponent), y_raw);
+  const vf y_min = select(less(y, splat(kMinExponent)), splat(kMinExponent), y);
   vf n;
-  for (int l = 0; l < kLanes; ++l) n[l] = __builtin_floorf(y[l]);
+  for (int l = 0; l < kLanes; ++l) n[l] = __builtin_floorf(y_min[l]);
   const vi bits = (__builtin_convertvector(n, vi) + 127) << 23;
-  return exp2_fraction(y - n) * (vf)bits;
+  return exp2_fraction(y_min - n) * (vf)bits;
 #endif
+}
+
+// opacity * exp(-sigma) = 2^(log2(opacity) - sigma log2(e)) for finite sigma >= 0.
+inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
+  constexpr float kLog2e = 1.44269504088896341f;
+  return exp2_nonpositive(log2_opacity - sigma * kLog2e);
 }
 
 // 1 / x for x in [0.001, 1] (one minus a clamped alpha): rcp14 and one Newton step on AVX-512
