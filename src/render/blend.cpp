@@ -45,8 +45,8 @@ static_assert(kBlockSide * kBlockSide == kLanes, "one vector per block");
 static_assert(sizeof(CacheLine) == sizeof(vf), "records are whole vectors");
 static_assert(kTileSize == kLanes, "footprint_blocks: one lane per tile row");
 static_assert(kBlocks <= 16, "block masks are saved as 16 bits");
-constexpr int kMaxStaticChannels = 8;
-constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;  // channel counts (with depth) that get a compiled kernel
+constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
+constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;
 
 // Lane l of a block is pixel (row l / 4, column l % 4) of the block.
 const vf kLaneColumn = {0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3};
