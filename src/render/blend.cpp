@@ -353,8 +353,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       while (member) {
         const int k = chunk + pop_bit(member);
         const float* s = list.splat(k);
-        const vf alpha_raw =
-            simd::exp2_nonpositive(log2_alpha(s, s[kU] - px, s[kV] - py));
+        const vf alpha_raw = simd::exp2_nonpositive(log2_alpha(s, s[kU] - px, s[kV] - py));
         const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
         const simd::mask composite = alive & simd::greater_equal(alpha, rule.min_alpha);
         const vf next_t = t - alpha * t;
