@@ -264,7 +264,6 @@ struct Rule {
 // Per-pixel state of a tile, one vector per block; channel planes are [channel][block].
 struct TileState {
   std::vector<vf> transmittance, channel_a, channel_b;  // [16], [C', 16], [C', 16]
-  std::vector<vf> v_alpha_final_t;                      // [16]
   std::vector<vi> last, count;                          // [16]
   std::vector<simd::mask> alive;                        // [16]
 
@@ -272,7 +271,6 @@ struct TileState {
     transmittance.assign(kBlocks, vf{});
     channel_a.assign(std::size_t(channels) * kBlocks, vf{});
     channel_b.assign(std::size_t(channels) * kBlocks, vf{});
-    v_alpha_final_t.assign(kBlocks, vf{});
     last.assign(kBlocks, vi{});
     count.assign(kBlocks, vi{});
     alive.assign(kBlocks, simd::mask{});
@@ -410,15 +408,14 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   const int grad_stride = kGradHeader + ctx.channels_ext;
   st.reset(channels);
   vf* v_out = st.channel_b.data();  // [C', 16] upstream gradient of each channel
-  // v_behind = sum_c v_out_c behind_c, with behind_c = what the Gaussians behind the current one
-  // and the background add to channel c. Kept as one dot product per pixel: compositing a
-  // Gaussian adds weight * sum_c v_out_c f_c to it.
-  vf* v_behind = st.channel_a.data();  // [16]
+  // v_alpha_out T_final - v_behind per pixel, with v_behind = sum_c v_out_c behind_c and
+  // behind_c = what the Gaussians behind the current one and the background add to channel c.
+  // Kept as one value per pixel: compositing a Gaussian subtracts weight * sum_c v_out_c f_c.
+  vf* v_final_minus_behind = st.channel_a.data();  // [16]
   {
     float* t = lanes_of(st.transmittance);
     float* v_out_lanes = lanes_of(st.channel_b);  // [C', 16 blocks x 16 lanes]
-    float* v_behind_lanes = lanes_of(st.channel_a);
-    float* v_alpha_final_t = lanes_of(st.v_alpha_final_t);
+    float* v_final_minus_behind_lanes = lanes_of(st.channel_a);
     std::int32_t* last = lanes_of(st.last);
     constexpr int kPlane = kBlocks * kLanes;
     for (int row = 0; row < list.rows; ++row) {
@@ -432,10 +429,9 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
           v_out_lanes[c * kPlane + i] = v;
           v_bg += v * ctx.background[c];
         }
-        v_behind_lanes[i] = t[i] * v_bg;
         if (ctx.options->render_depth && v_depth)
           v_out_lanes[c_image * kPlane + i] = v_depth[pixel];
-        v_alpha_final_t[i] = v_alpha ? v_alpha[pixel] * t[i] : 0.0f;
+        v_final_minus_behind_lanes[i] = (v_alpha ? v_alpha[pixel] * t[i] : 0.0f) - t[i] * v_bg;
         last[i] = fwd.last_contributor[pixel];
       }
     }
@@ -504,9 +500,8 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
         v_out_dot_f += v_o * (kC > 0 ? feature_fixed[c] : simd::splat(s[kHeader + c]));
       }
       // d out_c / d alpha = f_c T - behind_c / (1 - alpha); d alpha_out / d alpha = T_f / (1-alpha)
-      const vf v_alpha_px =
-          v_out_dot_f * t + (st.v_alpha_final_t[block] - v_behind[block]) * inv_one_minus;
-      v_behind[block] += weight * v_out_dot_f;
+      const vf v_alpha_px = v_out_dot_f * t + v_final_minus_behind[block] * inv_one_minus;
+      v_final_minus_behind[block] -= weight * v_out_dot_f;
       // alpha = opacity * G unless clamped (then no gradient flows), G = exp(-sigma):
       // d alpha / d opacity = G, d alpha / d sigma = -alpha.
       const simd::mask unclamped = composite & simd::less_equal(alpha_raw, rule.alpha_clamp);
