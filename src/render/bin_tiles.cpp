@@ -74,11 +74,11 @@ void radix_sort_by_key(UninitVector<DepthItem>& items, std::uint32_t varying) {
   }
 }
 
-// blend_tile_rect (project.cpp) of 16 Gaussians at a time, operation for operation in float, the
-// logarithm per lane, then the visible ones (non-empty rect) as depth items in index order.
-// Each thread takes a contiguous run of the Gaussians: it computes their rects and counts the
-// visible ones, the counts are summed in thread order, and each thread writes its items.
-// `varying`: the key bits in which some items differ (for radix_sort_by_key).
+// blend_tile_rect (project.cpp) of 16 Gaussians at a time, operation for operation in float, then
+// the visible ones (non-empty rect) as depth items in index order. Each thread takes a contiguous
+// run of the Gaussians: it computes their rects and counts the visible ones, the counts are summed
+// in thread order, and each thread writes its items. `varying`: the key bits in which some items
+// differ (for radix_sort_by_key).
 UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, int tiles_x,
                                     int tiles_y, const RenderOptions& options,
                                     std::uint32_t& varying) {
@@ -114,12 +114,15 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
     for (std::size_t first = begin; first < end; first += kLanes) {
       const int count = int(std::min<std::size_t>(kLanes, n - first));
       // Lanes past `count` repeat the last Gaussian; their rects are not stored.
-      vf mean[2], conic[3], level{};
+      vf mean[2], conic[3], opacity[1];
       simd::load_columns<2>(&p.means2d[2 * first], count, mean);
       simd::load_columns<3>(&p.conics[3 * first], count, conic);
       const vi radius = simd::load_lanes(&p.radii[first], count);
-      for (int l = 0; l < count; ++l)
-        if (tight && radius[l] > 0) level[l] = std::log(opacities[first + l] / options.min_alpha);
+      vf level{};
+      if (tight) {
+        simd::load_columns<1>(&opacities[first], count, opacity);
+        level = simd::log_nonnegative(opacity[0] / options.min_alpha);
+      }
       const vf u = mean[0], v = mean[1], c0 = conic[0], c1 = conic[1], c2 = conic[2];
       // radius_tile_rect: C-style truncation toward zero, as gsplat v0.1.13.
       const vf uc = simd::min(simd::max(u, -lim), lim), vc = simd::min(simd::max(v, -lim), lim);

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "project_lanes.hpp"
+#include "simd.hpp"
 
 namespace retimegs::render {
 namespace {
@@ -136,7 +137,12 @@ std::array<T, 2> alpha_extent(const T* conic, T opacity, const RenderOptions& op
   if (!(options.min_alpha > 0)) return {kInf, kInf};
   // opacity * exp(-sigma) >= min_alpha  <=>  sigma <= log(opacity / min_alpha). For a fixed
   // offset dy, min over dx of sigma = dy^2 / (2 cov_yy), with cov = conic^-1; likewise for dx.
-  const T level = std::log(opacity / T(options.min_alpha));
+  // In float, bin_tiles' vector logarithm, so that both find the same rects.
+  T level;
+  if constexpr (std::is_same_v<T, float>)
+    level = simd::log_nonnegative(simd::splat(opacity / options.min_alpha))[0];
+  else
+    level = std::log(opacity / T(options.min_alpha));
   if (!(level > 0)) return {0, 0};
   const T det = conic[0] * conic[2] - conic[1] * conic[1];
   const T cov_xx = conic[2] / det, cov_yy = conic[0] / det;

@@ -1,6 +1,10 @@
-// The simd helpers whose lane bookkeeping is easy to get wrong: row <-> column transposes.
+// The simd helpers whose lane bookkeeping is easy to get wrong (row <-> column transposes) and
+// the vector elementary functions.
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -29,6 +33,40 @@ TEST(RenderSimd, ColumnsOfRowsRoundTrip) {
   check_transpose<2>();
   check_transpose<3>();
   check_transpose<4>();
+}
+
+// Every 997th float in (0, 1] (denormals included) and a sweep above 1, against double.
+template <typename Fast, typename Exact>
+void check_log(Fast fast, Exact exact) {
+  std::vector<float> xs;
+  for (std::uint32_t bits = 1; bits <= 0x3f800000u; bits += 997)
+    xs.push_back(std::bit_cast<float>(bits));
+  for (float x = 1.0f; x < 1e6f; x *= 1.001f) xs.push_back(x);
+  xs.push_back(1.0f);
+  double worst_ulps = 0;
+  for (std::size_t first = 0; first < xs.size(); first += simd::kLanes) {
+    simd::vf x{};
+    for (int l = 0; l < simd::kLanes; ++l) x[l] = xs[std::min(first + l, xs.size() - 1)];
+    const simd::vf y = fast(x);
+    for (int l = 0; l < simd::kLanes; ++l) {
+      const double want = exact(double(x[l]));
+      const float magnitude = float(std::abs(want));
+      const double ulp = std::nextafter(magnitude, INFINITY) - magnitude;
+      worst_ulps = std::max(worst_ulps, std::abs(y[l] - want) / ulp);
+      if (x[l] == 1.0f) {
+        EXPECT_EQ(y[l], 0.0f);
+      }
+    }
+  }
+  EXPECT_LT(worst_ulps, 2.0);
+  EXPECT_EQ(fast(simd::vf{})[0], -std::numeric_limits<float>::infinity());
+}
+
+TEST(RenderSimd, LogsAreWithinTwoUlps) {
+  check_log([](simd::vf x) { return simd::log2_nonnegative(x); },
+            [](double x) { return std::log2(x); });
+  check_log([](simd::vf x) { return simd::log_nonnegative(x); },
+            [](double x) { return std::log(x); });
 }
 
 }  // namespace
