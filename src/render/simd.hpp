@@ -245,17 +245,19 @@ inline vf exp2_nonpositive(vf y) {
 #endif
 }
 
-namespace detail {
-// x >= 0 as 2^e (1 + f) with 1 + f in [sqrt(1/2), sqrt(2)) (denormals included), and ln(1 + f)
-// = f - f^2 / 2 + f^3 P(f) with Cephes' degree-8 P for logf. ln(1 + f) is 0 exactly for x = 1.
-inline void log_parts(vf x, vf& e, vf& ln_mantissa) {
+// ln(x) for x >= 0 (denormals included; 0 gives -inf), within 2 ulps; ln(1) = 0 exactly.
+// x = 2^e (1 + f) with 1 + f in [sqrt(1/2), sqrt(2)), ln(1 + f) = f - f^2 / 2 + f^3 P(f) with
+// Cephes' degree-8 P for logf, and e ln 2 added as e (ln 2)_high + e (ln 2)_low, (ln 2)_high with
+// 9 significant bits (the products are exact).
+inline vf log_nonnegative(vf x) {
   constexpr float kMinNormal = 1.17549435e-38f, kDenormalScale = 8388608.0f;  // 2^-126, 2^23
+  const mask zero = less_equal(x, vf{});
   const mask tiny = less(x, splat(kMinNormal));
   x = select(tiny, x * kDenormalScale, x);
   // The bits of x minus those of sqrt(1/2): the exponent of 1 + f in the top bits.
   constexpr std::int32_t kSqrtHalfBits = 0x3f3504f3, kExponentMask = std::int32_t(0xff800000u);
   const vi offset = (vi)x - kSqrtHalfBits;
-  e = __builtin_convertvector((offset >> 23) + select(tiny, splat_int(-23), vi{}), vf);
+  const vf e = __builtin_convertvector((offset >> 23) + select(tiny, splat_int(-23), vi{}), vf);
   const vf f = (vf)((vi)x - (offset & kExponentMask)) - 1.0f;
   vf p = splat(7.0376836292e-2f);
   p = p * f - 1.1514610310e-1f;
@@ -267,26 +269,10 @@ inline void log_parts(vf x, vf& e, vf& ln_mantissa) {
   p = p * f - 2.4999993993e-1f;
   p = p * f + 3.3333331174e-1f;
   const vf f2 = f * f;
-  ln_mantissa = f + (p * f * f2 - 0.5f * f2);
-}
-}  // namespace detail
-
-// ln(x) for x >= 0 (0 gives -inf), within 2 ulps; ln(1) = 0 exactly. e ln 2 is added as e
-// (ln 2)_high + e (ln 2)_low, (ln 2)_high with 9 significant bits (exact products up to e = 2^15).
-inline vf log_nonnegative(vf x) {
-  vf e, ln_mantissa;
-  detail::log_parts(x, e, ln_mantissa);
+  const vf ln_mantissa = f + (p * f * f2 - 0.5f * f2);
   constexpr float kLn2High = 0.693359375f, kLn2Low = -2.12194440e-4f;
   const vf result = (ln_mantissa + e * kLn2Low) + e * kLn2High;
-  return select(less_equal(x, vf{}), splat(-__builtin_inff()), result);
-}
-
-// log2(x) for x >= 0 (0 gives -inf), within 2 ulps; log2(1) = 0 exactly.
-inline vf log2_nonnegative(vf x) {
-  vf e, ln_mantissa;
-  detail::log_parts(x, e, ln_mantissa);
-  constexpr float kLog2e = 1.44269504088896341f;
-  return select(less_equal(x, vf{}), splat(-__builtin_inff()), e + ln_mantissa * kLog2e);
+  return select(zero, splat(-__builtin_inff()), result);
 }
 
 // opacity * exp(-sigma) = 2^(log2(opacity) - sigma log2(e)) for finite sigma >= 0.
