@@ -114,12 +114,13 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
     for (std::size_t first = begin; first < end; first += kLanes) {
       const int count = int(std::min<std::size_t>(kLanes, n - first));
       // Lanes past `count` repeat the last Gaussian; their rects are not stored.
-      vf mean[2], conic[3], opacity[1];
+      vf mean[2], conic[3];
       simd::load_columns<2>(&p.means2d[2 * first], count, mean);
       simd::load_columns<3>(&p.conics[3 * first], count, conic);
       const vi radius = simd::load_lanes(&p.radii[first], count);
       vf level{};
       if (tight) {
+        vf opacity[1];
         simd::load_columns<1>(&opacities[first], count, opacity);
         level = simd::log_nonnegative(opacity[0] / options.min_alpha);
       }

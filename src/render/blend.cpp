@@ -35,6 +35,8 @@
 namespace retimegs::render {
 namespace {
 
+using simd::kLn2;
+using simd::kLog2e;
 using simd::vf;
 using simd::vi;
 constexpr int kLanes = simd::kLanes;
@@ -46,7 +48,6 @@ static_assert(sizeof(CacheLine) == sizeof(vf), "records are whole vectors");
 static_assert(kTileSize == kLanes, "footprint_blocks: one lane per tile row");
 static_assert(kBlocks <= 16, "block masks are saved as 16 bits");
 constexpr int kMaxStaticChannels = 8;  // channel counts (with depth) that get a compiled kernel
-constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;
 
 // Lane l of a block is pixel (row l / 4, column l % 4) of the block.
 const vf kLaneColumn = {0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3};
@@ -65,7 +66,7 @@ inline int state_index(int row, int column) {
 }
 
 // The footprint test widens the level sigma <= ln(opacity / min_alpha) by 1 % + 0.01, far more
-// than the float rounding of sigma (a few ulps of its largest term) and of the fast exp (2e-7):
+// than the float rounding of sigma (a few ulps of its largest term) and of the fast exp (3e-7):
 // a pixel that the blend composites is never left out. The cost is ~0.5 % more lanes.
 constexpr float kLevelRelMargin = 1.01f, kLevelAbsMargin = 0.01f;
 
@@ -351,7 +352,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       while (member) {
         const int k = chunk + pop_bit(member);
         const float* s = list.splat(k);
-        const vf alpha_raw = simd::exp2_nonpositive(log2_alpha(s, s[kU] - px, s[kV] - py));
+        const vf alpha_raw = simd::exp2(log2_alpha(s, s[kU] - px, s[kV] - py));
         const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
         const simd::mask composite = alive & simd::greater_equal(alpha, rule.min_alpha);
         const vf next_t = t - alpha * t;
@@ -482,8 +483,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     while (todo) {
       const int block = pop_bit(todo);
       const vf dx = u - px[block], dy = v - py[block];
-      const vf alpha_raw =
-          simd::exp2_nonpositive(log2_alpha(half_a, b_conic, half_c, log2_opacity, dx, dy));
+      const vf alpha_raw = simd::exp2(log2_alpha(half_a, b_conic, half_c, log2_opacity, dx, dy));
       const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
       const simd::mask composite =
           simd::less(index, st.last[block]) & simd::greater_equal(alpha, rule.min_alpha);

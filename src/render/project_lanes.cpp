@@ -80,7 +80,7 @@ struct CameraConstants {
 
 // e^x for |x| < 87 (log-scales), from the blend's 2^y.
 inline vf exp_lanes(vf x) {
-  return simd::opacity_times_exp_neg(-x, 0.0f);
+  return simd::exp2(x * simd::kLog2e);
 }
 
 // Everything the forward computes for a batch that the backward needs again (project.cpp's

@@ -223,9 +223,11 @@ inline vf exp2_fraction(vf f) {
   return p;
 }
 
-// 2^y for finite y <= 0 as 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under
+constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;
+
+// 2^y for finite y < 128 as 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under
 // 2^-126 are ~0.
-inline vf exp2_nonpositive(vf y) {
+inline vf exp2(vf y) {
 #if defined(__AVX512F__) && defined(__AVX512DQ__)
   // vreduceps: y - floor(y) exactly, in one instruction; vscalefps multiplies by 2^floor(y)
   // itself. (The all-lanes masked forms: GCC 12 warns (falsely) about the unmasked ones'
@@ -273,12 +275,6 @@ inline vf log_nonnegative(vf x) {
   constexpr float kLn2High = 0.693359375f, kLn2Low = -2.12194440e-4f;
   const vf result = (ln_mantissa + e * kLn2Low) + e * kLn2High;
   return select(zero, splat(-__builtin_inff()), result);
-}
-
-// opacity * exp(-sigma) = 2^(log2(opacity) - sigma log2(e)) for finite sigma >= 0.
-inline vf opacity_times_exp_neg(vf sigma, float log2_opacity) {
-  constexpr float kLog2e = 1.44269504088896341f;
-  return exp2_nonpositive(log2_opacity - sigma * kLog2e);
 }
 
 // 1 / x for x in [0.001, 1] (one minus a clamped alpha): rcp14 and one Newton step on AVX-512
