@@ -61,5 +61,25 @@ TEST(RenderSimd, LogIsWithinTwoUlps) {
   EXPECT_EQ(simd::log_nonnegative(simd::vf{})[0], -std::numeric_limits<float>::infinity());
 }
 
+// 2^y on a fine sweep of the range the blend and the projection use (alpha's log2 down to the
+// flush level, log-scales up to ~2^50), against exp2 in double; 2^0 and whole powers exact.
+TEST(RenderSimd, Exp2IsWithinItsBound) {
+  std::vector<float> ys;
+  for (float y = -126.0f; y < 50.0f; y += 0.000977f) ys.push_back(y);
+  double worst = 0;
+  for (std::size_t first = 0; first < ys.size(); first += simd::kLanes) {
+    simd::vf y{};
+    for (int l = 0; l < simd::kLanes; ++l) y[l] = ys[std::min(first + l, ys.size() - 1)];
+    const simd::vf e = simd::exp2(y);
+    for (int l = 0; l < simd::kLanes; ++l) {
+      const double want = std::exp2(double(y[l]));
+      worst = std::max(worst, std::abs(e[l] - want) / want);
+    }
+  }
+  EXPECT_LT(worst, 3e-7);
+  for (float whole : {-126.0f, -8.0f, -1.0f, 0.0f, 1.0f, 20.0f, 127.0f})
+    EXPECT_EQ(simd::exp2(simd::splat(whole))[0], std::exp2(whole)) << whole;
+}
+
 }  // namespace
 }  // namespace retimegs::render
