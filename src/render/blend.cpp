@@ -490,10 +490,18 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     vf feature_fixed[kC > 0 ? kC : 1];
     if constexpr (kC > 0)
       for (int c = 0; c < kC; ++c) feature_fixed[c] = simd::splat(s[kHeader + c]);
+    // The alphas of all the blocks first: independent chains that overlap, and the second loop
+    // then starts from them.
+    vf alpha_raw_of[kBlocks];
+    for (std::uint32_t first = todo; first;) {
+      const int block = pop_bit(first);
+      alpha_raw_of[block] = simd::exp2(
+          log2_alpha(half_a, b_conic, half_c, log2_opacity, u - px[block], v - py[block]));
+    }
     while (todo) {
       const int block = pop_bit(todo);
       const vf dx = u - px[block], dy = v - py[block];
-      const vf alpha_raw = simd::exp2(log2_alpha(half_a, b_conic, half_c, log2_opacity, dx, dy));
+      const vf alpha_raw = alpha_raw_of[block];
       const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
       const simd::mask composite =
           simd::less(index, st.last[block]) & simd::greater_equal(alpha, rule.min_alpha);
