@@ -359,11 +359,34 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       vf* acc = kC > 0 ? acc_fixed : st.channel_b.data();  // [C']
       for (int c = 0; c < channels; ++c) acc[c] = st.channel_a[c * kBlocks + block];
       const vf px = list.pixel_x(block), py = list.pixel_y(block);
-      while (member) {
-        const int j = pop_bit(member), k = chunk + j;
+      // Software-pipelined two entries ahead: (j1, alpha1) and (j2, alpha2) are the next entries
+      // with their alphas computed, in program order before the current entry is composited, so
+      // that their chains are under way while the compositing waits on the current one. (One
+      // entry ahead took ~8 % off the blend, two another ~3 %; three, in an array, and the same
+      // two written with a helper lambda measured slower.)
+      const auto alpha_of = [&](int j) {
         const float* s = records + j * stride;
-        const vf alpha_raw = simd::exp2(log2_alpha(s, s[kU] - px, s[kV] - py));
-        const vf alpha = simd::min(rule.alpha_clamp, alpha_raw);
+        return simd::min(rule.alpha_clamp, simd::exp2(log2_alpha(s, s[kU] - px, s[kV] - py)));
+      };
+      int j1 = pop_bit(member), j2 = 0;
+      vf alpha1 = alpha_of(j1), alpha2{};
+      bool has2 = member != 0;
+      if (has2) {
+        j2 = pop_bit(member);
+        alpha2 = alpha_of(j2);
+      }
+      for (bool more = true; more;) {
+        const int j = j1, k = chunk + j;
+        const float* s = records + j * stride;
+        const vf alpha = alpha1;
+        more = has2;
+        j1 = j2;
+        alpha1 = alpha2;
+        has2 = member != 0;
+        if (has2) {
+          j2 = pop_bit(member);
+          alpha2 = alpha_of(j2);
+        }
         const simd::mask composite = alive & simd::greater_equal(alpha, rule.min_alpha);
         const vf next_t = t - alpha * t;
         const simd::mask stop = composite & simd::less(next_t, rule.stop_below);
