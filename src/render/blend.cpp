@@ -485,20 +485,29 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   vf* v_feat = kC > 0 ? v_feat_fixed : v_feat_dynamic.data();
   // The Gaussian's record and its row of the gradient buffer are both scattered in memory; a row
   // (grad_stride floats, not padded) may straddle two cache lines: both are fetched.
+  // Locals (the stores to the state and the buffer could alias the context's fields otherwise,
+  // and each would be reloaded per entry); the record stride a compile-time constant when the
+  // channel count is.
+  const float* const packed = ctx.packed;
+  const std::int32_t* const gaussian = list.gaussian;
+  const int stride = kC > 0 ? (kHeader + kC + kLanes - 1) / kLanes * kLanes : ctx.stride;
+  const std::uint16_t* const footprint = fwd.footprint_blocks.data() + list.begin;  // [count]
+  const auto record = [&](int k) { return packed + std::size_t(gaussian[k]) * stride; };
   const auto prefetch = [&](int k) {
     if (k < 0) return;
-    list.prefetch(k);
-    const float* row = grad_buffer + std::size_t(list.gaussian[k]) * grad_stride;
+    const float* s = record(k);
+    simd::prefetch(s);
+    if (stride > kLanes) simd::prefetch(s + stride - 1);
+    const float* row = grad_buffer + std::size_t(gaussian[k]) * grad_stride;
     simd::prefetch(row);
     simd::prefetch(row + grad_stride - 1);
   };
   for (int k = max_last - 1; k >= max_last - 1 - kPrefetchDistance; --k) prefetch(k);
   for (int k = max_last - 1; k >= 0; --k) {
     prefetch(k - kPrefetchDistance);
-    std::uint32_t todo = simd::bits(simd::less(simd::splat_int(k), block_last)) &
-                         fwd.footprint_blocks[list.begin + k];
+    std::uint32_t todo = simd::bits(simd::less(simd::splat_int(k), block_last)) & footprint[k];
     if (!todo) continue;
-    const float* s = list.splat(k);
+    const float* s = record(k);
     const float a = 2.0f * kLn2 * s[kHalfA], b = kLn2 * s[kB], c_conic = 2.0f * kLn2 * s[kHalfC];
     // With w = d loss / d alpha_raw * alpha_raw = -d loss / d sigma per pixel, the gradient is
     // sum w, sum w dx, sum w dy, sum w dx^2, sum w dx dy, sum w dy^2 (combined after the loop).
@@ -560,7 +569,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     const vf sums = simd::sum8({w_sum, w_dx_sum, w_dy_sum, w_dx2_sum, w_dxdy_sum, w_dy2_sum,
                                 v_feat[0], channels > 1 ? v_feat[1] : vf{}});
     const float sx = sums[1], sy = sums[2];
-    float* g = grad_buffer + std::size_t(list.gaussian[k]) * grad_stride;
+    float* g = grad_buffer + std::size_t(gaussian[k]) * grad_stride;
     g[kGradU] -= a * sx + b * sy;
     g[kGradV] -= b * sx + c_conic * sy;
     g[kGradA] -= 0.5f * sums[3];
