@@ -14,6 +14,12 @@
 // front from the last contributor, Gaussian-major: each Gaussian's gradient is accumulated in
 // registers over its blocks, then added to the thread's gradient buffer once.
 //
+// Both loops are bound by each (Gaussian, block) visit's dependency chain (record -> log2 alpha
+// -> exp2 -> compositing, ~70 cycles), not by their instruction count: the out-of-order window
+// holds only two or three visits' waiting instructions. Hence the forward reads a chunk's
+// records from a contiguous copy and computes alphas two entries ahead of the compositing, and
+// the backward computes a Gaussian's alphas for all its blocks before their gradients.
+//
 // Threads: tiles are independent in the forward (dynamic schedule). In the backward each thread
 // takes a fixed run of neighbouring tiles of about equal work and sums into its own gradient
 // buffer; the buffers are summed in thread order, so that a given thread count always gives the
