@@ -489,8 +489,6 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   vf v_feat_fixed[kC > 0 ? kC : 1];
   std::vector<vf> v_feat_dynamic(kC > 0 ? 0 : channels);
   vf* v_feat = kC > 0 ? v_feat_fixed : v_feat_dynamic.data();
-  // The Gaussian's record and its row of the gradient buffer are both scattered in memory; a row
-  // (grad_stride floats, not padded) may straddle two cache lines: both are fetched.
   // Locals (the stores to the state and the buffer could alias the context's fields otherwise,
   // and each would be reloaded per entry); the record stride a compile-time constant when the
   // channel count is.
@@ -499,6 +497,8 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   const int stride = kC > 0 ? (kHeader + kC + kLanes - 1) / kLanes * kLanes : ctx.stride;
   const std::uint16_t* const footprint = fwd.footprint_blocks.data() + list.begin;  // [count]
   const auto record = [&](int k) { return packed + std::size_t(gaussian[k]) * stride; };
+  // The Gaussian's record and its row of the gradient buffer are both scattered in memory; a row
+  // (grad_stride floats, not padded) may straddle two cache lines: both are fetched.
   const auto prefetch = [&](int k) {
     if (k < 0) return;
     const float* s = record(k);
