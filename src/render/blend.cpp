@@ -94,6 +94,11 @@ enum Field {
   kHeader
 };
 
+// Floats per record for C' channels: the header and the features, rounded up to whole cache lines.
+constexpr int record_stride(int channels_ext) {
+  return (kHeader + channels_ext + kLanes - 1) / kLanes * kLanes;
+}
+
 // The blend's view of the inputs, shared by forward and backward.
 struct Context {
   const BlendInputs* in;
@@ -114,7 +119,7 @@ struct Context {
     const Projected& p = *in->projected;
     const int c = in->channels;
     channels_ext = c + (options->render_depth ? 1 : 0);
-    stride = (kHeader + channels_ext + kLanes - 1) / kLanes * kLanes;
+    stride = record_stride(channels_ext);
     background.assign(channels_ext, 0.0f);
     if (in->background) std::copy(in->background, in->background + c, background.begin());
     const std::size_t n = p.size();
@@ -328,7 +333,7 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
   const int channels = kC > 0 ? kC : ctx.channels_ext;
   const int c_image = ctx.in->channels, width = ctx.in->width;
   // The record stride, a compile-time constant when the channel count is.
-  const int stride = kC > 0 ? (kHeader + kC + kLanes - 1) / kLanes * kLanes : ctx.stride;
+  const int stride = kC > 0 ? record_stride(kC) : ctx.stride;
   st.reset(channels);
   st.chunk_records.resize(std::size_t(kChunk) * stride / kLanes);
   std::uint32_t live_blocks = 0;
@@ -494,7 +499,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
   // channel count is.
   const float* const packed = ctx.packed;
   const std::int32_t* const gaussian = list.gaussian;
-  const int stride = kC > 0 ? (kHeader + kC + kLanes - 1) / kLanes * kLanes : ctx.stride;
+  const int stride = kC > 0 ? record_stride(kC) : ctx.stride;
   const std::uint16_t* const footprint = fwd.footprint_blocks.data() + list.begin;  // [count]
   const auto record = [&](int k) { return packed + std::size_t(gaussian[k]) * stride; };
   // The Gaussian's record and its row of the gradient buffer are both scattered in memory; a row
