@@ -7,6 +7,7 @@
 #include <bit>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <utility>
 
 #include "retimegs/core/error.hpp"
@@ -15,8 +16,9 @@
 namespace retimegs::render {
 namespace {
 
-constexpr int kRadixBits = 8;
-constexpr int kRadixBuckets = 1 << kRadixBits;
+// The radix sort's digits: at most 12 bits (4096 buckets: the per-thread counts stay in L1/L2),
+// so that the 24 bits in which depths in [2, 8) differ take two passes instead of three bytes.
+constexpr int kMaxRadixBits = 12;
 constexpr int kKeyBits = 32;
 
 // A visible Gaussian in the depth sort: (depth bits << 32 | Gaussian index) — the float bits of a
@@ -35,38 +37,43 @@ struct DepthItem {
 };
 static_assert(sizeof(DepthItem) == 16);
 
-// Stable LSD radix sort of the items by the upper 32 bits of key_index (the key), one byte per
-// pass, skipping bytes in which all keys agree (depths in [3, 6] share their top byte). Each pass
-// splits the items into one contiguous run per thread: the threads count their run's digits, the
-// offsets of (digit, thread) are summed in that order, and each thread scatters its run; a stable
-// sort has one result, whatever the thread count. `varying`: the key bits in which some keys
-// differ.
+// Stable LSD radix sort of the items by the upper 32 bits of key_index (the key), over the bits
+// from the lowest to the highest in which some keys differ (`varying`), in as few passes of at
+// most kMaxRadixBits as that span needs. Each pass splits the items into one contiguous run per
+// thread: the threads count their run's digits, the offsets of (digit, thread) are summed in that
+// order, and each thread scatters its run; a stable sort has one result, whatever the thread
+// count.
 void radix_sort_by_key(UninitVector<DepthItem>& items, std::uint32_t varying) {
+  if (varying == 0) return;  // all keys equal: index order is the order
   constexpr int kValueBits = 32;
+  const int lowest = std::countr_zero(varying), span = std::bit_width(varying) - lowest;
+  const int passes = (span + kMaxRadixBits - 1) / kMaxRadixBits;
+  const int digit_bits = (span + passes - 1) / passes;
+  const std::size_t buckets = std::size_t(1) << digit_bits;
   const std::size_t n = items.size();
   constexpr std::size_t kItemsPerThread = 16384;  // below: one thread (fork/join would dominate)
   const int threads = int(std::min<std::size_t>(omp_get_max_threads(), n / kItemsPerThread + 1));
   UninitVector<DepthItem> sorted(n);
-  std::vector<std::size_t> offsets(std::size_t(threads) * kRadixBuckets);  // [threads, buckets]
-  for (int shift = 0; shift < kKeyBits; shift += kRadixBits) {
-    if (((varying >> shift) & (kRadixBuckets - 1)) == 0) continue;  // one bucket: order kept
+  std::vector<std::size_t> offsets(std::size_t(threads) * buckets);  // [threads, buckets]
+  for (int pass = 0; pass < passes; ++pass) {
+    const int shift = kValueBits + lowest + pass * digit_bits;
     const auto digit = [&](const DepthItem& item) {
-      return std::size_t(item.key_index >> (kValueBits + shift)) & (kRadixBuckets - 1);
+      return std::size_t(item.key_index >> shift) & (buckets - 1);
     };
 #pragma omp parallel num_threads(threads)
     {
       const int t = omp_get_thread_num();
       const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
-      std::size_t* own = &offsets[std::size_t(t) * kRadixBuckets];
-      std::fill(own, own + kRadixBuckets, 0);
+      std::size_t* own = &offsets[std::size_t(t) * buckets];
+      std::fill(own, own + buckets, 0);
       for (std::size_t i = begin; i < end; ++i) ++own[digit(items[i])];
 #pragma omp barrier
 #pragma omp single
       {
         std::size_t offset = 0;
-        for (int d = 0; d < kRadixBuckets; ++d)
+        for (std::size_t d = 0; d < buckets; ++d)
           for (int u = 0; u < threads; ++u)
-            offset += std::exchange(offsets[std::size_t(u) * kRadixBuckets + d], offset);
+            offset += std::exchange(offsets[std::size_t(u) * buckets + d], offset);
       }
       for (std::size_t i = begin; i < end; ++i) sorted[own[digit(items[i])]++] = items[i];
     }
@@ -146,13 +153,19 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
         y0 = simd::max(y0, floor_tile(v - ext_y));
         y1 = simd::min(y1, floor_tile(v + ext_y) + 1);
       }
-      for (int l = 0; l < count; ++l) {
-        const bool empty = radius[l] <= 0 || x1[l] <= x0[l] || y1[l] <= y0[l];
-        rects[first + l] = empty ? Rect16{}
-                                 : Rect16{std::uint16_t(x0[l]), std::uint16_t(y0[l]),
-                                          std::uint16_t(x1[l]), std::uint16_t(y1[l])};
-        visible += !empty;
-      }
+      // The lanes' Rect16s, built in the vectors: (x0 | y0 << 16, x1 | y1 << 16) per lane,
+      // interleaved into two vectors of 8 rects (empty ones all zero).
+      const simd::mask keep = simd::less(vi{}, radius) & simd::less(x0, x1) & simd::less(y0, y1) &
+                              simd::lanes_below(count);
+      const vi low = simd::select(keep, x0 | (y0 << 16), vi{});
+      const vi high = simd::select(keep, x1 | (y1 << 16), vi{});
+      const vi pairs[2] = {__builtin_shufflevector(low, high, 0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5,
+                                                   21, 6, 22, 7, 23),
+                           __builtin_shufflevector(low, high, 8, 24, 9, 25, 10, 26, 11, 27, 12, 28,
+                                                   13, 29, 14, 30, 15, 31)};
+      static_assert(sizeof(pairs) == kLanes * sizeof(Rect16));
+      std::memcpy(&rects[first], pairs, count * sizeof(Rect16));
+      visible += std::popcount(simd::bits(keep));
     }
     first_item[t + 1] = visible;
 #pragma omp barrier
