@@ -2,17 +2,52 @@
 #include "retimegs/render/project.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <type_traits>
 
 #include <Eigen/Core>
 
 #include "project_lanes.hpp"
+#include "retimegs/core/error.hpp"
 #include "simd.hpp"
 
 namespace retimegs::render {
 namespace {
+
+template <typename T>
+void check_size(const std::vector<T>& v, std::size_t expected, const char* field,
+                const char* shape) {
+  if (v.size() != expected)
+    fail("gaussians.{}: has {} values, expected {} ({})", field, v.size(), expected, shape);
+}
+
+constexpr std::size_t kParallelValues = 1 << 16;  // below: one thread (fork/join would dominate)
+
+// Whether every value is finite (exponent bits not all ones), as an or-reduction over the bits
+// that the compiler vectorises, split over the threads (tens of megabytes per training step); the
+// caller then looks for the first bad value only on failure.
+template <typename T>
+bool all_finite(const std::vector<T>& v) {
+  using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+  constexpr Bits kExponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
+  Bits bad = 0;
+#pragma omp parallel for simd schedule(static) reduction(| : bad) if (v.size() >= kParallelValues)
+  for (std::size_t k = 0; k < v.size(); ++k)
+    bad |= Bits((std::bit_cast<Bits>(v[k]) & kExponent) == kExponent);
+  return bad == 0;
+}
+
+template <typename T>
+void check_finite(const std::vector<T>& v, int row_size, const char* field) {
+  if (all_finite(v)) return;
+  for (std::size_t k = 0; k < v.size(); ++k)
+    if (!std::isfinite(v[k]))
+      fail("gaussians.{}[{}][{}] is {} (must be finite)", field, k / row_size, k % row_size,
+           double(v[k]));
+}
 
 template <typename T>
 using Mat3 = Eigen::Matrix<T, 3, 3>;
@@ -102,6 +137,43 @@ Geometry<T> geometry(const GaussiansT<T>& g, std::size_t i, const PinholeT<T>& c
 }
 
 }  // namespace
+
+template <typename T>
+void check_sizes_and_features(const GaussiansT<T>& g) {
+  const std::size_t n = g.size();
+  if (g.channels < 1) fail("gaussians: channel count must be >= 1, got {}", g.channels);
+  check_size(g.means, 3 * n, "means", "[N, 3]");
+  check_size(g.log_scales, 3 * n, "log_scales", "[N, 3]");
+  check_size(g.quats, 4 * n, "quats", "[N, 4]");
+  check_size(g.features, n * g.channels, "features", "[N, C]");
+  check_finite(g.features, g.channels, "features");
+}
+
+template <typename T>
+void check_gaussians(const GaussiansT<T>& g) {
+  check_sizes_and_features(g);
+  check_finite(g.means, 3, "means");
+  check_finite(g.log_scales, 3, "log_scales");
+  check_finite(g.quats, 4, "quats");
+  check_finite(g.opacities, 1, "opacities");
+  // Opacities in [0, 1] and non-zero quaternions: a vectorisable pass first, the message second.
+  const std::size_t n = g.size();
+  bool bad = false;
+#pragma omp parallel for schedule(static) reduction(| : bad) if (n >= kParallelValues)
+  for (std::size_t i = 0; i < n; ++i) {
+    const T* q = &g.quats[4 * i];
+    bad |= !(g.opacities[i] >= 0 && g.opacities[i] <= 1) |
+           (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] == 0);
+  }
+  if (!bad) return;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(g.opacities[i] >= 0 && g.opacities[i] <= 1))
+      fail("gaussians.opacities[{}] is {} (must be in [0, 1])", i, double(g.opacities[i]));
+    const T* q = &g.quats[4 * i];
+    if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] == 0)
+      fail("gaussians.quats[{}] is zero (cannot be normalised)", i);
+  }
+}
 
 template <typename T>
 PinholeT<T>::PinholeT(const Camera& camera)
@@ -296,8 +368,9 @@ template <typename T>
 ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
                               const RenderOptions& options) {
   if constexpr (std::is_same_v<T, float>) {
-    return project_forward_lanes(g, camera, options);
+    return project_forward_lanes(g, camera, options);  // validates as it reads
   } else {
+    check_gaussians(g);
     return project_forward_scalar(g, camera, options);
   }
 }
@@ -314,6 +387,8 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
 }
 
 #define RETIMEGS_INSTANTIATE_PROJECT(T)                                               \
+  template void check_sizes_and_features<T>(const GaussiansT<T>&);                    \
+  template void check_gaussians<T>(const GaussiansT<T>&);                             \
   template struct PinholeT<T>;                                                        \
   template TileRect radius_tile_rect<T>(T, T, int, int, int);                         \
   template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);       \

@@ -101,8 +101,18 @@ struct GeometryLanes {
 
 constexpr int kSym[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};  // (i, j) -> symmetric entry
 
+// Lanes whose every value is finite (x - x is 0 unless x is infinite or NaN).
+template <int W>
+simd::mask all_finite(const vf (&values)[W]) {
+  simd::mask finite = simd::lanes_below(kLanes);
+  for (const vf& x : values) finite &= simd::less_equal(x - x, vf{});
+  return finite;
+}
+
+// `valid`, when given: the lanes whose mean, quaternion and log-scales check_gaussians accepts
+// (finite, and a non-zero quaternion).
 GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const CameraConstants& cam,
-                       float low_pass) {
+                       float low_pass, simd::mask* valid = nullptr) {
   GeometryLanes geo;
   vf mean[3];
   batch.load<3>(g.means.data(), mean);
@@ -122,6 +132,10 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   r[6] = 2.0f * (x * z - w * y), r[7] = 2.0f * (y * z + w * x),
   r[8] = 1.0f - 2.0f * (x * x + y * y);
   batch.load<3>(g.log_scales.data(), geo.scale);
+  if (valid) {
+    const vf norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    *valid = all_finite(mean) & all_finite(q) & all_finite(geo.scale) & simd::less(vf{}, norm2);
+  }
   for (vf& scale : geo.scale) scale = exp_lanes(scale);
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 3; ++k) geo.m[3 * i + k] = r[3 * i + k] * geo.scale[k];
@@ -200,12 +214,17 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
   const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
   const float min_opacity = std::max(options.min_alpha, 0.0f);
   const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
+  check_sizes_and_features(g);
+  bool invalid = false;  // some lane's inputs fail check_gaussians
 
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) reduction(| : invalid)
   for (std::ptrdiff_t b = 0; b < batches; ++b) {
     const Batch batch{std::size_t(b) * kLanes, int(std::min<std::size_t>(kLanes, n - b * kLanes))};
     const vf opacity = batch.load(g.opacities.data());
-    const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
+    simd::mask valid;
+    const GeometryLanes geo = geometry(g, batch, cam, options.low_pass, &valid);
+    valid &= simd::greater_equal(opacity, vf{}) & simd::less_equal(opacity, simd::splat(1.0f));
+    invalid |= simd::any(simd::and_not(simd::lanes_below(batch.count), valid));
     const vf z = geo.p[2];
     const vf* cov = geo.cov2d;
     const vf det = cov[0] * cov[2] - cov[1] * cov[1];
@@ -227,6 +246,7 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
     batch.store(out.depths.data(), z, visible);
     batch.store(out.radii.data(), radius, visible);
   }
+  if (invalid) check_gaussians(g);  // throws, naming the first bad value
   return out;
 }
 

@@ -18,6 +18,11 @@ constexpr double kFovGuard = 0.3;
 // Pixel coordinates are clamped to this before integer conversion (far off-image anyway).
 constexpr double kMaxPixelCoordinate = 1e8;
 
+// The part of check_gaussians that project_forward_lanes does not do in its own pass: channel
+// count, array sizes and finite features.
+template <typename T>
+void check_sizes_and_features(const GaussiansT<T>& gaussians);
+
 ProjectedT<float> project_forward_lanes(const GaussiansT<float>& gaussians,
                                         const PinholeT<float>& camera,
                                         const RenderOptions& options);

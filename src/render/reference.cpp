@@ -182,8 +182,7 @@ void reference_blend_backward(const ProjectedT<double>& projected, const Gaussia
 
 ReferenceOutput reference_forward(const GaussiansT<double>& g, const Camera& camera,
                                   const double* background, const RenderOptions& options) {
-  check_gaussians(g);
-  check_camera(camera);
+  check_camera(camera);  // project_forward validates the Gaussians
   return reference_blend_forward(project_forward(g, PinholeT<double>(camera), options), g,
                                  camera.width, camera.height, background, options);
 }
@@ -192,8 +191,7 @@ GaussianGradsT<double> reference_backward(const GaussiansT<double>& g, const Cam
                                           const double* background, const RenderOptions& options,
                                           const double* v_image, const double* v_alpha,
                                           const double* v_depth) {
-  check_gaussians(g);
-  check_camera(camera);
+  check_camera(camera);  // project_forward validates the Gaussians
   const PinholeT<double> pinhole(camera);
   const ProjectedT<double> projected = project_forward(g, pinhole, options);
   GaussianGradsT<double> grads(g.size(), g.channels);

@@ -239,6 +239,12 @@ TEST(RenderEdgeCases, NonFiniteAndInvalidInputsAreRejected) {
   g = good;
   g.features.pop_back();
   expect_rejected(g, "gaussians.features: has 29 values, expected 30");
+  // Past the first batch of 16, and a value that the projection would turn finite (exp(-inf)).
+  Gaussians many = cast_gaussians<float>(random_gaussians<double>(test_camera(16, 16), 40, 3, 7));
+  many.log_scales[3 * 33] = -kInf;
+  expect_rejected(many, "gaussians.log_scales[33][0] is -inf");
+  EXPECT_THROW(render::project_forward(many, render::PinholeT<float>(test_camera(16, 16)), {}),
+               Error);
   // The reference path validates the same way.
   GaussiansT<double> gd = cast_gaussians<double>(good);
   gd.means[0] = std::numeric_limits<double>::infinity();

@@ -59,9 +59,15 @@ TileRect blend_tile_rect(const T* mean2d, const T* conic, int radius, T opacity,
 template <typename T>
 std::array<T, 2> alpha_extent(const T* conic, T opacity, const RenderOptions& options);
 
-// Culls a Gaussian (radius 0) when: camera z < near_plane, the blurred 2-D covariance is
-// singular, opacity <= 0 or < min_alpha (it could never be composited), or the radius rule's tile
-// rectangle is empty (off image).
+// Throws Error naming the field and the index of the first bad value: a NaN or infinite entry,
+// an opacity outside [0, 1], a zero quaternion, or arrays whose sizes disagree.
+template <typename T>
+void check_gaussians(const GaussiansT<T>& gaussians);
+
+// Validates the Gaussians as check_gaussians does (in float, the fields the projection reads are
+// checked in the same pass as they are projected). Culls a Gaussian (radius 0) when: camera z <
+// near_plane, the blurred 2-D covariance is singular, opacity <= 0 or < min_alpha (it could never
+// be composited), or the radius rule's tile rectangle is empty (off image).
 template <typename T>
 ProjectedT<T> project_forward(const GaussiansT<T>& gaussians, const PinholeT<T>& camera,
                               const RenderOptions& options);

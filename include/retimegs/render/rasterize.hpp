@@ -24,11 +24,6 @@ struct RenderOutput {
   BlendOutput blend;  // image [H, W, C], alpha [H, W], depth [H, W], saved per-pixel state
 };
 
-// Throws Error naming the field and the index of the first bad value: a NaN or infinite entry,
-// an opacity outside [0, 1], a zero quaternion, or arrays whose sizes disagree.
-template <typename T>
-void check_gaussians(const GaussiansT<T>& gaussians);
-
 // Throws Error unless the camera has a positive size, finite positive focal lengths, a finite
 // principal point and a rigid world_to_camera.
 void check_camera(const Camera& camera);
