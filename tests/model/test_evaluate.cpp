@@ -197,8 +197,9 @@ TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
   for (std::size_t row = 0; row < at4.gaussians.size(); ++row) {
     const int i = at4.primitive_from_gaussian[row];
     const double sigma = sigmoid(double(p.opacity_logit[i]));
-    if (p.mu_tau[i] == 3.0 || (p.mu_tau[i] == 5.0 && i != 4))
+    if (p.mu_tau[i] == 3.0 || (p.mu_tau[i] == 5.0 && i != 4)) {
       EXPECT_NEAR(at4.gaussians.opacities[row], 0.5 * sigma, 1e-6) << i;
+    }
   }
   for (std::size_t row = 0; row < l.gaussians.size(); ++row) {
     const int i = l.primitive_from_gaussian[row];
