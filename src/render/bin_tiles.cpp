@@ -19,7 +19,6 @@ namespace {
 // The radix sort's digits: at most 12 bits (4096 buckets: the per-thread counts stay in L1/L2),
 // so that the 24 bits in which depths in [2, 8) differ take two passes instead of three bytes.
 constexpr int kMaxRadixBits = 12;
-constexpr int kKeyBits = 32;
 
 // A visible Gaussian in the depth sort: (depth bits << 32 | Gaussian index) — the float bits of a
 // positive depth sort as uints — and its tile rect, which travels with it so that the passes
