@@ -202,6 +202,7 @@ simd::mask tile_rect_not_empty(vf u, vf v, vi radius, int tiles_x, int tiles_y) 
 
 ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,
                                         const RenderOptions& options) {
+  check_sizes_and_features(g);  // before anything is allocated or read
   const std::size_t n = g.size();
   ProjectedT<float> out;
   // Every row is written below (zero for the culled).
@@ -214,7 +215,6 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
   const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
   const float min_opacity = std::max(options.min_alpha, 0.0f);
   const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
-  check_sizes_and_features(g);
   bool invalid = false;  // some lane's inputs fail check_gaussians
 
 #pragma omp parallel for schedule(static) reduction(| : invalid)
