@@ -19,7 +19,7 @@
 
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/npy.hpp"
+#include "retimegs/io/npy.hpp"
 #include "retimegs/render/rasterize.hpp"
 
 namespace {
@@ -88,7 +88,7 @@ const BenchScene& load_scene(char name) {
   const fs::path dir =
       fs::path(RETIMEGS_SHARED_DATA) / "bench-scenes" / (std::string("scene_") + name);
   BenchScene s;
-  const auto floats = [&](const char* file) { return data::read_npy(dir / file).to_float(); };
+  const auto floats = [&](const char* file) { return io::read_npy(dir / file).to_float(); };
   s.gaussians.channels = 3;
   s.gaussians.means = floats("means.npy");
   s.gaussians.log_scales = floats("log_scales.npy");

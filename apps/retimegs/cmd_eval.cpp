@@ -12,9 +12,9 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/splat_ply.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
@@ -56,7 +56,7 @@ void add_eval_command(CLI::App& app) {
   cmd->callback([args] {
     set_threads(args->threads);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
-    const data::Scene scene = data::read_scene(args->scene);
+    const io::Scene scene = io::read_scene(args->scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
     if (args->cameras.empty())
@@ -84,7 +84,7 @@ void add_eval_command(CLI::App& app) {
           scene, train,
           args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
     } else if (fs::path(args->model).extension() == ".ply") {
-      splats = std::make_shared<Splats>(data::read_splat_ply(args->model));
+      splats = std::make_shared<Splats>(io::read_splat_ply(args->model));
       renderer = [&scene, splats, &black](int c, int) {
         return eval::render_splats(*splats, scene.cameras[c], black);
       };

@@ -9,7 +9,7 @@
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
 
 namespace retimegs::app {
@@ -41,7 +41,7 @@ void add_export_command(CLI::App& app) {
       if (std::filesystem::exists(out) && !args->force)
         fail("{}: output already exists (pass --force to replace it)", args->out);
       const Splats s = model::export_splats(m, *args->time);
-      data::write_splat_ply(out, s);
+      io::write_splat_ply(out, s);
       spdlog::info("exported {} Gaussians at t = {} to {}", s.size(), *args->time, args->out);
       return;
     }
@@ -51,7 +51,7 @@ void add_export_command(CLI::App& app) {
     csv << "file,t\n";
     for (std::size_t k = 0; k < ts.size(); ++k) {
       const std::string name = fmt::format("{:05d}.ply", k);
-      data::write_splat_ply(dir.temp_path() / name, model::export_splats(m, ts[k]));
+      io::write_splat_ply(dir.temp_path() / name, model::export_splats(m, ts[k]));
       csv << name << "," << ts[k] << "\n";
     }
     csv.close();

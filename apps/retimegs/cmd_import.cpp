@@ -4,7 +4,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/import.hpp"
+#include "retimegs/ingest/import.hpp"
 
 namespace retimegs::app {
 
@@ -39,15 +39,15 @@ void add_import_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "replace an existing output folder");
   cmd->callback([args] {
     set_threads(args->threads);
-    data::ImportOptions options;
+    ingest::ImportOptions options;
     if (!args->frames.empty())
       std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
     options.downscale = args->downscale;
     options.force = args->force;
-    if (args->format == "panoptic") data::import_panoptic(args->in, args->out, options);
-    if (args->format == "n3dv") data::import_n3dv(args->in, args->out, options);
-    if (args->format == "colmap") data::import_colmap(args->in, args->out, options);
-    if (args->format == "nerfstudio") data::import_nerfstudio(args->in, args->out, options);
+    if (args->format == "panoptic") ingest::import_panoptic(args->in, args->out, options);
+    if (args->format == "n3dv") ingest::import_n3dv(args->in, args->out, options);
+    if (args->format == "colmap") ingest::import_colmap(args->in, args->out, options);
+    if (args->format == "nerfstudio") ingest::import_nerfstudio(args->in, args->out, options);
   });
 }
 

@@ -10,8 +10,8 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/prepare.hpp"
-#include "retimegs/data/scene.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/prepare/prepare.hpp"
 
 namespace retimegs::app {
 
@@ -57,9 +57,9 @@ void add_prepare_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
   cmd->callback([args] {
     set_threads(args->threads);
-    data::PrepareOptions options;
+    prepare::PrepareOptions options;
     options.frame_step = args->frames == "all" ? 1 : 2;
-    options.flow_method = data::parse_flow_method(args->flow);
+    options.flow_method = prepare::parse_flow_method(args->flow);
     options.flow_dir = args->flow_dir;
     options.force = args->force;
     if (!args->points.empty()) {
@@ -67,14 +67,14 @@ void add_prepare_command(CLI::App& app) {
       bool needs_dir = false;
       for (const std::string& kind : split_list(kinds, "--points")) {
         if (kind == "ply") {
-          options.points.push_back(data::PointsSource::kPly);
+          options.points.push_back(prepare::PointsSource::kPly);
           needs_dir = true;
         } else if (kind == "hull") {
-          options.points.push_back(data::PointsSource::kHull);
+          options.points.push_back(prepare::PointsSource::kHull);
         } else if (kind == "random") {
-          options.points.push_back(data::PointsSource::kRandom);
+          options.points.push_back(prepare::PointsSource::kRandom);
         } else if (kind == "colmap") {
-          options.points.push_back(data::PointsSource::kColmap);
+          options.points.push_back(prepare::PointsSource::kColmap);
         } else {
           fail("--points: unknown source '{}' (hull, random, ply DIR, colmap, or a comma list)",
                kind);
@@ -87,8 +87,8 @@ void add_prepare_command(CLI::App& app) {
       if (needs_dir) options.points_dir = args->points[1];
     }
 
-    const data::Scene scene = data::read_scene(args->scene);
-    const data::PrepareReport r = data::prepare_scene(scene, options);
+    const io::Scene scene = io::read_scene(args->scene);
+    const prepare::PrepareReport r = prepare::prepare_scene(scene, options);
 
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)

@@ -12,10 +12,10 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
-#include "retimegs/data/frame_writer.hpp"
-#include "retimegs/data/scene.hpp"
-#include "retimegs/data/splat_ply.hpp"
 #include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
@@ -65,7 +65,7 @@ void add_render_command(CLI::App& app) {
   cmd->callback([args] {
     set_threads(args->threads);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
-    const data::Scene scene = data::read_scene(args->scene, data::SceneCheck::kJson);
+    const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
 
     std::vector<double> frame_times;
@@ -76,7 +76,7 @@ void add_render_command(CLI::App& app) {
     else if (args->slowmo)
       frame_times = slowmo_times(scene.num_frames, *args->slowmo);
     else if (!args->retime.empty())
-      frame_times = data::read_retime_csv(args->retime);
+      frame_times = io::read_retime_csv(args->retime);
     else
       fail("render: give one of --time, --times, --slowmo or --retime");
     std::vector<Camera> path;
@@ -95,12 +95,12 @@ void add_render_command(CLI::App& app) {
     std::optional<model::Model> model4d;
     std::optional<Splats> splats;
     if (is_ply)
-      splats = data::read_splat_ply(args->model);
+      splats = io::read_splat_ply(args->model);
     else
       model4d = model::read_model(args->model);
 
     const int frames = int(frame_times.size());
-    data::FrameWriter writer(args->out, frames, scene.fps, args->force);
+    io::FrameWriter writer(args->out, frames, scene.fps, args->force);
     Progress progress("render", frames, frames > 1);
     for (int f = 0; f < frames; ++f) {
       const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;

@@ -5,8 +5,8 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "retimegs/data/contact_sheet.hpp"
-#include "retimegs/data/image_io.hpp"
+#include "retimegs/eval/contact_sheet.hpp"
+#include "retimegs/io/image_io.hpp"
 
 namespace retimegs::app {
 
@@ -30,8 +30,8 @@ void add_sheet_command(CLI::App& app) {
   cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")
       ->capture_default_str();
   cmd->callback([args] {
-    const data::Scene scene = data::read_scene(args->scene, data::SceneCheck::kJson);
-    data::SheetOptions options;
+    const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
+    eval::SheetOptions options;
     options.tile_width = args->tile_width;
     if (!args->cameras.empty())
       for (const auto& name : split_list(args->cameras, "--cameras"))
@@ -39,7 +39,7 @@ void add_sheet_command(CLI::App& app) {
     if (!args->renders.empty())
       for (const auto& dir : split_list(args->renders, "--renders")) options.renders.push_back(dir);
     if (!args->frames.empty()) options.frames = parse_int_list(args->frames, "--frames");
-    data::write_png(args->out, data::contact_sheet(scene, options));
+    io::write_png(args->out, eval::contact_sheet(scene, options));
     spdlog::info("contact sheet: {}", args->out);
   });
 }

@@ -11,7 +11,7 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/synth.hpp"
+#include "retimegs/synth/synth.hpp"
 
 namespace retimegs::app {
 
@@ -34,13 +34,13 @@ std::pair<int, int> parse_size(const std::string& text) {
 
 void add_synth_command(CLI::App& app) {
   struct Args {
-    data::SynthOptions options;
+    synth::SynthOptions options;
     std::string out, size = "256x192";
     int threads = 0;
   };
   auto args = std::make_shared<Args>();
   std::string presets = "scene preset:";
-  for (const auto& p : data::synth_presets())
+  for (const auto& p : synth::synth_presets())
     presets += fmt::format("\n  {}: {}", p.name, p.description);
 
   CLI::App* cmd = app.add_subcommand(
@@ -63,7 +63,7 @@ void add_synth_command(CLI::App& app) {
   cmd->callback([args] {
     set_threads(args->threads);
     std::tie(args->options.width, args->options.height) = parse_size(args->size);
-    data::synthesize_scene(args->options, args->out);
+    synth::synthesize_scene(args->options, args->out);
   });
 }
 

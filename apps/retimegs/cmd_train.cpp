@@ -9,7 +9,7 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/data/scene.hpp"
+#include "retimegs/io/scene.hpp"
 #include "retimegs/train/trainer.hpp"
 
 namespace retimegs::app {
@@ -83,7 +83,7 @@ void add_train_command(CLI::App& app) {
               "linear)",
               a);
       }
-    const data::Scene scene = data::read_scene(args->scene);
+    const io::Scene scene = io::read_scene(args->scene);
     train::train(scene, run);
   });
 }

@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/npy.hpp"
+#include "retimegs/io/npy.hpp"
 
 namespace retimegs::eval {
 namespace fs = std::filesystem;
@@ -182,7 +182,7 @@ Lpips Lpips::load(const fs::path& dir) {
   if (!fs::is_directory(dir)) fail("{}: LPIPS weights folder not found", dir.string());
   const auto tensor = [&dir](const std::string& key, std::vector<std::size_t> shape) {
     const fs::path file = dir / (key + ".npy");
-    const data::NpyArray array = data::read_npy(file);  // names the file when missing or malformed
+    const io::NpyArray array = io::read_npy(file);  // names the file when missing or malformed
     if (array.shape != shape)
       fail("{}: shape [{}], expected [{}]", file.string(), fmt::join(array.shape, ", "),
            fmt::join(shape, ", "));

@@ -10,7 +10,7 @@
 namespace retimegs::eval {
 namespace {
 
-// Masks are 0 / 1 (data::read_mask); a soft mask is split at one half.
+// Masks are 0 / 1 (io::read_mask); a soft mask is split at one half.
 constexpr float kMaskThreshold = 0.5f;
 
 bool foreground(const Image& mask, std::size_t pixel) {

@@ -8,14 +8,14 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
-#include "retimegs/data/image_io.hpp"
 #include "retimegs/eval/lpips.hpp"
 #include "retimegs/eval/metrics.hpp"
+#include "retimegs/io/image_io.hpp"
 
 namespace retimegs::eval {
 namespace fs = std::filesystem;
 
-EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
+EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options) {
   EvalResult result;
   result.frames = options.frames;
@@ -41,8 +41,8 @@ EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     const auto [c, k] = jobs[j];
     const Image image = render(c, k);
-    const Image truth = data::load_image(scene, c, k);
-    std::optional<Image> mask = data::load_mask(scene, c, k);
+    const Image truth = io::load_image(scene, c, k);
+    std::optional<Image> mask = io::load_mask(scene, c, k);
     // A mask without foreground (nothing of interest in view) scores the whole image.
     if (mask &&
         std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
@@ -59,7 +59,7 @@ EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
       v.lpips = mask ? lpips->distance(apply_mask(image, *mask), apply_mask(truth, *mask))
                      : lpips->distance(image, truth);
     if (renders)
-      data::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
+      io::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
     progress.tick();
   }
   progress.finish();
@@ -95,19 +95,19 @@ std::string to_json(const EvalResult& r) {
   return j.dump(2);
 }
 
-FrameRenderer baseline_renderer(const data::Scene& scene, std::vector<int> train_frames,
+FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,
                                 Baseline baseline) {
   std::sort(train_frames.begin(), train_frames.end());
   if (train_frames.empty()) fail("baseline: no training frames");
   return [&scene, train_frames, baseline](int camera, int frame) {
     const auto hi = std::lower_bound(train_frames.begin(), train_frames.end(), frame);
-    if (hi == train_frames.end()) return data::load_image(scene, camera, train_frames.back());
-    if (*hi == frame || hi == train_frames.begin()) return data::load_image(scene, camera, *hi);
+    if (hi == train_frames.end()) return io::load_image(scene, camera, train_frames.back());
+    if (*hi == frame || hi == train_frames.begin()) return io::load_image(scene, camera, *hi);
     const int a = *(hi - 1), b = *hi;
     const double s = double(frame - a) / double(b - a);
-    if (baseline == Baseline::kNearest) return data::load_image(scene, camera, s <= 0.5 ? a : b);
-    Image ia = data::load_image(scene, camera, a);
-    const Image ib = data::load_image(scene, camera, b);
+    if (baseline == Baseline::kNearest) return io::load_image(scene, camera, s <= 0.5 ? a : b);
+    Image ia = io::load_image(scene, camera, a);
+    const Image ib = io::load_image(scene, camera, b);
     for (std::size_t i = 0; i < ia.data.size(); ++i)
       ia.data[i] = float((1 - s) * ia.data[i] + s * ib.data[i]);
     return ia;

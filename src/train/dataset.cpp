@@ -15,7 +15,7 @@ std::size_t TrainingSet::flow_files() const {
   return n;
 }
 
-TrainingSet load_training_set(const data::Scene& scene, TrainFrames which) {
+TrainingSet load_training_set(const io::Scene& scene, TrainFrames which) {
   TrainingSet set;
   set.scene = scene;
   const int step = which == TrainFrames::kEven ? 2 : 1;
@@ -40,11 +40,11 @@ TrainingSet load_training_set(const data::Scene& scene, TrainFrames which) {
     for (std::size_t i = 0; i < nf; ++i) {
       try {
         const int cam = set.cameras[c], k = set.frames[i];
-        set.images[c][i] = data::load_image(scene, cam, k);
-        set.masks[c][i] = data::load_mask(scene, cam, k);
-        if (i + 1 < nf) set.forward[c][i] = data::load_flow(scene, cam, k, set.frames[i + 1]);
-        if (i > 0) set.backward[c][i] = data::load_flow(scene, cam, k, set.frames[i - 1]);
-        if (c == 0) set.points[i] = data::load_points(scene, k);
+        set.images[c][i] = io::load_image(scene, cam, k);
+        set.masks[c][i] = io::load_mask(scene, cam, k);
+        if (i + 1 < nf) set.forward[c][i] = io::load_flow(scene, cam, k, set.frames[i + 1]);
+        if (i > 0) set.backward[c][i] = io::load_flow(scene, cam, k, set.frames[i - 1]);
+        if (c == 0) set.points[i] = io::load_points(scene, k);
       } catch (const std::exception& e) {
 #pragma omp critical
         if (error.empty()) error = e.what();

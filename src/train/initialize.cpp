@@ -85,7 +85,7 @@ Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<O
 }  // namespace
 
 std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot) {
-  const data::PointCloud& cloud = *set.points[slot];
+  const io::PointCloud& cloud = *set.points[slot];
   const std::size_t n = cloud.size();
   std::vector<std::vector<Observation>> forward(n), backward(n);
   for (std::size_t c = 0; c < set.cameras.size(); ++c) {
@@ -171,7 +171,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     std::size_t with_motion = 0, total = 0;
     for (int i = 0; i < nf; ++i) {
       if (!set.points[i]) continue;
-      const data::PointCloud& cloud = *set.points[i];
+      const io::PointCloud& cloud = *set.points[i];
       const std::vector<PointMotion> motion = options.use_flow && !stgs
                                                   ? estimate_point_motion(set, i)
                                                   : std::vector<PointMotion>(cloud.size());

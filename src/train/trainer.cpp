@@ -10,7 +10,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
-#include "retimegs/data/npy.hpp"
+#include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -236,8 +236,8 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
     state["adam_steps"][name] = adam.steps();
     const std::size_t rows = adam.rows();
     const std::size_t width = rows ? adam.m().size() / rows : 0;
-    data::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
-    data::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
+    io::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
+    io::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
   }
   std::ofstream(out.temp_path() / "state.json") << state.dump(2) << "\n";
   out.commit();
@@ -257,8 +257,8 @@ void Trainer::load_checkpoint(const fs::path& dir) {
   }
   make_optimizers();
   for (auto& [name, adam] : adam_) {
-    const auto m = data::read_npy(dir / "adam" / (name + "_m.npy")).to_float();
-    const auto v = data::read_npy(dir / "adam" / (name + "_v.npy")).to_float();
+    const auto m = io::read_npy(dir / "adam" / (name + "_m.npy")).to_float();
+    const auto v = io::read_npy(dir / "adam" / (name + "_v.npy")).to_float();
     if (m.size() != adam.m().size() || v.size() != adam.v().size())
       fail("{}: optimizer state of '{}' does not match the model", dir.string(), name);
     adam.m() = m, adam.v() = v;
@@ -266,7 +266,7 @@ void Trainer::load_checkpoint(const fs::path& dir) {
   }
 }
 
-model::Model train(const data::Scene& scene, const TrainRun& run) {
+model::Model train(const io::Scene& scene, const TrainRun& run) {
   const fs::path checkpoints = run.out / "checkpoints";
   TrainConfig config = run.config;
   fs::path latest;

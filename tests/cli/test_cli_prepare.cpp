@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "retimegs/data/flow_io.hpp"
-#include "retimegs/data/ply.hpp"
+#include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/ply.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -55,11 +55,11 @@ TEST(PrepareCli, FillsInResumesAndForceRewrites) {
   const fs::path points = scene / "points" / "00002.ply";
   ASSERT_TRUE(fs::exists(flow));
   ASSERT_TRUE(fs::exists(points));
-  const Flow f = data::read_flo(flow);
+  const Flow f = io::read_flo(flow);
   EXPECT_EQ(f.width, 64);
   EXPECT_EQ(f.height, 48);
   EXPECT_EQ(fs::file_size(flow), 12u + 64 * 48 * 8);
-  EXPECT_GT(data::read_points_ply(points).size(), 100u);
+  EXPECT_GT(io::read_points_ply(points).size(), 100u);
   EXPECT_FALSE(fs::exists(scene / "flow" / "cam00" / "00000_00001.flo"));  // stride 2 only
 
   const auto flow_before = stamp(flow), points_before = stamp(points);
@@ -80,7 +80,7 @@ TEST(PrepareCli, WrongSizeImportExitsTwoAndWritesNothing) {
   test::TempDir dir;
   const fs::path scene = bare_scene(dir);
   const fs::path bad = dir / "exact-flow" / "cam00" / "00002_00000.flo";
-  data::write_flo(bad, Flow(64, 40));
+  io::write_flo(bad, Flow(64, 40));
   const auto r = test::run_cli("prepare --scene " + scene.string() + " --flow-dir " +
                                (dir / "exact-flow").string());
   EXPECT_EQ(r.status, 2);

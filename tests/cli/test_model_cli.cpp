@@ -8,11 +8,11 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/image_io.hpp"
-#include "retimegs/data/ply.hpp"
-#include "retimegs/data/scene.hpp"
-#include "retimegs/data/splat_ply.hpp"
 #include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/ply.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "test_util.hpp"
@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 // A 9-frame, 2-camera scene (JSON only) and a model of moving primitives trained on even frames.
 struct Fixture {
-  data::Scene scene;
+  io::Scene scene;
   model::Model model;
   explicit Fixture(const fs::path& root) {
     scene.root = root / "scene";
@@ -37,7 +37,7 @@ struct Fixture {
       cam.world_to_camera = look_at({2.0 * c - 1.0, -0.5, -4.0}, {0, 0, 0}, {0, -1, 0});
       scene.cameras.push_back(cam);
     }
-    data::write_scene_json(scene);
+    io::write_scene_json(scene);
     model.grid = {0.0, 2.0, 5};
     std::mt19937 rng(1);
     std::uniform_real_distribution<float> u(-1, 1);
@@ -79,7 +79,7 @@ TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
     const std::string ply = (dir / ("t" + std::to_string(int(t * 10)) + ".ply")).string();
     run("export --model " + model + " --time " + std::to_string(t) + " --out " + ply);
     // Exact Inria property list.
-    const auto table = data::read_ply(ply);
+    const auto table = io::read_ply(ply);
     ASSERT_EQ(table.names.size(), 62u);
     EXPECT_EQ(table.names.front(), "x");
     EXPECT_EQ(table.names[6], "f_dc_0");
@@ -91,7 +91,7 @@ TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
     EXPECT_LT(table.count, 120u);
     const float background[3] = {0.1f, 0.2f, 0.3f};
     for (const Camera& cam : f.scene.cameras) {
-      const Image from_ply = eval::render_splats(data::read_splat_ply(ply), cam, background);
+      const Image from_ply = eval::render_splats(io::read_splat_ply(ply), cam, background);
       const Image from_rgs = eval::render_model(f.model, cam, t, background);
       double max_diff = 0;
       for (std::size_t i = 0; i < from_ply.data.size(); ++i)
@@ -116,18 +116,18 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
   run(base + " --camera cam01 --time 2.5 --out " + (dir / "one.png").string());
   const float black[3] = {0, 0, 0};
   const Image lib = eval::render_model(f.model, f.scene.cameras[1], 2.5, black);
-  EXPECT_LT(mean_abs_diff(data::read_image(dir / "one.png"), lib), 1.0 / 255);
+  EXPECT_LT(mean_abs_diff(io::read_image(dir / "one.png"), lib), 1.0 / 255);
   // 4x slow motion over 9 frames: 8 * 4 + 1 frames; consecutive frames differ (motion).
   run(base + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string());
   int count = 0;
   for (const auto& e : fs::directory_iterator(dir / "slow"))
     count += e.path().extension() == ".png";
   EXPECT_EQ(count, 33);
-  EXPECT_GT(mean_abs_diff(data::read_image(dir / "slow" / "00005.png"),
-                          data::read_image(dir / "slow" / "00006.png")),
+  EXPECT_GT(mean_abs_diff(io::read_image(dir / "slow" / "00005.png"),
+                          io::read_image(dir / "slow" / "00006.png")),
             1e-3);
   // Frame 10 of the 4x slow motion is t = 2.5 from cam00.
-  EXPECT_LT(mean_abs_diff(data::read_image(dir / "slow" / "00010.png"),
+  EXPECT_LT(mean_abs_diff(io::read_image(dir / "slow" / "00010.png"),
                           eval::render_model(f.model, f.scene.cameras[0], 2.5, black)),
             1.0 / 255);
   // A speed ramp: keyframes (0, 0), (4, 1), (6, 5) -> times 0, .25, .5, .75, 1, 3, 5.
@@ -136,16 +136,16 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
       (dir / "ramp").string());
   EXPECT_TRUE(fs::exists(dir / "ramp" / "00006.png"));
   EXPECT_FALSE(fs::exists(dir / "ramp" / "00007.png"));
-  EXPECT_LT(mean_abs_diff(data::read_image(dir / "ramp" / "00005.png"),
+  EXPECT_LT(mean_abs_diff(io::read_image(dir / "ramp" / "00005.png"),
                           eval::render_model(f.model, f.scene.cameras[0], 3.0, black)),
             1.0 / 255);
   // Bullet time: fixed time, the camera moves from cam00 to cam01.
   run(base + " --path cam00,cam01 --time 3 --path-frames 5 --out " + (dir / "bullet").string());
-  EXPECT_LT(mean_abs_diff(data::read_image(dir / "bullet" / "00004.png"),
+  EXPECT_LT(mean_abs_diff(io::read_image(dir / "bullet" / "00004.png"),
                           eval::render_model(f.model, f.scene.cameras[1], 3.0, black)),
             1.0 / 255);
-  EXPECT_GT(mean_abs_diff(data::read_image(dir / "bullet" / "00000.png"),
-                          data::read_image(dir / "bullet" / "00004.png")),
+  EXPECT_GT(mean_abs_diff(io::read_image(dir / "bullet" / "00000.png"),
+                          io::read_image(dir / "bullet" / "00004.png")),
             1e-3);
   // Video at the scene's fps.
   run(base + " --camera cam00 --times 0:8:0.5 --out " + (dir / "clip.mp4").string());

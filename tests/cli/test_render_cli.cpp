@@ -6,10 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/image_io.hpp"
-#include "retimegs/data/npy.hpp"
-#include "retimegs/data/scene.hpp"
-#include "retimegs/data/splat_ply.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/npy.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -23,18 +23,18 @@ namespace fs = std::filesystem;
 // the SH DC term, opacities logits, scales logs; and a one-camera scene with its view matrix.
 struct Fixture {
   Splats splats;
-  data::Scene scene;
+  io::Scene scene;
 };
 
 Fixture gsplat_case_as_ply(const fs::path& root) {
   const fs::path dir = test::shared_data() / "gsplat-reference" / "case2_n2000_160x120";
-  const auto means = data::read_npy(dir / "means.npy").to_float();
-  const auto scales = data::read_npy(dir / "scales.npy").to_float();
-  const auto quats = data::read_npy(dir / "quats.npy").to_float();
-  const auto colors = data::read_npy(dir / "colors.npy").to_float();
-  const auto opacities = data::read_npy(dir / "opacities.npy").to_float();
-  const auto view = data::read_npy(dir / "viewmat.npy").values;
-  const auto intr = data::read_npy(dir / "intrinsics.npy").values;
+  const auto means = io::read_npy(dir / "means.npy").to_float();
+  const auto scales = io::read_npy(dir / "scales.npy").to_float();
+  const auto quats = io::read_npy(dir / "quats.npy").to_float();
+  const auto colors = io::read_npy(dir / "colors.npy").to_float();
+  const auto opacities = io::read_npy(dir / "opacities.npy").to_float();
+  const auto view = io::read_npy(dir / "viewmat.npy").values;
+  const auto intr = io::read_npy(dir / "intrinsics.npy").values;
   Fixture f;
   Splats& s = f.splats;
   const std::size_t n = opacities.size();
@@ -51,7 +51,7 @@ Fixture gsplat_case_as_ply(const fs::path& root) {
   s.sh.resize(3 * n);
   for (std::size_t i = 0; i < 3 * n; ++i) s.sh[i] = float((colors[i] - 0.5) / model::kShC0);
 
-  data::Scene& scene = f.scene;
+  io::Scene& scene = f.scene;
   scene.root = root;
   scene.num_frames = 1;
   scene.fps = 1;
@@ -62,7 +62,7 @@ Fixture gsplat_case_as_ply(const fs::path& root) {
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) cam.world_to_camera(r, c) = view[4 * r + c];
   scene.cameras.push_back(cam);
-  data::write_scene_json(scene);
+  io::write_scene_json(scene);
   return f;
 }
 
@@ -70,12 +70,12 @@ TEST(RenderCli, StaticPlyMatchesLibraryRender) {
   RETIMEGS_REQUIRE_DATA("gsplat-reference/case2_n2000_160x120");
   test::TempDir dir;
   const Fixture f = gsplat_case_as_ply(dir / "scene");
-  data::write_splat_ply(dir / "splat.ply", f.splats);
+  io::write_splat_ply(dir / "splat.ply", f.splats);
   const auto r = test::run_cli("render --model " + (dir / "splat.ply").string() + " --scene " +
                                (dir / "scene").string() + " --camera garden --time 0 --out " +
                                (dir / "out.png").string() + " --background 1,1,1");
   ASSERT_EQ(r.status, 0) << r.err;
-  const Image cli = data::read_image(dir / "out.png");
+  const Image cli = io::read_image(dir / "out.png");
   const Camera& cam = f.scene.cameras[0];
   const float background[3] = {1, 1, 1};
   const auto lib =
@@ -96,7 +96,7 @@ TEST(RenderCli, BadModelOrCameraExitsTwo) {
   RETIMEGS_REQUIRE_DATA("gsplat-reference/case2_n2000_160x120");
   test::TempDir dir;
   const Fixture f = gsplat_case_as_ply(dir / "scene");
-  data::write_splat_ply(dir / "splat.ply", f.splats);
+  io::write_splat_ply(dir / "splat.ply", f.splats);
   const std::string text = test::read_text(dir / "splat.ply");
   test::write_text(dir / "cut.ply", text.substr(0, text.size() - 100));
   const std::string scene = " --scene " + (dir / "scene").string();

@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/image_io.hpp"
-#include "retimegs/data/npy.hpp"
 #include "retimegs/eval/lpips.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/npy.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -36,7 +36,7 @@ const Lpips& reference_lpips() {
 }
 
 Image read(const char* name) {
-  return data::read_image(data_dir() / name);
+  return io::read_image(data_dir() / name);
 }
 
 using test::message_of;
@@ -61,7 +61,7 @@ TEST(Lpips, TapActivationsMatchTheReference) {
   const auto taps = reference_lpips().features(read("ex_ref.png"));
   for (int t = 0; t < Lpips::kTaps; ++t) {
     const auto file = data_dir() / "activations_ex_ref" / fmt::format("tap{}.npy", t);
-    const data::NpyArray ref = data::read_npy(file);
+    const io::NpyArray ref = io::read_npy(file);
     const FeatureMap& f = taps[t];
     ASSERT_EQ(ref.shape, (std::vector<std::size_t>{std::size_t(f.channels), std::size_t(f.height),
                                                    std::size_t(f.width)}))

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/data/image_io.hpp"
 #include "retimegs/eval/protocol.hpp"
+#include "retimegs/io/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -13,8 +13,8 @@ namespace {
 
 // 5 frames of 32x32 grey images whose value ramps linearly in time (0.1 per frame); camera 0 has
 // masks covering the left half.
-data::Scene ramp_scene(const std::filesystem::path& root) {
-  data::Scene scene;
+io::Scene ramp_scene(const std::filesystem::path& root) {
+  io::Scene scene;
   scene.root = root;
   scene.num_frames = 5;
   scene.fps = 10;
@@ -26,22 +26,22 @@ data::Scene ramp_scene(const std::filesystem::path& root) {
     scene.cameras.push_back(cam);
     for (int k = 0; k < 5; ++k) {
       Image image(32, 32, 3, 0.2f + 0.1f * k);
-      data::write_png(scene.image_path(c, k), image);
+      io::write_png(scene.image_path(c, k), image);
       if (c == 0) {
         Image mask(32, 32, 1, 0.0f);
         for (int y = 0; y < 32; ++y)
           for (int x = 0; x < 16; ++x) mask.at(y, x) = 1;
-        data::write_png(scene.mask_path(c, k), mask);
+        io::write_png(scene.mask_path(c, k), mask);
       }
     }
   }
-  data::write_scene_json(scene);
-  return data::read_scene(root);
+  io::write_scene_json(scene);
+  return io::read_scene(root);
 }
 
 TEST(Protocol, BaselinesOnALinearRamp) {
   test::TempDir dir;
-  const data::Scene scene = ramp_scene(dir / "s");
+  const io::Scene scene = ramp_scene(dir / "s");
   EvalOptions options;
   options.frames = parse_frames("odd", scene.num_frames, "--frames");
   options.cameras = {0, 1};
@@ -69,7 +69,7 @@ TEST(Protocol, BaselinesOnALinearRamp) {
 
 TEST(Protocol, SavesRendersAndParsesFrameLists) {
   test::TempDir dir;
-  const data::Scene scene = ramp_scene(dir / "s");
+  const io::Scene scene = ramp_scene(dir / "s");
   EvalOptions options;
   options.frames = parse_frames("1,2", scene.num_frames, "--frames");
   options.cameras = {1};

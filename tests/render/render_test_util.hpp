@@ -9,16 +9,16 @@
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/gaussians.hpp"
-#include "retimegs/data/npy.hpp"
+#include "retimegs/io/npy.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::test {
 
 inline std::vector<float> npy_floats(const std::filesystem::path& path) {
-  return data::read_npy(path).to_float();
+  return io::read_npy(path).to_float();
 }
 inline std::vector<std::int32_t> npy_ints(const std::filesystem::path& path) {
-  return data::read_npy(path).to_int();
+  return io::read_npy(path).to_int();
 }
 
 // One case of data/gsplat-reference: inputs and camera.

@@ -2,21 +2,21 @@
 // A small 5-frame "minimal" synthetic scene (exact flows, masks, points) for the train tests.
 #include <filesystem>
 
-#include "retimegs/data/scene.hpp"
-#include "retimegs/data/synth.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/synth/synth.hpp"
 
 namespace retimegs::train {
 
-inline data::Scene minimal_scene(const std::filesystem::path& root, int cameras, int width,
-                                 int height) {
-  data::SynthOptions options;
+inline io::Scene minimal_scene(const std::filesystem::path& root, int cameras, int width,
+                               int height) {
+  synth::SynthOptions options;
   options.preset = "minimal";
   options.cameras = cameras;
   options.frames = 5;
   options.width = width, options.height = height;
   options.progress = false;
-  data::synthesize_scene(options, root);
-  return data::read_scene(root);
+  synth::synthesize_scene(options, root);
+  return io::read_scene(root);
 }
 
 }  // namespace retimegs::train

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 
 TEST(Trainer, HeldOutFramesBeatCrossfade) {
   test::TempDir dir;
-  const data::Scene scene = minimal_scene(dir / "scene", 4, 96, 72);
+  const io::Scene scene = minimal_scene(dir / "scene", 4, 96, 72);
   TrainRun run;
   run.out = dir / "run";
   run.config.iters = 600;
@@ -46,7 +46,7 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
 
 TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {
   test::TempDir dir;
-  const data::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
   TrainRun run;
   run.config.iters = 40;
   run.config.cap = 1500;

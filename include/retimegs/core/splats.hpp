@@ -2,7 +2,7 @@
 // A static 3DGS model in its stored (pre-activation) form — what the Inria `.ply` layout holds and
 // what `retimegs export` writes for one time: means, log-scales, raw quaternions, opacity logits
 // and spherical-harmonic colour coefficients. model/ turns it into renderable Gaussians for a
-// camera; data/ reads and writes it.
+// camera; io/ reads and writes it.
 #include <cstddef>
 #include <vector>
 

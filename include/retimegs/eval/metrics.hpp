@@ -1,7 +1,7 @@
 #pragma once
 // Image-quality metrics of the evaluation protocol (DESIGN.md §5), on images with values in [0, 1].
 // `a` is the render and `b` the ground truth; masks are [H, W, 1] with foreground where > 0.5
-// (data::read_mask gives 0 / 1). Every function throws Error naming the problem on a size or
+// (io::read_mask gives 0 / 1). Every function throws Error naming the problem on a size or
 // channel mismatch, a non-finite value, or a mask without foreground.
 #include "retimegs/core/image.hpp"
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "retimegs/core/image.hpp"
-#include "retimegs/data/scene.hpp"
+#include "retimegs/io/scene.hpp"
 
 namespace retimegs::eval {
 
@@ -42,7 +42,7 @@ struct EvalResult {
   std::string note;  // e.g. why lpips is null
 };
 
-EvalResult evaluate_views(const data::Scene& scene, const FrameRenderer& render,
+EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options);
 
 // The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "frames", "per_view"}.
@@ -52,7 +52,7 @@ std::string to_json(const EvalResult& result);
 // blends the two neighbouring training frames by time, nearest copies the closer one (the earlier
 // on a tie). Frames outside the training range copy the end frame.
 enum class Baseline { kCrossfade, kNearest };
-FrameRenderer baseline_renderer(const data::Scene& scene, std::vector<int> train_frames,
+FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,
                                 Baseline baseline);
 
 // "odd", "all", or a comma-separated list; throws Error naming `flag` on bad input.

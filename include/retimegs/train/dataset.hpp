@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "retimegs/core/image.hpp"
-#include "retimegs/data/scene.hpp"
+#include "retimegs/io/scene.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
@@ -13,7 +13,7 @@ namespace retimegs::train {
 enum class TrainFrames { kEven, kAll };
 
 struct TrainingSet {
-  data::Scene scene;
+  io::Scene scene;
   std::vector<int> cameras;  // indices of the training cameras (split "train")
   std::vector<int> frames;   // scene frames used for training: t_i = frames[i]
   model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
@@ -23,7 +23,7 @@ struct TrainingSet {
   std::vector<std::vector<std::optional<Image>>> masks;    // [H, W, 1] when the scene has them
   std::vector<std::vector<std::optional<Flow>>> forward;   // t_i -> t_{i+1}
   std::vector<std::vector<std::optional<Flow>>> backward;  // t_i -> t_{i-1}
-  std::vector<std::optional<data::PointCloud>> points;     // per frame slot
+  std::vector<std::optional<io::PointCloud>> points;       // per frame slot
 
   // Radius of the training cameras' centres about their mean, x 1.1 (gsplat's scene scale).
   double scene_extent = 1.0;
@@ -32,6 +32,6 @@ struct TrainingSet {
 
 // Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
 // the wrong size, ...). Needs at least 2 training frames and 1 training camera.
-TrainingSet load_training_set(const data::Scene& scene, TrainFrames which);
+TrainingSet load_training_set(const io::Scene& scene, TrainFrames which);
 
 }  // namespace retimegs::train

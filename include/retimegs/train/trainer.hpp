@@ -63,6 +63,6 @@ struct TrainRun {
 
 // The `train` command: RUN/model.rgs, RUN/config.json, RUN/log.jsonl, RUN/checkpoints/. Returns
 // the final model.
-model::Model train(const data::Scene& scene, const TrainRun& run);
+model::Model train(const io::Scene& scene, const TrainRun& run);
 
 }  // namespace retimegs::train

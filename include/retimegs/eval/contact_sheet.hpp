@@ -1,0 +1,28 @@
+#pragma once
+// A contact sheet of a scene: one row per camera; columns are frames, then the mask and a
+// colour-coded flow (hue = direction, saturation = speed, black = unknown) of the first frame.
+// With render folders (eval --save-renders): per frame the ground truth, then each folder's
+// DIR/<camera>/<frame:05d>.png beside it (no mask / flow columns) — ground truth vs renders.
+#include <filesystem>
+#include <vector>
+
+#include "retimegs/core/image.hpp"
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::eval {
+
+struct SheetOptions {
+  std::vector<int> cameras;  // indices; empty = up to 4 spread over the scene's cameras
+  std::vector<int> frames;   // empty = first, middle and last frame
+  int tile_width = 256;      // every tile is scaled to this width
+  int gap = 4;               // pixels between tiles (white)
+  std::vector<std::filesystem::path> renders;  // folders of renders to compare, in column order
+};
+
+Image contact_sheet(const io::Scene& scene, const SheetOptions& options);
+
+// Colour coding of a flow field: hue = direction, value = 1, saturation = |flow| / max_magnitude
+// (the largest known magnitude when max_magnitude <= 0); unknown pixels are black.
+Image flow_to_color(const Flow& flow, float max_magnitude = 0);
+
+}  // namespace retimegs::eval

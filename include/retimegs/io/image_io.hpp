@@ -1,0 +1,27 @@
+#pragma once
+// Image files through OpenCV: 8/16-bit PNG and JPG in, PNG out (written atomically).
+#include <filesystem>
+
+#include "retimegs/core/image.hpp"
+
+namespace retimegs::io {
+
+struct ImageSize {
+  int width = 0, height = 0;
+};
+
+// RGB image with values in [0, 1] (8-bit / 255, 16-bit / 65535). Grey files are expanded to RGB,
+// alpha is dropped. Throws Error naming the file when it is missing or cannot be decoded.
+Image read_image(const std::filesystem::path& path);
+
+// Single-channel mask: 1 where the stored value is > 127 (8-bit scale), else 0.
+Image read_mask(const std::filesystem::path& path);
+
+// Width and height from the PNG / JPEG header without decoding the pixels (falls back to a full
+// decode for other formats). Throws Error naming the file when it is missing or malformed.
+ImageSize read_image_size(const std::filesystem::path& path);
+
+// Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded).
+void write_png(const std::filesystem::path& path, const Image& image, int bits = 8);
+
+}  // namespace retimegs::io

@@ -1,0 +1,57 @@
+#pragma once
+// The scene format of DESIGN.md §4, the contract every command and test uses:
+//   scene/scene.json
+//   scene/images/<camera>/<frame:05d>.png
+//   scene/masks/<camera>/<frame:05d>.png                 optional, foreground > 127
+//   scene/flow/<camera>/<from:05d>_<to:05d>.flo          optional
+//   scene/points/<frame:05d>.ply                         optional
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "retimegs/core/camera.hpp"
+#include "retimegs/core/image.hpp"
+#include "retimegs/io/ply.hpp"
+
+namespace retimegs::io {
+
+struct Scene {
+  std::filesystem::path root;
+  int num_frames = 0;
+  double fps = 0;
+  std::vector<Camera> cameras;
+  Eigen::Vector3d up{0, -1, 0};
+
+  // Index of the camera called `name`; throws Error naming it when absent.
+  int camera_index(const std::string& name) const;
+
+  std::filesystem::path json_path() const { return root / "scene.json"; }
+  std::filesystem::path image_path(int camera, int frame) const;
+  std::filesystem::path mask_path(int camera, int frame) const;
+  std::filesystem::path flow_path(int camera, int from, int to) const;
+  std::filesystem::path points_path(int frame) const;
+};
+
+enum class SceneCheck {
+  kJson,   // scene.json only
+  kFiles,  // + every image exists with its camera's size; masks, flows and points that exist too
+};
+
+// Reads and validates scene.json (required keys, types, finite numbers, positive sizes and
+// intrinsics, rigid world_to_camera, unique camera names, fps > 0, num_frames >= 1). Throws
+// Error naming the file and the field at fault.
+Scene read_scene(const std::filesystem::path& root, SceneCheck check = SceneCheck::kFiles);
+
+// Writes root/scene.json atomically (the images are the caller's business).
+void write_scene_json(const Scene& scene);
+
+// Loaders that check the size against the camera; errors name the file.
+Image load_image(const Scene& scene, int camera, int frame);
+std::optional<Image> load_mask(const Scene& scene, int camera, int frame);  // nullopt if absent
+std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to);
+std::optional<PointCloud> load_points(const Scene& scene, int frame);
+
+}  // namespace retimegs::io

@@ -1,0 +1,60 @@
+#pragma once
+// Built-in dense optical flow for `retimegs prepare` (OpenCV): DIS (default), DeepFlow and TV-L1,
+// and the forward-backward consistency check that marks occluded / unreliable pixels unknown.
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "retimegs/core/image.hpp"
+
+namespace retimegs::prepare {
+
+enum class FlowMethod {
+  kDis,       // DIS (Kroeger et al. 2016), MEDIUM at full resolution, patch stride 2
+  kDeepFlow,  // DeepFlow (Weinzaepfel et al. 2013), opencv_contrib optflow defaults
+  kTvl1,      // Dual TV-L1 (Zach et al. 2007), opencv_contrib optflow defaults
+};
+
+// "dis" | "deepflow" | "tvl1"; throws Error naming `flag` and the value otherwise.
+FlowMethod parse_flow_method(const std::string& name, const std::string& flag = "--flow");
+const char* flow_method_name(FlowMethod method);
+
+// The 8-bit grey image every estimator sees: RGB in [0, 1] rounded to 8 bits, then OpenCV's
+// cvtColor(RGB2GRAY) (0.299 R + 0.587 G + 0.114 B), the reference conversion of the yardsticks
+// in data/flow/README.md. One-channel images are taken as grey.
+// [H, W] row-major.
+std::vector<unsigned char> to_gray8(const Image& image);
+
+// Dense flow from `from` to `to` (same size, 1 or 3 channels): pixel (x, y) of `from` moves to
+// (x + u, y + v) in `to`. Every pixel is valid. Single-threaded or OpenCV-parallel depending on
+// cv::getNumThreads() of the caller.
+Flow estimate_flow(const Image& from, const Image& to, FlowMethod method = FlowMethod::kDis);
+
+// Forward-backward consistency (Sundaram, Brox & Keutzer, "Dense point trajectories by
+// GPU-accelerated large displacement optical flow", ECCV 2010, eq. 5; the same test with
+// alpha1 = 0.01, alpha2 = 0.5 is the occlusion mask of UnFlow, Meister et al., AAAI 2018):
+// pixel x with forward flow f = F(x) and backward flow b = B(x + f) (bilinear) is consistent when
+//   |f + b|^2 < alpha1 (|f|^2 + |b|^2) + alpha2.
+struct ConsistencyOptions {
+  double alpha1 = 0.01;  // relative tolerance: grows with the motion (1 px at ~7 px of motion)
+  double alpha2 = 0.5;   // absolute tolerance, pixels^2 (~0.7 px of round-trip error)
+};
+
+// Marks unknown (valid = 0, uv = 0) every pixel of `forward` that fails the test against
+// `backward`, lands outside the image (x + f outside [0, W) x [0, H), pixel centres at +0.5), or
+// whose backward sample touches an unknown pixel. Returns how many pixels it newly marked.
+// `forward` and `backward` must have the same size.
+std::size_t mark_inconsistent(Flow& forward, const Flow& backward,
+                              const ConsistencyOptions& options = {});
+
+struct FlowPair {
+  Flow forward;   // a -> b
+  Flow backward;  // b -> a
+};
+
+// Both directions between `a` and `b`, each checked against the other (the check uses the raw
+// estimates of both, so its outcome does not depend on the order).
+FlowPair estimate_flow_pair(const Image& a, const Image& b, FlowMethod method = FlowMethod::kDis,
+                            const ConsistencyOptions& options = {});
+
+}  // namespace retimegs::prepare

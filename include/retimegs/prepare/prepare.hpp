@@ -1,0 +1,72 @@
+#pragma once
+// `retimegs prepare`: fills in what training needs that a scene lacks (DESIGN.md §1):
+//  - flow/<camera>/<from:05d>_<to:05d>.flo in both directions between consecutive training frames
+//    of every training camera, i.e. exactly the pairs src/train/dataset.cpp reads: frames
+//    0, s, 2s, ... with s = 2 (--train-frames even) or 1 (all), forward t_i -> t_{i+1} and
+//    backward t_{i+1} -> t_i. Test cameras get none (training never reads them);
+//  - points/<frame:05d>.ply at every training frame.
+// Existing files are kept unless `force`, so a re-run resumes; every file is written atomically.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "retimegs/io/scene.hpp"
+#include "retimegs/prepare/colmap_triangulate.hpp"
+#include "retimegs/prepare/flow_estimate.hpp"
+#include "retimegs/prepare/points.hpp"
+
+namespace retimegs::prepare {
+
+enum class PointsSource {
+  kHull,    // visual_hull()
+  kRandom,  // random_points(): the last resort
+  kPly,     // read_frame_points(points_dir / "<frame:05d>.ply")
+  kColmap,  // prepare/colmap_triangulate.hpp's triangulate_with_colmap with `colmap` below
+};
+
+struct PrepareOptions {
+  int frame_step = 2;  // 2: --train-frames even, 1: all
+  FlowMethod flow_method = FlowMethod::kDis;
+  ConsistencyOptions consistency;
+  // Non-empty: import flow_dir/<camera>/<from:05d>_<to:05d>.flo (the scene's own naming, e.g.
+  // written by a WAFT / RAFT / SEA-RAFT script) instead of estimating. Copied byte for byte after
+  // validation (readable .flo, the camera's image size); no consistency check is applied.
+  std::filesystem::path flow_dir;
+  // Sources whose clouds are concatenated per frame (e.g. hull + colmap: the dense foreground of
+  // the masks and COLMAP's static background). Empty: kHull when every training camera has a mask
+  // at every training frame, else kRandom.
+  std::vector<PointsSource> points;
+  std::filesystem::path points_dir;  // for kPly
+  ColmapOptions colmap;              // kColmap; it works in a temporary folder, removed afterwards
+  HullOptions hull;
+  // Points per frame of kRandom: training's fallback seeds 20 000 in total, so 20 000 spread over
+  // the training frames, at least kMinRandomPointsPerFrame each.
+  std::size_t random_points_total = 20000;
+  std::uint64_t seed = 0;
+  bool force = false;
+  bool progress = true;
+};
+
+constexpr std::size_t kMinRandomPointsPerFrame = 1000;
+
+struct PrepareReport {
+  std::size_t flows_written = 0, flows_kept = 0;  // files
+  bool flows_imported = false;
+  double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
+  std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
+                                // nothing to do)
+  std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
+  std::size_t points_kept = 0;                              // files
+  double flow_seconds = 0, points_seconds = 0;
+};
+
+// Training cameras (split "train") and frames 0, step, 2 step, ... < num_frames.
+std::vector<int> training_cameras(const io::Scene& scene);
+std::vector<int> training_frames(const io::Scene& scene, int step);
+
+// Checks every input first (flow_dir files, PLY files, masks for the hull) so that bad input
+// throws Error naming the file before anything is written; then writes what is missing.
+PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options);
+
+}  // namespace retimegs::prepare

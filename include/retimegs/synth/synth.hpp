@@ -1,0 +1,34 @@
+#pragma once
+// Procedural multi-view dynamic test scenes (`retimegs synth`), rendered by an analytic ray caster
+// that shares no code with the splat renderer. Writes a complete scene in the scene format:
+// supersampled images, foreground masks, exact flows (strides 1 and 2, both directions, unknown
+// where occluded or out of view) and per-frame surface point clouds.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace retimegs::synth {
+
+struct SynthOptions {
+  std::string preset = "default";  // see synth_presets()
+  int cameras = 8;
+  int frames = 17;
+  int width = 256, height = 192;
+  std::uint64_t seed = 0;
+  double fps = 24.0;
+  int supersample = 2;  // per axis: 2 -> 2x2 rays per pixel
+  bool force = false;   // replace an existing output folder
+  bool progress = true;
+};
+
+struct SynthPreset {
+  std::string name, description;
+};
+const std::vector<SynthPreset>& synth_presets();
+
+// Writes the scene to `out` atomically (a temporary folder renamed at the end). Throws Error on
+// bad options (unknown preset, sizes < 8, frames < 2, ...) naming the option and value.
+void synthesize_scene(const SynthOptions& options, const std::filesystem::path& out);
+
+}  // namespace retimegs::synth

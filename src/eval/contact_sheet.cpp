@@ -1,0 +1,121 @@
+#include "retimegs/eval/contact_sheet.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/io/image_io.hpp"
+
+namespace retimegs::eval {
+
+namespace {
+
+Image to_rgb_tile(const Image& image, int tile_width) {
+  const int tile_height =
+      std::max(1, int(std::lround(double(image.height) * tile_width / image.width)));
+  cv::Mat src(image.height, image.width, CV_32FC(image.channels),
+              const_cast<float*>(image.data.data()));
+  cv::Mat scaled;
+  cv::resize(src, scaled, cv::Size(tile_width, tile_height), 0, 0, cv::INTER_AREA);
+  if (image.channels == 1) cv::cvtColor(scaled, scaled, cv::COLOR_GRAY2RGB);
+  Image out(tile_width, tile_height, 3);
+  std::copy_n(scaled.ptr<float>(), out.data.size(), out.data.data());
+  return out;
+}
+
+void paste(Image& sheet, const Image& tile, int x0, int y0) {
+  for (int y = 0; y < tile.height && y0 + y < sheet.height; ++y)
+    for (int x = 0; x < tile.width && x0 + x < sheet.width; ++x)
+      for (int c = 0; c < 3; ++c) sheet.at(y0 + y, x0 + x, c) = tile.at(y, x, c);
+}
+
+}  // namespace
+
+Image flow_to_color(const Flow& flow, float max_magnitude) {
+  float max_mag = max_magnitude;
+  if (max_mag <= 0)
+    for (std::size_t i = 0; i < flow.pixels(); ++i)
+      if (flow.valid[i])
+        max_mag = std::max(max_mag, std::hypot(flow.uv[2 * i], flow.uv[2 * i + 1]));
+  cv::Mat hsv(flow.height, flow.width, CV_32FC3);
+  for (int y = 0; y < flow.height; ++y)
+    for (int x = 0; x < flow.width; ++x) {
+      const std::size_t i = std::size_t(y) * flow.width + x;
+      const float u = flow.uv[2 * i], v = flow.uv[2 * i + 1];
+      const float angle = std::atan2(v, u) * float(180 / std::numbers::pi);  // (-180, 180]
+      const float saturation = max_mag > 0 ? std::min(1.0f, std::hypot(u, v) / max_mag) : 0.0f;
+      hsv.at<cv::Vec3f>(y, x) = {angle < 0 ? angle + 360 : angle, saturation,
+                                 flow.valid[i] ? 1.0f : 0.0f};
+    }
+  cv::Mat rgb;
+  cv::cvtColor(hsv, rgb, cv::COLOR_HSV2RGB);
+  Image out(flow.width, flow.height, 3);
+  std::copy_n(rgb.ptr<float>(), out.data.size(), out.data.data());
+  return out;
+}
+
+Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
+  if (options.tile_width < 8)
+    fail("contact sheet: tile width must be >= 8, got {}", options.tile_width);
+  std::vector<int> cameras = options.cameras, frames = options.frames;
+  if (cameras.empty()) {
+    const int n = int(scene.cameras.size()), rows = std::min(n, 4);
+    for (int r = 0; r < rows; ++r) cameras.push_back(r * n / rows);
+  }
+  if (frames.empty()) {
+    frames = {0, scene.num_frames / 2, scene.num_frames - 1};
+    frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  }
+  for (int c : cameras)
+    if (c < 0 || c >= int(scene.cameras.size())) fail("contact sheet: no camera index {}", c);
+  for (int k : frames)
+    if (k < 0 || k >= scene.num_frames)
+      fail("contact sheet: frame {} is outside 0..{}", k, scene.num_frames - 1);
+
+  std::vector<std::vector<Image>> rows;
+  for (int c : cameras) {
+    std::vector<Image> row;
+    for (int k : frames) {
+      row.push_back(to_rgb_tile(io::load_image(scene, c, k), options.tile_width));
+      for (const auto& dir : options.renders)
+        row.push_back(
+            to_rgb_tile(io::read_image(dir / scene.cameras[c].name / fmt::format("{:05d}.png", k)),
+                        options.tile_width));
+    }
+    if (!options.renders.empty()) {
+      rows.push_back(std::move(row));
+      continue;
+    }
+    if (auto mask = io::load_mask(scene, c, frames[0]))
+      row.push_back(to_rgb_tile(*mask, options.tile_width));
+    if (frames[0] + 1 < scene.num_frames)
+      if (auto flow = io::load_flow(scene, c, frames[0], frames[0] + 1))
+        row.push_back(to_rgb_tile(flow_to_color(*flow), options.tile_width));
+    rows.push_back(std::move(row));
+  }
+  std::size_t columns = 0;
+  int height = options.gap;
+  for (const auto& row : rows) {
+    columns = std::max(columns, row.size());
+    int row_height = 0;
+    for (const auto& tile : row) row_height = std::max(row_height, tile.height);
+    height += row_height + options.gap;
+  }
+  Image sheet(int(columns) * (options.tile_width + options.gap) + options.gap, height, 3, 1.0f);
+  int y = options.gap;
+  for (const auto& row : rows) {
+    int row_height = 0;
+    for (std::size_t i = 0; i < row.size(); ++i) {
+      paste(sheet, row[i], options.gap + int(i) * (options.tile_width + options.gap), y);
+      row_height = std::max(row_height, row[i].height);
+    }
+    y += row_height + options.gap;
+  }
+  return sheet;
+}
+
+}  // namespace retimegs::eval

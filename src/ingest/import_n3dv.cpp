@@ -1,0 +1,159 @@
+// Neural3DV / DyNeRF (poses_bounds.npy + camNN.mp4) -> scene format.
+//
+// LLFF convention (LLFF imgs2poses.py, read by NeRF's load_llff.py as
+// `[poses[:, 1:2], -poses[:, 0:1], poses[:, 2:]]` "[-u, r, -t] -> [r, u, -t]"): the columns of
+// the 3x3 block are the camera's down, right and backward axes in world space. OpenCV's
+// (right, down, forward) camera-to-world is therefore (col1, col0, -col2), with the same centre.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "import_common.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/ingest/import.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/npy.hpp"
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::ingest {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kPoseColumns = 17;  // 3x5 matrix + near + far
+
+struct Video {
+  fs::path path;
+  int width = 0, height = 0, frames = 0;
+  double fps = 0;
+};
+
+// Opens a video and reads its header; one clear error when OpenCV cannot decode it.
+Video probe(const fs::path& path) {
+  // FFmpeg prints its own complaints ("moov atom not found") on stderr, which would double the
+  // one-line error; OpenCV reads this variable once, when its FFmpeg backend starts. A value the
+  // user set wins.
+  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+  cv::VideoCapture cap(path.string(), cv::CAP_FFMPEG);
+  if (!cap.isOpened()) fail("{}: cannot open video (FFmpeg could not decode it)", path.string());
+  Video v;
+  v.path = path;
+  v.width = int(cap.get(cv::CAP_PROP_FRAME_WIDTH));
+  v.height = int(cap.get(cv::CAP_PROP_FRAME_HEIGHT));
+  v.frames = int(cap.get(cv::CAP_PROP_FRAME_COUNT));
+  v.fps = cap.get(cv::CAP_PROP_FPS);
+  cv::Mat first;
+  if (!cap.read(first) || first.empty())
+    fail("{}: cannot decode the first frame of the video", path.string());
+  if (v.width < 1 || v.height < 1) v.width = first.cols, v.height = first.rows;
+  if (v.frames < 1) fail("{}: video reports no frames", path.string());
+  if (!(v.fps > 0) || !std::isfinite(v.fps))
+    fail("{}: video reports an invalid frame rate ({})", path.string(), v.fps);
+  return v;
+}
+
+}  // namespace
+
+void import_n3dv(const fs::path& source, const fs::path& out, const ImportOptions& options) {
+  if (!fs::is_directory(source))
+    fail("{}: Neural3DV source folder does not exist", source.string());
+  detail::check_downscale(options.downscale);
+
+  const fs::path poses_path = source / "poses_bounds.npy";
+  const std::string poses_file = poses_path.string();
+  const io::NpyArray poses = io::read_npy(poses_path);  // [N, 17]
+  if (poses.shape.size() != 2 || poses.shape[1] != kPoseColumns || poses.shape[0] < 1)
+    fail("{}: expected shape [N, {}] (3x5 pose + near, far per camera), got [{}]", poses_file,
+         kPoseColumns, fmt::join(poses.shape, ", "));
+  const int count = int(poses.shape[0]);
+  for (std::size_t i = 0; i < poses.values.size(); ++i)
+    if (!std::isfinite(poses.values[i]))
+      fail("{}: value [{}][{}] is not finite", poses_file, i / kPoseColumns, i % kPoseColumns);
+
+  std::vector<fs::path> videos;
+  for (const auto& entry : fs::directory_iterator(source)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_regular_file() && name.rfind("cam", 0) == 0 && entry.path().extension() == ".mp4")
+      videos.push_back(entry.path());
+  }
+  std::sort(videos.begin(), videos.end());
+  if (int(videos.size()) != count)
+    fail("{}: {} camera videos (cam*.mp4) but {} has {} pose rows", source.string(), videos.size(),
+         poses_file, count);
+
+  std::vector<Video> probed;
+  for (const auto& path : videos) probed.push_back(probe(path));
+  int steps = probed[0].frames;
+  for (const auto& v : probed) steps = std::min(steps, v.frames);
+  const auto [first, last] = detail::frame_range(options, steps, "the videos");
+
+  io::Scene scene;
+  scene.num_frames = last - first + 1;
+  scene.fps = probed[0].fps;
+  for (int c = 0; c < count; ++c) {
+    const double* row = &poses.values[std::size_t(c) * kPoseColumns];
+    auto m = [&](int r, int col) { return row[r * 5 + col]; };  // the 3x5 LLFF matrix
+    const std::string where =
+        fmt::format("{}: row {} ({})", poses_file, c, probed[c].path.filename().string());
+    const double h = m(0, 4), w = m(1, 4), f = m(2, 4);
+    if (!(h > 0 && w > 0 && f > 0))
+      fail("{}: (h, w, f) = ({}, {}, {}) must be positive", where, h, w, f);
+    Eigen::Matrix4d c2w = Eigen::Matrix4d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      c2w(r, 0) = m(r, 1);   // right
+      c2w(r, 1) = m(r, 0);   // down
+      c2w(r, 2) = -m(r, 2);  // forward = -back
+      c2w(r, 3) = m(r, 3);
+    }
+    check_rigid(c2w, where + " pose");
+    Camera cam;
+    cam.name = probed[c].path.stem().string();
+    cam.world_to_camera = c2w.inverse();
+    // The video may be stored at another resolution than (w, h) of the poses: scale.
+    const Video& v = probed[c];
+    const double sx = v.width / w, sy = v.height / h;
+    if (std::abs(sx - sy) > 0.01 * std::max(sx, sy))
+      fail("{}: video is {}x{} but the poses say {}x{} (different aspect ratio)", v.path.string(),
+           v.width, v.height, w, h);
+    cam.width = v.width, cam.height = v.height;
+    cam.fx = f * sx, cam.fy = f * sy;
+    cam.cx = 0.5 * v.width, cam.cy = 0.5 * v.height;
+    cam.split = (cam.name == "cam00" && count > 1) ? Split::kTest : Split::kTrain;
+    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+  }
+  scene.up = detail::mean_camera_up(scene.cameras);
+
+  AtomicDirectory dir(out, options.force);
+  scene.root = dir.temp_path();
+  const std::size_t total = std::size_t(count) * scene.num_frames;
+  detail::parallel_jobs(
+      count, total, "import n3dv", options.progress, [&](std::size_t c, Progress& progress) {
+        const Video& v = probed[c];
+        const Camera& cam = scene.cameras[c];
+        cv::VideoCapture cap(v.path.string(), cv::CAP_FFMPEG);
+        if (!cap.isOpened()) fail("{}: cannot open video", v.path.string());
+        cv::Mat frame;
+        for (int k = 0; k <= last; ++k) {
+          const bool ok = k < first ? cap.grab() : cap.read(frame) && !frame.empty();
+          if (!ok)
+            fail("{}: cannot decode frame {} (the video ends early or is corrupt)", v.path.string(),
+                 k);
+          if (k < first) continue;
+          if (frame.cols != v.width || frame.rows != v.height)
+            fail("{}: frame {} is {}x{} but the video header says {}x{}", v.path.string(), k,
+                 frame.cols, frame.rows, v.width, v.height);
+          io::write_png(scene.image_path(int(c), k - first),
+                        detail::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
+          progress.tick();
+        }
+      });
+  io::write_scene_json(scene);
+  dir.commit();
+}
+
+}  // namespace retimegs::ingest

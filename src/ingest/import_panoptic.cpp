@@ -1,0 +1,184 @@
+// CMU Panoptic in the Dynamic3DGaussians layout -> scene format.
+#include <cmath>
+#include <fstream>
+#include <map>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "import_common.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/progress.hpp"
+#include "retimegs/ingest/import.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::ingest {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+constexpr double kPanopticFps = 29.97;  // Panoptic Studio HD cameras
+
+struct SourceCamera {
+  Camera camera;
+  std::vector<std::string> files;  // [T] "<cam>/<frame:06d>.jpg", relative to ims/
+};
+
+// Reads one of train_meta.json / test_meta.json into cameras (static: time step 0 defines them;
+// later steps must agree).
+std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
+  const std::string file = path.string();
+  std::ifstream in(path);
+  if (!in) fail("{}: cannot open Panoptic metadata", file);
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    fail("{}: malformed JSON: {}", file, e.what());
+  }
+  for (const char* key : {"w", "h", "k", "w2c", "fn", "cam_id"})
+    if (!j.is_object() || !j.contains(key)) fail("{}: missing required key '{}'", file, key);
+  if (!j["w"].is_number_integer() || !j["h"].is_number_integer() || j["w"].get<int>() < 1 ||
+      j["h"].get<int>() < 1)
+    fail("{}: 'w' and 'h' must be positive integers", file);
+  const int width = j["w"], height = j["h"];
+  const json &k = j["k"], &w2c = j["w2c"], &fn = j["fn"], &ids = j["cam_id"];
+  if (!fn.is_array() || fn.empty()) fail("{}: 'fn' must be a non-empty [T][C] array", file);
+  const std::size_t steps = fn.size();
+  for (const auto& [name, value] : {std::pair{"k", &k}, {"w2c", &w2c}, {"cam_id", &ids}})
+    if (!value->is_array() || value->size() != steps)
+      fail("{}: '{}' has {} time steps but 'fn' has {}", file, name,
+           value->is_array() ? value->size() : 0, steps);
+  const std::size_t count = ids[0].size();
+  std::vector<SourceCamera> cams(count);
+  for (std::size_t t = 0; t < steps; ++t) {
+    if (!ids[t].is_array() || ids[t].size() != count || !fn[t].is_array() ||
+        fn[t].size() != count || !k[t].is_array() || k[t].size() != count || !w2c[t].is_array() ||
+        w2c[t].size() != count)
+      fail("{}: time step {} does not list the same {} cameras", file, t, count);
+    for (std::size_t c = 0; c < count; ++c) {
+      const std::string where = fmt::format("[{}][{}]", t, c);
+      if (!ids[t][c].is_number_integer() || ids[t][c] != ids[0][c])
+        fail("{}: 'cam_id{}' differs from time step 0", file, where);
+      if (!fn[t][c].is_string()) fail("{}: 'fn{}' must be a string", file, where);
+      cams[c].files.push_back(fn[t][c].get<std::string>());
+      if (t > 0) continue;
+      Camera& cam = cams[c].camera;
+      cam.name = std::to_string(ids[0][c].get<int>());
+      cam.width = width;
+      cam.height = height;
+      cam.split = split;
+      const json& kk = k[0][c];
+      if (!kk.is_array() || kk.size() != 3) fail("{}: 'k{}' must be 3x3", file, where);
+      Eigen::Matrix3d intr;
+      for (int r = 0; r < 3; ++r) {
+        if (!kk[r].is_array() || kk[r].size() != 3) fail("{}: 'k{}' must be 3x3", file, where);
+        for (int col = 0; col < 3; ++col)
+          intr(r, col) =
+              detail::finite_number(kk[r][col], file, fmt::format("k{}[{}][{}]", where, r, col));
+      }
+      cam.fx = intr(0, 0), cam.fy = intr(1, 1), cam.cx = intr(0, 2), cam.cy = intr(1, 2);
+      if (!(cam.fx > 0 && cam.fy > 0)) fail("{}: 'k{}' has non-positive focal length", file, where);
+      const json& m = w2c[0][c];
+      if (!m.is_array() || m.size() != 4) fail("{}: 'w2c{}' must be 4x4", file, where);
+      for (int r = 0; r < 4; ++r) {
+        if (!m[r].is_array() || m[r].size() != 4) fail("{}: 'w2c{}' must be 4x4", file, where);
+        for (int col = 0; col < 4; ++col)
+          cam.world_to_camera(r, col) =
+              detail::finite_number(m[r][col], file, fmt::format("w2c{}[{}][{}]", where, r, col));
+      }
+      check_rigid(cam.world_to_camera, fmt::format("{}: 'w2c{}'", file, where));
+    }
+  }
+  return cams;
+}
+
+}  // namespace
+
+void import_panoptic(const fs::path& source, const fs::path& out, const ImportOptions& options) {
+  if (!fs::is_directory(source)) fail("{}: Panoptic source folder does not exist", source.string());
+  detail::check_downscale(options.downscale);
+  std::vector<SourceCamera> cams = read_meta(source / "train_meta.json", Split::kTrain);
+  if (fs::exists(source / "test_meta.json")) {
+    auto test = read_meta(source / "test_meta.json", Split::kTest);
+    cams.insert(cams.end(), test.begin(), test.end());
+  }
+  // Panoptic ids in numeric order: "0", "1", ... "30".
+  std::sort(cams.begin(), cams.end(), [](const SourceCamera& a, const SourceCamera& b) {
+    return std::stoi(a.camera.name) < std::stoi(b.camera.name);
+  });
+  for (std::size_t i = 1; i < cams.size(); ++i)
+    if (cams[i].camera.name == cams[i - 1].camera.name)
+      fail("{}: camera id {} appears in both train and test metadata", source.string(),
+           cams[i].camera.name);
+
+  const int steps = int(cams[0].files.size());
+  for (const auto& c : cams)
+    if (int(c.files.size()) != steps)
+      fail("{}: train and test metadata have different frame counts ({} vs {})", source.string(),
+           steps, c.files.size());
+  const auto [first, last] = detail::frame_range(options, steps, "the source");
+
+  io::Scene scene;
+  scene.num_frames = last - first + 1;
+  scene.fps = kPanopticFps;
+  scene.up = {0, -1, 0};  // Panoptic world: floor at y = 0, people at y < 0
+  for (const auto& c : cams)
+    scene.cameras.push_back(detail::downscaled(c.camera, options.downscale));
+
+  // Check every source file before writing anything.
+  struct Job {
+    int camera, frame;
+    fs::path image, mask;  // mask empty when absent
+  };
+  std::vector<Job> jobs;
+  for (int c = 0; c < int(cams.size()); ++c)
+    for (int k = first; k <= last; ++k) {
+      Job job{c, k - first, source / "ims" / cams[c].files[k], {}};
+      if (!fs::exists(job.image)) fail("{}: missing Panoptic image", job.image.string());
+      fs::path mask = source / "seg" / cams[c].files[k];
+      mask.replace_extension(".png");
+      if (fs::exists(mask)) job.mask = mask;
+      jobs.push_back(std::move(job));
+    }
+
+  AtomicDirectory dir(out, options.force);
+  scene.root = dir.temp_path();
+  Progress progress("import panoptic", jobs.size(), options.progress);
+  std::string error;
+#pragma omp parallel for schedule(dynamic)
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    try {
+      const Job& job = jobs[i];
+      const Camera& cam = scene.cameras[job.camera];
+      const Image image = io::read_image(job.image);
+      if (image.width != cams[job.camera].camera.width ||
+          image.height != cams[job.camera].camera.height)
+        fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
+             image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
+      io::write_png(scene.image_path(job.camera, job.frame),
+                    detail::resize_area(image, cam.width, cam.height));
+      if (!job.mask.empty()) {
+        const Image mask = io::read_mask(job.mask);
+        if (mask.width != image.width || mask.height != image.height)
+          fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width,
+               mask.height, image.width, image.height);
+        io::write_png(scene.mask_path(job.camera, job.frame),
+                      detail::resize_area(mask, cam.width, cam.height));
+      }
+      progress.tick();
+    } catch (const std::exception& e) {
+#pragma omp critical
+      if (error.empty()) error = e.what();
+    }
+  }
+  if (!error.empty()) throw Error(error);
+  progress.finish();
+  io::write_scene_json(scene);
+  dir.commit();
+}
+
+}  // namespace retimegs::ingest

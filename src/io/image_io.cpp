@@ -1,0 +1,155 @@
+#include "retimegs/io/image_io.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+
+namespace retimegs::io {
+namespace fs = std::filesystem;
+
+namespace {
+
+// imread(IMREAD_UNCHANGED) of an 8- or 16-bit file; throws Error naming the file otherwise.
+cv::Mat decode(const fs::path& path) {
+  if (!fs::is_regular_file(path)) fail("{}: no such file", path.string());
+  cv::Mat m;
+  try {
+    m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    fail("{}: cannot decode image: {}", path.string(), e.err);
+  }
+  if (m.empty()) fail("{}: cannot decode image", path.string());
+  if (m.depth() != CV_8U && m.depth() != CV_16U)
+    fail("{}: unsupported bit depth (8- or 16-bit expected)", path.string());
+  return m;
+}
+
+std::uint32_t big_endian32(const unsigned char* p) {
+  return std::uint32_t(p[0]) << 24 | std::uint32_t(p[1]) << 16 | std::uint32_t(p[2]) << 8 | p[3];
+}
+
+// Width and height of the IHDR chunk, which the PNG specification puts right after the signature.
+ImageSize png_size(std::istream& in, const std::string& name) {
+  unsigned char h[24];  // signature (8), chunk length (4), "IHDR" (4), width (4), height (4)
+  if (!in.read(reinterpret_cast<char*>(h), sizeof h)) fail("{}: truncated PNG header", name);
+  if (std::memcmp(h + 12, "IHDR", 4) != 0) fail("{}: malformed PNG header (no IHDR chunk)", name);
+  const std::uint32_t w = big_endian32(h + 16), hh = big_endian32(h + 20);
+  if (w == 0 || hh == 0 || w > INT32_MAX || hh > INT32_MAX)
+    fail("{}: malformed PNG header (size {}x{})", name, w, hh);
+  return {int(w), int(hh)};
+}
+
+// Walks the JPEG marker segments up to the first SOFn (start of frame), which holds the size.
+ImageSize jpeg_size(std::istream& in, const std::string& name) {
+  in.ignore(2);  // SOI
+  for (;;) {
+    int marker = in.get();
+    if (marker != 0xFF) {
+      if (marker == std::char_traits<char>::eof()) fail("{}: truncated JPEG header", name);
+      fail("{}: malformed JPEG header (expected a marker)", name);
+    }
+    while (marker == 0xFF) marker = in.get();  // fill bytes
+    if (marker == std::char_traits<char>::eof()) fail("{}: truncated JPEG header", name);
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD8))
+      continue;  // TEM, RSTn, SOI: no length
+    if (marker == 0xD9 || marker == 0xDA)
+      fail("{}: malformed JPEG header (no frame header before the image data)", name);
+    unsigned char seg[7];  // length (2), then for SOFn: precision (1), height (2), width (2)
+    if (!in.read(reinterpret_cast<char*>(seg), 2)) fail("{}: truncated JPEG header", name);
+    const int length = seg[0] << 8 | seg[1];
+    if (length < 2) fail("{}: malformed JPEG header (segment length {})", name, length);
+    // SOF0..SOF15 except DHT (C4), JPG (C8) and DAC (CC), which share the range.
+    if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) {
+      if (length < 7 || !in.read(reinterpret_cast<char*>(seg + 2), 5))
+        fail("{}: truncated JPEG header", name);
+      const int h = seg[3] << 8 | seg[4], w = seg[5] << 8 | seg[6];
+      if (w == 0 || h == 0) fail("{}: malformed JPEG header (size {}x{})", name, w, h);
+      return {w, h};
+    }
+    in.ignore(length - 2);
+    if (in.gcount() != length - 2) fail("{}: truncated JPEG header", name);
+  }
+}
+
+}  // namespace
+
+Image read_image(const fs::path& path) {
+  const cv::Mat m = decode(path);
+  cv::Mat scaled;
+  m.convertTo(scaled, CV_32F, m.depth() == CV_8U ? 1.0 / 255.0 : 1.0 / 65535.0);
+  if (scaled.channels() == 2) cv::extractChannel(scaled, scaled, 0);  // grey + alpha
+  Image image(m.cols, m.rows, 3);
+  cv::Mat rgb(m.rows, m.cols, CV_32FC3, image.data.data());  // cvtColor writes in place
+  const int code[] = {0, cv::COLOR_GRAY2RGB, 0, cv::COLOR_BGR2RGB, cv::COLOR_BGRA2RGB};
+  cv::cvtColor(scaled, rgb, code[scaled.channels()]);
+  return image;
+}
+
+Image read_mask(const fs::path& path) {
+  cv::Mat m = decode(path);
+  if (m.channels() == 2) cv::extractChannel(m, m, 0);
+  if (m.channels() >= 3)
+    cv::cvtColor(m, m, m.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+  // > 127 on the 8-bit scale; 65535 = 255 * 257, so the 16-bit threshold is 127 * 257.
+  const double threshold = m.depth() == CV_8U ? 127 : 127 * 257;
+  Image mask(m.cols, m.rows, 1);
+  cv::Mat out(m.rows, m.cols, CV_32FC1, mask.data.data());
+  cv::threshold(m, m, threshold, 1, cv::THRESH_BINARY);
+  m.convertTo(out, CV_32F);
+  return mask;
+}
+
+ImageSize read_image_size(const fs::path& path) {
+  if (!fs::is_regular_file(path)) fail("{}: no such file", path.string());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("{}: cannot open file", path.string());
+  char magic[8] = {};
+  in.read(magic, sizeof magic);
+  in.clear();
+  in.seekg(0);
+  if (std::memcmp(magic, "\x89PNG\r\n\x1a\n", 8) == 0) return png_size(in, path.string());
+  if (std::memcmp(magic, "\xFF\xD8", 2) == 0) return jpeg_size(in, path.string());
+  const cv::Mat m = decode(path);
+  return {m.cols, m.rows};
+}
+
+void write_png(const fs::path& path, const Image& image, int bits) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char ch) { return char(std::tolower(ch)); });
+  if (ext != ".png") fail("{}: write_png needs a .png file name", path.string());
+  if (bits != 8 && bits != 16)
+    fail("{}: PNG bit depth must be 8 or 16, not {}", path.string(), bits);
+  const int c = image.channels;
+  if (c != 1 && c != 3 && c != 4)
+    fail("{}: PNG needs 1, 3 or 4 channels, not {}", path.string(), c);
+  if (image.width <= 0 || image.height <= 0 || image.data.size() != image.pixels() * c)
+    fail("{}: image buffer does not match its size {}x{}x{}", path.string(), image.width,
+         image.height, c);
+  const cv::Mat values(image.height, image.width, CV_32FC(c),
+                       const_cast<float*>(image.data.data()));
+  cv::Mat codes;  // convertTo rounds to nearest and saturates (NaN becomes 0)
+  values.convertTo(codes, bits == 8 ? CV_8U : CV_16U, bits == 8 ? 255.0 : 65535.0);
+  if (c == 3) cv::cvtColor(codes, codes, cv::COLOR_RGB2BGR);
+  if (c == 4) cv::cvtColor(codes, codes, cv::COLOR_RGBA2BGRA);
+  AtomicFile file(path);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(file.temp_path().string(), codes);
+  } catch (const cv::Exception& e) {
+    fail("{}: cannot write PNG: {}", path.string(), e.err);
+  }
+  if (!ok) fail("{}: cannot write PNG", path.string());
+  file.commit();
+}
+
+}  // namespace retimegs::io

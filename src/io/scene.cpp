@@ -1,0 +1,251 @@
+#include "retimegs/io/scene.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/image_io.hpp"
+
+namespace retimegs::io {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+constexpr const char* kFormat = "retimegs-scene";
+constexpr int kVersion = 1;
+
+// Field access with errors that name the file and the JSON path of the field.
+class Fields {
+ public:
+  explicit Fields(std::string file) : file_(std::move(file)) {}
+
+  const json& require(const json& object, const std::string& key, const std::string& path) const {
+    if (!object.is_object()) fail("{}: '{}' must be an object", file_, path);
+    const auto it = object.find(key);
+    if (it == object.end()) fail("{}: missing required key '{}'", file_, join(path, key));
+    return *it;
+  }
+  double number(const json& value, const std::string& path) const {
+    if (!value.is_number()) fail("{}: '{}' must be a number, got {}", file_, path, value.dump());
+    const double x = value.get<double>();
+    if (!std::isfinite(x)) fail("{}: '{}' is not finite", file_, path);
+    return x;
+  }
+  double positive(const json& value, const std::string& path) const {
+    const double x = number(value, path);
+    if (!(x > 0)) fail("{}: '{}' must be > 0, got {}", file_, path, x);
+    return x;
+  }
+  int positive_int(const json& value, const std::string& path) const {
+    if (!value.is_number_integer() || value.get<long long>() < 1 ||
+        value.get<long long>() > 1'000'000)
+      fail("{}: '{}' must be a positive integer, got {}", file_, path, value.dump());
+    return value.get<int>();
+  }
+  std::string string(const json& value, const std::string& path) const {
+    if (!value.is_string()) fail("{}: '{}' must be a string, got {}", file_, path, value.dump());
+    return value.get<std::string>();
+  }
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
+  Camera cam;
+  cam.name = f.string(f.require(j, "name", path), path + ".name");
+  if (cam.name.empty() || cam.name.find_first_of("/\\") != std::string::npos || cam.name == "." ||
+      cam.name == "..")
+    fail("{}: '{}.name' is not a usable folder name: '{}'", f.file(), path, cam.name);
+  cam.width = f.positive_int(f.require(j, "width", path), path + ".width");
+  cam.height = f.positive_int(f.require(j, "height", path), path + ".height");
+  cam.fx = f.positive(f.require(j, "fx", path), path + ".fx");
+  cam.fy = f.positive(f.require(j, "fy", path), path + ".fy");
+  cam.cx = f.number(f.require(j, "cx", path), path + ".cx");
+  cam.cy = f.number(f.require(j, "cy", path), path + ".cy");
+  const std::string mpath = path + ".world_to_camera";
+  const json& m = f.require(j, "world_to_camera", path);
+  if (!m.is_array() || m.size() != 4) fail("{}: '{}' must be a 4x4 array", f.file(), mpath);
+  for (int r = 0; r < 4; ++r) {
+    if (!m[r].is_array() || m[r].size() != 4)
+      fail("{}: '{}' must be a 4x4 array (row {})", f.file(), mpath, r);
+    for (int c = 0; c < 4; ++c)
+      cam.world_to_camera(r, c) = f.number(m[r][c], fmt::format("{}[{}][{}]", mpath, r, c));
+  }
+  check_rigid(cam.world_to_camera, fmt::format("{}: '{}'", f.file(), mpath));
+  if (j.contains("split")) {
+    const std::string split = f.string(j["split"], path + ".split");
+    if (split == "train")
+      cam.split = Split::kTrain;
+    else if (split == "test")
+      cam.split = Split::kTest;
+    else
+      fail("{}: '{}.split' must be \"train\" or \"test\", got \"{}\"", f.file(), path, split);
+  }
+  return cam;
+}
+
+void check_size(const fs::path& file, const Camera& cam, int width, int height) {
+  if (width != cam.width || height != cam.height)
+    fail("{}: camera '{}' is {}x{} but the file is {}x{}", file.string(), cam.name, cam.width,
+         cam.height, width, height);
+}
+
+void check_files(const Scene& scene) {
+  for (int c = 0; c < int(scene.cameras.size()); ++c) {
+    const Camera& cam = scene.cameras[c];
+    for (int k = 0; k < scene.num_frames; ++k) {
+      const fs::path image = scene.image_path(c, k);
+      if (!fs::exists(image))
+        fail("{}: missing image of camera '{}' frame {} (num_frames is {})", image.string(),
+             cam.name, k, scene.num_frames);
+      const ImageSize size = read_image_size(image);
+      check_size(image, cam, size.width, size.height);
+      const fs::path mask = scene.mask_path(c, k);
+      if (fs::exists(mask)) {
+        const ImageSize msize = read_image_size(mask);
+        check_size(mask, cam, msize.width, msize.height);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+int Scene::camera_index(const std::string& name) const {
+  for (int i = 0; i < int(cameras.size()); ++i)
+    if (cameras[i].name == name) return i;
+  std::string known;
+  for (const auto& c : cameras) known += (known.empty() ? "" : ", ") + c.name;
+  fail("{}: no camera named '{}' (cameras: {})", json_path().string(), name, known);
+}
+
+fs::path Scene::image_path(int camera, int frame) const {
+  return root / "images" / cameras.at(camera).name / fmt::format("{:05d}.png", frame);
+}
+fs::path Scene::mask_path(int camera, int frame) const {
+  return root / "masks" / cameras.at(camera).name / fmt::format("{:05d}.png", frame);
+}
+fs::path Scene::flow_path(int camera, int from, int to) const {
+  return root / "flow" / cameras.at(camera).name / fmt::format("{:05d}_{:05d}.flo", from, to);
+}
+fs::path Scene::points_path(int frame) const {
+  return root / "points" / fmt::format("{:05d}.ply", frame);
+}
+
+Scene read_scene(const fs::path& root, SceneCheck check) {
+  Scene scene;
+  scene.root = root;
+  const fs::path file = scene.json_path();
+  if (!fs::is_directory(root)) fail("{}: scene folder does not exist", root.string());
+  std::ifstream in(file);
+  if (!in) fail("{}: cannot open scene file", file.string());
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    fail("{}: malformed JSON: {}", file.string(), e.what());
+  }
+  const Fields f(file.string());
+  if (const std::string format = f.string(f.require(j, "format", ""), "format"); format != kFormat)
+    fail("{}: 'format' must be \"{}\", got \"{}\"", file.string(), kFormat, format);
+  if (const int version = f.positive_int(f.require(j, "version", ""), "version");
+      version != kVersion)
+    fail("{}: unsupported scene version {} (this build reads version {})", file.string(), version,
+         kVersion);
+  scene.num_frames = f.positive_int(f.require(j, "num_frames", ""), "num_frames");
+  scene.fps = f.positive(f.require(j, "fps", ""), "fps");
+  if (j.contains("up")) {
+    const json& up = j["up"];
+    if (!up.is_array() || up.size() != 3)
+      fail("{}: 'up' must be an array of 3 numbers", file.string());
+    for (int i = 0; i < 3; ++i) scene.up[i] = f.number(up[i], fmt::format("up[{}]", i));
+    if (scene.up.norm() < 1e-9) fail("{}: 'up' must not be the zero vector", file.string());
+    scene.up.normalize();
+  }
+  const json& cams = f.require(j, "cameras", "");
+  if (!cams.is_array() || cams.empty())
+    fail("{}: 'cameras' must be a non-empty array", file.string());
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < cams.size(); ++i) {
+    scene.cameras.push_back(parse_camera(cams[i], fmt::format("cameras[{}]", i), f));
+    if (!names.insert(scene.cameras.back().name).second)
+      fail("{}: camera name '{}' appears twice", file.string(), scene.cameras.back().name);
+  }
+  if (check == SceneCheck::kFiles) check_files(scene);
+  return scene;
+}
+
+void write_scene_json(const Scene& scene) {
+  json cams = json::array();
+  for (const Camera& cam : scene.cameras) {
+    json m = json::array();
+    for (int r = 0; r < 4; ++r)
+      m.push_back({cam.world_to_camera(r, 0), cam.world_to_camera(r, 1), cam.world_to_camera(r, 2),
+                   cam.world_to_camera(r, 3)});
+    cams.push_back({{"name", cam.name},
+                    {"width", cam.width},
+                    {"height", cam.height},
+                    {"fx", cam.fx},
+                    {"fy", cam.fy},
+                    {"cx", cam.cx},
+                    {"cy", cam.cy},
+                    {"world_to_camera", m},
+                    {"split", cam.split == Split::kTest ? "test" : "train"}});
+  }
+  const json j = {{"format", kFormat},
+                  {"version", kVersion},
+                  {"num_frames", scene.num_frames},
+                  {"fps", scene.fps},
+                  {"cameras", cams},
+                  {"up", {scene.up.x(), scene.up.y(), scene.up.z()}}};
+  AtomicFile out(scene.json_path());
+  {
+    std::ofstream o(out.temp_path());
+    o << j.dump(2) << "\n";
+    if (!o) fail("{}: write failed", out.temp_path().string());
+  }
+  out.commit();
+}
+
+Image load_image(const Scene& scene, int camera, int frame) {
+  const fs::path path = scene.image_path(camera, frame);
+  Image image = read_image(path);
+  check_size(path, scene.cameras.at(camera), image.width, image.height);
+  return image;
+}
+
+std::optional<Image> load_mask(const Scene& scene, int camera, int frame) {
+  const fs::path path = scene.mask_path(camera, frame);
+  if (!fs::exists(path)) return std::nullopt;
+  Image mask = read_mask(path);
+  check_size(path, scene.cameras.at(camera), mask.width, mask.height);
+  return mask;
+}
+
+std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to) {
+  const fs::path path = scene.flow_path(camera, from, to);
+  if (!fs::exists(path)) return std::nullopt;
+  Flow flow = read_flo(path);
+  check_size(path, scene.cameras.at(camera), flow.width, flow.height);
+  return flow;
+}
+
+std::optional<PointCloud> load_points(const Scene& scene, int frame) {
+  const fs::path path = scene.points_path(frame);
+  if (!fs::exists(path)) return std::nullopt;
+  return read_points_ply(path);
+}
+
+}  // namespace retimegs::io

@@ -1,0 +1,310 @@
+#include "retimegs/prepare/prepare.hpp"
+
+#include <unistd.h>
+#include <algorithm>
+#include <chrono>
+#include <optional>
+#include <system_error>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
+#include "retimegs/core/progress.hpp"
+#include "retimegs/io/flow_io.hpp"
+
+namespace retimegs::prepare {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// One pair of consecutive training frames of one camera: the forward and backward files.
+struct FlowJob {
+  int camera = 0, from = 0, to = 0;
+  bool write_forward = false, write_backward = false;
+};
+
+// COLMAP's points of frame k, triangulated in a temporary folder that is removed afterwards.
+io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions& options) {
+  const fs::path work =
+      fs::temp_directory_path() / fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
+  struct Remove {
+    fs::path path;
+    ~Remove() {
+      std::error_code ignored;
+      fs::remove_all(path, ignored);
+    }
+  } remove{work};
+  return triangulate_with_colmap(scene, k, work, options);
+}
+
+// Appends b to a. When either has colours the result has them, grey where a source had none.
+void append(io::PointCloud& a, const io::PointCloud& b) {
+  constexpr float kGrey = 0.5f;
+  const bool colours = !a.rgb.empty() || !b.rgb.empty();
+  if (colours && a.rgb.empty()) a.rgb.assign(a.xyz.size(), kGrey);
+  a.xyz.insert(a.xyz.end(), b.xyz.begin(), b.xyz.end());
+  if (colours && b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.xyz.size(), kGrey);
+  if (colours && !b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.rgb.begin(), b.rgb.end());
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Runs body(i) for i in [0, n) on the OpenMP threads (dynamic schedule); rethrows the first
+// error afterwards as an Error. Files that body() finished stay (each is atomic).
+template <typename Body>
+void parallel_jobs(std::size_t n, Body&& body) {
+  std::string error;
+#pragma omp parallel for schedule(dynamic)
+  for (std::size_t i = 0; i < n; ++i) {
+    bool skip = false;
+#pragma omp critical(prepare_error)
+    skip = !error.empty();
+    if (skip) continue;
+    try {
+      body(i);
+    } catch (const std::exception& e) {
+#pragma omp critical(prepare_error)
+      if (error.empty()) error = e.what();
+    }
+  }
+  if (!error.empty()) throw Error(error);
+}
+
+// OpenCV's own threads off while the OpenMP workers each run an estimator (no oversubscription).
+class OpenCvThreads {
+ public:
+  explicit OpenCvThreads(int threads) : saved_(cv::getNumThreads()) { cv::setNumThreads(threads); }
+  ~OpenCvThreads() { cv::setNumThreads(saved_); }
+
+ private:
+  int saved_;
+};
+
+fs::path import_path(const fs::path& dir, const io::Scene& scene, int camera, int from, int to) {
+  return dir / scene.cameras[camera].name / fmt::format("{:05d}_{:05d}.flo", from, to);
+}
+
+// Copies `source` to `target` atomically.
+void copy_atomic(const fs::path& source, const fs::path& target) {
+  AtomicFile file(target);
+  std::error_code ec;
+  fs::copy_file(source, file.temp_path(), fs::copy_options::overwrite_existing, ec);
+  if (ec) fail("{}: cannot copy to {}: {}", source.string(), target.string(), ec.message());
+  file.commit();
+}
+
+// Validates every flow file to import before anything is written.
+void check_flow_imports(const io::Scene& scene, const std::vector<FlowJob>& jobs,
+                        const fs::path& dir) {
+  if (!fs::is_directory(dir)) fail("--flow-dir: {}: not a directory", dir.string());
+  struct Import {
+    fs::path path;
+    int camera;
+  };
+  std::vector<Import> needed;
+  for (const FlowJob& job : jobs) {
+    if (job.write_forward)
+      needed.push_back({import_path(dir, scene, job.camera, job.from, job.to), job.camera});
+    if (job.write_backward)
+      needed.push_back({import_path(dir, scene, job.camera, job.to, job.from), job.camera});
+  }
+  std::size_t missing = 0;
+  const fs::path* first = nullptr;
+  for (const Import& i : needed)
+    if (!fs::is_regular_file(i.path)) {
+      if (!first) first = &i.path;
+      ++missing;
+    }
+  if (first)
+    fail(
+        "--flow-dir: {}: missing ({} of the {} flow files to import are missing; expected "
+        "<dir>/<camera>/<from:05d>_<to:05d>.flo)",
+        first->string(), missing, needed.size());
+  parallel_jobs(needed.size(), [&](std::size_t i) {
+    const Flow flow = io::read_flo(needed[i].path);  // tag, size, length, NaN
+    const Camera& cam = scene.cameras[needed[i].camera];
+    if (flow.width != cam.width || flow.height != cam.height)
+      fail("{}: flow is {}x{} but camera '{}' images are {}x{}", needed[i].path.string(),
+           flow.width, flow.height, cam.name, cam.width, cam.height);
+  });
+}
+
+const char* points_source_name(PointsSource source) {
+  switch (source) {
+    case PointsSource::kHull:
+      return "hull";
+    case PointsSource::kRandom:
+      return "random";
+    case PointsSource::kPly:
+      return "ply";
+    case PointsSource::kColmap:
+      return "colmap";
+  }
+  return "?";
+}
+
+bool has_every_mask(const io::Scene& scene, const std::vector<int>& cameras,
+                    const std::vector<int>& frames) {
+  for (int c : cameras)
+    for (int k : frames)
+      if (!fs::exists(scene.mask_path(c, k))) return false;
+  return true;
+}
+
+}  // namespace
+
+std::vector<int> training_cameras(const io::Scene& scene) {
+  std::vector<int> cameras;
+  for (int c = 0; c < int(scene.cameras.size()); ++c)
+    if (scene.cameras[c].split == Split::kTrain) cameras.push_back(c);
+  return cameras;
+}
+
+std::vector<int> training_frames(const io::Scene& scene, int step) {
+  if (step < 1) fail("training frame step must be >= 1, got {}", step);
+  std::vector<int> frames;
+  for (int k = 0; k < scene.num_frames; k += step) frames.push_back(k);
+  return frames;
+}
+
+PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
+  PrepareReport report;
+  const std::vector<int> cameras = training_cameras(scene);
+  const std::vector<int> frames = training_frames(scene, options.frame_step);
+  if (cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
+
+  // What is missing.
+  std::vector<FlowJob> jobs;
+  for (int c : cameras)
+    for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
+      FlowJob job{c, frames[i], frames[i + 1]};
+      job.write_forward = options.force || !fs::exists(scene.flow_path(c, job.from, job.to));
+      job.write_backward = options.force || !fs::exists(scene.flow_path(c, job.to, job.from));
+      report.flows_kept += !job.write_forward + !job.write_backward;
+      if (job.write_forward || job.write_backward) jobs.push_back(job);
+    }
+  std::vector<int> point_frames;
+  for (int k : frames)
+    if (options.force || !fs::exists(scene.points_path(k)))
+      point_frames.push_back(k);
+    else
+      ++report.points_kept;
+
+  std::vector<PointsSource> sources = options.points;
+  if (sources.empty())
+    sources = {has_every_mask(scene, cameras, frames) ? PointsSource::kHull
+                                                      : PointsSource::kRandom};
+
+  // Check every input before writing anything.
+  report.flows_imported = !options.flow_dir.empty();
+  if (report.flows_imported) check_flow_imports(scene, jobs, options.flow_dir);
+  std::vector<io::PointCloud> imported(point_frames.size());
+  if (!point_frames.empty()) {
+    for (PointsSource source : sources) switch (source) {
+        case PointsSource::kHull:
+          for (int c : cameras)
+            for (int k : point_frames)
+              if (!fs::exists(scene.mask_path(c, k)))
+                fail(
+                    "{}: no mask; --points hull needs a mask for every training camera at every "
+                    "training frame (use --points random, ply or colmap instead)",
+                    scene.mask_path(c, k).string());
+          break;
+        case PointsSource::kPly:
+          if (!fs::is_directory(options.points_dir))
+            fail("--points ply: {}: not a directory", options.points_dir.string());
+          for (std::size_t i = 0; i < point_frames.size(); ++i)
+            imported[i] =
+                read_frame_points(options.points_dir / fmt::format("{:05d}.ply", point_frames[i]));
+          break;
+        case PointsSource::kColmap:
+          find_colmap(options.colmap);
+          break;
+        default:
+          break;
+      }
+  }
+
+  // Flows.
+  auto start = std::chrono::steady_clock::now();
+  if (!jobs.empty()) {
+    Progress progress(report.flows_imported ? "flow import" : "flow", jobs.size(),
+                      options.progress);
+    const OpenCvThreads single(max_threads() > 1 ? 1 : cv::getNumThreads());
+    std::size_t unknown = 0, pixels = 0;
+    parallel_jobs(jobs.size(), [&](std::size_t j) {
+      const FlowJob& job = jobs[j];
+      const fs::path forward = scene.flow_path(job.camera, job.from, job.to);
+      const fs::path backward = scene.flow_path(job.camera, job.to, job.from);
+      if (report.flows_imported) {
+        const fs::path& dir = options.flow_dir;
+        if (job.write_forward)
+          copy_atomic(import_path(dir, scene, job.camera, job.from, job.to), forward);
+        if (job.write_backward)
+          copy_atomic(import_path(dir, scene, job.camera, job.to, job.from), backward);
+      } else {
+        const FlowPair pair = estimate_flow_pair(io::load_image(scene, job.camera, job.from),
+                                                 io::load_image(scene, job.camera, job.to),
+                                                 options.flow_method, options.consistency);
+        std::size_t marked = 0;
+        if (job.write_forward) io::write_flo(forward, pair.forward);
+        if (job.write_backward) io::write_flo(backward, pair.backward);
+        for (const Flow* f : {&pair.forward, &pair.backward})
+          marked += std::count(f->valid.begin(), f->valid.end(), 0);
+#pragma omp critical(prepare_stats)
+        unknown += marked, pixels += 2 * pair.forward.pixels();
+      }
+#pragma omp critical(prepare_stats)
+      report.flows_written += job.write_forward + job.write_backward;
+      progress.tick();
+    });
+    report.unknown_fraction = pixels ? double(unknown) / double(pixels) : 0.0;
+  }
+  report.flow_seconds = seconds_since(start);
+
+  // Points, one frame at a time (the hull is parallel inside).
+  start = std::chrono::steady_clock::now();
+  if (!point_frames.empty()) {
+    for (PointsSource source : sources)
+      report.points_source +=
+          (report.points_source.empty() ? "" : ",") + std::string(points_source_name(source));
+    const std::size_t random_count =
+        std::max(kMinRandomPointsPerFrame, options.random_points_total / frames.size());
+    Progress progress("points", point_frames.size(), options.progress);
+    for (std::size_t i = 0; i < point_frames.size(); ++i) {
+      const int k = point_frames[i];
+      io::PointCloud cloud;
+      for (PointsSource source : sources) {
+        io::PointCloud part;
+        switch (source) {
+          case PointsSource::kHull:
+            part = visual_hull(scene, cameras, k, options.hull);
+            break;
+          case PointsSource::kRandom:
+            part = random_points(scene, cameras, k, random_count, options.seed);
+            break;
+          case PointsSource::kPly:
+            part = std::move(imported[i]);
+            break;
+          case PointsSource::kColmap:
+            part = colmap_points(scene, k, options.colmap);
+            break;
+        }
+        append(cloud, part);
+      }
+      io::write_points_ply(scene.points_path(k), cloud);
+      report.points_written.emplace_back(k, cloud.size());
+      progress.tick();
+    }
+  }
+  report.points_seconds = seconds_since(start);
+  return report;
+}
+
+}  // namespace retimegs::prepare

@@ -1,0 +1,240 @@
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "io/small_scene.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/scene.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::io {
+namespace {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using test::write_small_scene;
+
+json read_json(const fs::path& path) {
+  return json::parse(test::read_text(path));
+}
+void write_json(const fs::path& path, const json& j) {
+  test::write_text(path, j.dump(1));
+}
+
+// Expects read_scene to throw an Error whose message contains every fragment.
+void expect_scene_error(const fs::path& root, std::initializer_list<std::string> fragments) {
+  try {
+    read_scene(root);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    for (const auto& f : fragments) EXPECT_NE(message.find(f), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << "one line: " << message;
+  }
+}
+
+TEST(Scene, WriteReadRoundTrip) {
+  test::TempDir dir;
+  const Scene written = write_small_scene(dir / "scene");
+  const Scene read = read_scene(dir / "scene");
+  EXPECT_EQ(read.num_frames, 3);
+  EXPECT_DOUBLE_EQ(read.fps, 12.5);
+  EXPECT_EQ(read.up, Eigen::Vector3d(0, 0, 1));
+  ASSERT_EQ(read.cameras.size(), 2u);
+  for (int c = 0; c < 2; ++c) {
+    const Camera &a = written.cameras[c], &b = read.cameras[c];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.height, b.height);
+    EXPECT_EQ(a.fx, b.fx);
+    EXPECT_EQ(a.cy, b.cy);
+    EXPECT_EQ(a.split, b.split);
+    EXPECT_EQ((a.world_to_camera - b.world_to_camera).cwiseAbs().maxCoeff(), 0.0);
+  }
+  EXPECT_EQ(read.camera_index("7"), 1);
+  EXPECT_THROW(read.camera_index("nope"), Error);
+  const Image image = load_image(read, 1, 2);
+  EXPECT_EQ(image.width, 12);
+  EXPECT_NEAR(image.data[5], float((5 * 7 + 2) % 256) / 255, 1e-6);
+  EXPECT_TRUE(load_mask(read, 0, 1).has_value());
+  EXPECT_FALSE(load_mask(read, 1, 1).has_value());
+  const auto flow = load_flow(read, 0, 0, 1);
+  ASSERT_TRUE(flow.has_value());
+  EXPECT_EQ(flow->uv[0], 1.5f);
+  EXPECT_EQ(flow->valid[3], 0);
+  EXPECT_FALSE(load_flow(read, 0, 1, 0).has_value());
+  EXPECT_FALSE(load_points(read, 0).has_value());
+}
+
+TEST(Scene, MissingFolderAndFile) {
+  test::TempDir dir;
+  expect_scene_error(dir / "nope", {"nope", "does not exist"});
+  fs::create_directories(dir / "empty");
+  expect_scene_error(dir / "empty", {"scene.json", "cannot open"});
+}
+
+TEST(Scene, MalformedJson) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  test::write_text(dir / "s" / "scene.json", "{\"format\": \"retimegs-scene\", ");
+  expect_scene_error(dir / "s", {"scene.json", "malformed JSON"});
+}
+
+TEST(Scene, MissingRequiredKeys) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  const json good = read_json(dir / "s" / "scene.json");
+  for (const char* key : {"format", "version", "num_frames", "fps", "cameras"}) {
+    json j = good;
+    j.erase(key);
+    write_json(dir / "s" / "scene.json", j);
+    expect_scene_error(dir / "s", {"scene.json", "missing required key", key});
+  }
+  for (const char* key : {"name", "width", "height", "fx", "fy", "cx", "cy", "world_to_camera"}) {
+    json j = good;
+    j["cameras"][1].erase(key);
+    write_json(dir / "s" / "scene.json", j);
+    expect_scene_error(dir / "s", {"missing required key", std::string("cameras[1].") + key});
+  }
+}
+
+TEST(Scene, NonFiniteAndInvalidNumbers) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  const json good = read_json(dir / "s" / "scene.json");
+  const fs::path file = dir / "s" / "scene.json";
+  {
+    // JSON has no NaN literal; a string or null in a numeric field is the realistic failure.
+    json j = good;
+    j["cameras"][0]["fx"] = "nan";
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"cameras[0].fx", "must be a number"});
+  }
+  {
+    std::string text = good.dump();
+    const std::string key = "\"fy\":11.0";
+    text.replace(text.find(key), key.size(), "\"fy\":1e999");  // overflows double
+    test::write_text(file, text);
+    expect_scene_error(dir / "s", {"scene.json"});
+  }
+  {
+    json j = good;
+    j["cameras"][0]["width"] = 0;
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"cameras[0].width", "positive integer"});
+  }
+  {
+    json j = good;
+    j["fps"] = -3;
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"fps", "> 0"});
+  }
+  {
+    json j = good;
+    j["format"] = "something-else";
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"format"});
+  }
+  {
+    json j = good;
+    j["cameras"][1]["name"] = "cam00";
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"cam00", "twice"});
+  }
+  {
+    json j = good;
+    j["cameras"][0]["split"] = "val";
+    write_json(file, j);
+    expect_scene_error(dir / "s", {"cameras[0].split"});
+  }
+  {
+    json j = good;
+    j["unknown_key"] = {1, 2, 3};  // unknown keys are ignored
+    write_json(file, j);
+    EXPECT_NO_THROW(read_scene(dir / "s"));
+  }
+}
+
+TEST(Scene, NonRigidMatrix) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  json j = read_json(dir / "s" / "scene.json");
+  j["cameras"][1]["world_to_camera"][0][0] = 2.0;
+  write_json(dir / "s" / "scene.json", j);
+  expect_scene_error(dir / "s", {"cameras[1].world_to_camera", "orthonormal"});
+  j["cameras"][1]["world_to_camera"] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  write_json(dir / "s" / "scene.json", j);
+  expect_scene_error(dir / "s", {"cameras[1].world_to_camera", "4x4"});
+}
+
+TEST(Scene, ImageSizeMismatchAndMissingImage) {
+  test::TempDir dir;
+  const Scene scene = write_small_scene(dir / "s");
+  write_png(scene.image_path(1, 2), Image(13, 8, 3));
+  expect_scene_error(dir / "s", {"images/7/00002.png", "12x8", "13x8"});
+  write_png(scene.image_path(1, 2), Image(12, 8, 3));
+  write_png(scene.mask_path(0, 1), Image(12, 9, 1));
+  expect_scene_error(dir / "s", {"masks/cam00/00001.png", "12x9"});
+  write_png(scene.mask_path(0, 1), Image(12, 8, 1));
+  fs::remove(scene.image_path(0, 2));
+  expect_scene_error(dir / "s", {"images/cam00/00002.png", "missing"});
+}
+
+TEST(Scene, FrameCountMustMatchImages) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  json j = read_json(dir / "s" / "scene.json");
+  j["num_frames"] = 4;
+  write_json(dir / "s" / "scene.json", j);
+  expect_scene_error(dir / "s", {"00003.png", "num_frames is 4"});
+}
+
+TEST(Scene, FlowOfWrongSizeIsRefused) {
+  test::TempDir dir;
+  const Scene scene = write_small_scene(dir / "s");
+  write_flo(scene.flow_path(0, 1, 2), Flow(8, 8));
+  try {
+    load_flow(scene, 0, 1, 2);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("00001_00002.flo"), std::string::npos) << e.what();
+  }
+}
+
+// The command line: one line on stderr naming the file, exit status 2, no output file.
+TEST(SceneCli, BadSceneExitsTwoWithOneLine) {
+  test::TempDir dir;
+  const Scene scene = write_small_scene(dir / "s");
+  const auto ok = test::run_cli("sheet --scene " + (dir / "s").string() + " --out " +
+                                (dir / "sheet.png").string());
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(dir / "sheet.png"));
+
+  // Truncated .flo read by the command.
+  const std::string flo = test::read_text(scene.flow_path(0, 0, 1));
+  test::write_text(scene.flow_path(0, 0, 1), flo.substr(0, flo.size() / 2));
+  auto bad = test::run_cli("sheet --scene " + (dir / "s").string() + " --out " +
+                           (dir / "sheet2.png").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("00000_00001.flo"), std::string::npos) << bad.err;
+  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  EXPECT_FALSE(fs::exists(dir / "sheet2.png"));
+
+  test::write_text(dir / "s" / "scene.json", "not json");
+  bad = test::run_cli("sheet --scene " + (dir / "s").string() + " --out " +
+                      (dir / "sheet3.png").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("scene.json"), std::string::npos) << bad.err;
+  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  EXPECT_FALSE(fs::exists(dir / "sheet3.png"));
+
+  bad = test::run_cli("sheet --scene " + (dir / "missing").string() + " --out x.png");
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("missing"), std::string::npos) << bad.err;
+}
+
+}  // namespace
+}  // namespace retimegs::io

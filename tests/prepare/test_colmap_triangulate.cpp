@@ -1,0 +1,120 @@
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/io/scene.hpp"
+#include "retimegs/prepare/colmap_triangulate.hpp"
+#include "retimegs/synth/synth.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::prepare {
+namespace {
+namespace fs = std::filesystem;
+
+bool have_colmap() {
+  return std::system("command -v colmap >/dev/null 2>&1") == 0;
+}
+
+io::Scene minimal_scene(const fs::path& root) {
+  synth::SynthOptions options;
+  options.preset = "minimal";
+  options.cameras = 24;  // 15 degrees apart: enough points seen by three cameras
+  options.supersample = 1;
+  options.frames = 2;
+  options.width = 400, options.height = 300;
+  options.progress = false;
+  synth::synthesize_scene(options, root);
+  return io::read_scene(root);
+}
+
+// COLMAP with the synthetic scene's known poses must put its points on the scene's surfaces:
+// the median distance to the renderer's own surface samples (points/00000.ply) is a small
+// fraction of the camera distance.
+TEST(ColmapTriangulate, PointsLieOnTheSyntheticSurfaces) {
+  if (!have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene");
+  ColmapOptions options;
+  options.threads = 2;
+  const auto start = std::chrono::steady_clock::now();
+  const io::PointCloud points = triangulate_with_colmap(scene, 0, dir / "work", options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("colmap triangulation: %zu points in %.1f s\n", points.size(), seconds);
+  ASSERT_GE(points.size(), 30u);
+  ASSERT_EQ(points.rgb.size(), points.xyz.size());
+
+  const auto truth = io::load_points(scene, 0);
+  ASSERT_TRUE(truth.has_value());
+  double extent = 0;  // mean camera distance from the origin, where the objects are
+  for (const Camera& cam : scene.cameras) extent += cam.center().norm() / scene.cameras.size();
+  std::vector<double> distances;
+  double colour_error = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f p(points.xyz[3 * i], points.xyz[3 * i + 1], points.xyz[3 * i + 2]);
+    float best = 1e30f;
+    std::size_t best_j = 0;
+    for (std::size_t j = 0; j < truth->size(); ++j) {
+      const float d =
+          (Eigen::Vector3f(truth->xyz[3 * j], truth->xyz[3 * j + 1], truth->xyz[3 * j + 2]) - p)
+              .squaredNorm();
+      if (d < best) best = d, best_j = j;
+    }
+    distances.push_back(std::sqrt(best));
+    if (!truth->rgb.empty())
+      for (int c = 0; c < 3; ++c)
+        colour_error +=
+            std::abs(points.rgb[3 * i + c] - truth->rgb[3 * best_j + c]) / (3.0 * points.size());
+  }
+  std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
+  const double median = distances[distances.size() / 2];
+  std::printf("median distance %.4f (extent %.2f), mean colour error %.3f\n", median, extent,
+              colour_error);
+  EXPECT_LT(median, 0.02 * extent);
+  // Colours come from the images (shaded), the reference from the albedo: loosely close.
+  if (!truth->rgb.empty()) {
+    EXPECT_LT(colour_error, 0.35);
+  }
+}
+
+TEST(ColmapTriangulate, ClearErrorWhenColmapIsMissing) {
+  test::TempDir dir;
+  io::Scene scene;
+  scene.num_frames = 1;
+  ColmapOptions options;
+  options.executable = "retimegs-no-such-colmap";
+  test::expect_error([&] { triangulate_with_colmap(scene, 0, dir / "work", options); },
+                     {"COLMAP not found", "install the Debian package colmap"});
+}
+
+// A failing command reports its step and its last error line.
+TEST(ColmapTriangulate, FailingCommandShowsItsErrorLine) {
+  test::TempDir dir;
+  const io::Scene scene = [&] {
+    synth::SynthOptions o;
+    o.preset = "minimal";
+    o.cameras = 2, o.frames = 2, o.width = 32, o.height = 24, o.supersample = 1;
+    o.progress = false;
+    synth::synthesize_scene(o, dir / "scene");
+    return io::read_scene(dir / "scene");
+  }();
+  const fs::path fake = dir / "fake-colmap";
+  test::write_text(
+      fake,
+      "#!/bin/sh\necho \"starting $1\"\necho \"E0101 error: no disk in drive $1\" >&2\n"
+      "echo '*** Check failure stack trace: ***' >&2\nexit 3\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  ColmapOptions options;
+  options.executable = fake.string();
+  test::expect_error(
+      [&] { triangulate_with_colmap(scene, 0, dir / "work", options); },
+      {"colmap feature_extractor failed", "exit status 3", "no disk in drive feature_extractor"});
+  test::expect_error([&] { triangulate_with_colmap(scene, 5, dir / "work", options); },
+                     {"frame 5", "0:1"});
+}
+
+}  // namespace
+}  // namespace retimegs::prepare

@@ -1,0 +1,222 @@
+// `prepare_scene`: exactly the flow pairs training reads, estimated close to the synthetic
+// scene's exact flows, resumable, imports validated before anything is written.
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/prepare/prepare.hpp"
+#include "retimegs/synth/synth.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::prepare {
+namespace {
+namespace fs = std::filesystem;
+
+// A 5-frame, 3-camera minimal synthetic scene; its exact flows and points are moved to
+// `exact` so that the scene has none.
+io::Scene bare_scene(const fs::path& root, const fs::path& exact, int frames = 5) {
+  synth::SynthOptions options;
+  options.preset = "minimal";
+  options.cameras = 3;
+  options.frames = frames;
+  options.width = 64, options.height = 48;
+  options.progress = false;
+  synth::synthesize_scene(options, root);
+  fs::create_directories(exact);
+  fs::rename(root / "flow", exact / "flow");
+  fs::rename(root / "points", exact / "points");
+  return io::read_scene(root);
+}
+
+PrepareOptions quiet() {
+  PrepareOptions o;
+  o.progress = false;
+  o.hull.resolution = 48;
+  return o;
+}
+
+std::set<std::string> files_under(const fs::path& dir) {
+  std::set<std::string> names;
+  if (!fs::exists(dir)) return names;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) names.insert(fs::relative(e.path(), dir).generic_string());
+  return names;
+}
+
+// Mean |a - b| over pixels known in both.
+double epe(const Flow& a, const Flow& b) {
+  double sum = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.pixels(); ++i)
+    if (a.valid[i] && b.valid[i]) {
+      sum += std::hypot(a.uv[2 * i] - b.uv[2 * i], a.uv[2 * i + 1] - b.uv[2 * i + 1]);
+      ++n;
+    }
+  return n ? sum / double(n) : 1e9;
+}
+
+TEST(Prepare, WritesExactlyThePairsTrainingReadsForEvenFrames) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  const PrepareReport r = prepare_scene(scene, quiet());
+  // Frames 0, 2, 4: pairs (0, 2) and (2, 4), both directions, for each of the 3 cameras.
+  std::set<std::string> expected;
+  for (const char* cam : {"cam00", "cam01", "cam02"})
+    for (const char* name : {"00000_00002", "00002_00000", "00002_00004", "00004_00002"})
+      expected.insert(std::string(cam) + "/" + name + ".flo");
+  EXPECT_EQ(files_under(scene.root / "flow"), expected);
+  EXPECT_EQ(files_under(scene.root / "points"),
+            (std::set<std::string>{"00000.ply", "00002.ply", "00004.ply"}));
+  EXPECT_EQ(r.flows_written, 12u);
+  EXPECT_EQ(r.flows_kept, 0u);
+  EXPECT_EQ(r.points_source, "hull");  // the synthetic scene has masks
+  ASSERT_EQ(r.points_written.size(), 3u);
+  for (const auto& [frame, n] : r.points_written) EXPECT_GT(n, 100u) << frame;
+
+  // Close to the exact flows (small, textured scene), and not swapped.
+  for (int c = 0; c < 3; ++c)
+    for (const auto& [from, to] : {std::pair{0, 2}, std::pair{2, 0}, std::pair{4, 2}}) {
+      const Flow estimated = io::read_flo(scene.flow_path(c, from, to));
+      EXPECT_EQ(estimated.width, 64);
+      EXPECT_EQ(estimated.height, 48);
+      const fs::path rel = fs::relative(scene.flow_path(c, from, to), scene.root);
+      const Flow truth = io::read_flo(dir / "exact" / rel);
+      const Flow reverse =
+          io::read_flo(dir / "exact" / fs::relative(scene.flow_path(c, to, from), scene.root));
+      EXPECT_LT(epe(estimated, truth), 1.0) << rel;
+      EXPECT_LT(epe(estimated, truth), epe(estimated, reverse)) << rel;
+    }
+}
+
+TEST(Prepare, KeepsExistingFilesAndForceRewritesThem) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kRandom};
+  prepare_scene(scene, o);
+  const fs::path flow = scene.flow_path(1, 2, 0);
+  fs::remove(flow);
+  const PrepareReport again = prepare_scene(scene, o);
+  EXPECT_EQ(again.flows_written, 1u);  // only the removed one
+  EXPECT_EQ(again.flows_kept, 11u);
+  EXPECT_TRUE(again.points_written.empty());
+  EXPECT_EQ(again.points_kept, 3u);
+  EXPECT_TRUE(fs::exists(flow));
+  o.force = true;
+  const PrepareReport forced = prepare_scene(scene, o);
+  EXPECT_EQ(forced.flows_written, 12u);
+  EXPECT_EQ(forced.points_written.size(), 3u);
+}
+
+TEST(Prepare, AllFramesUseStrideOne) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact", 3);
+  PrepareOptions o = quiet();
+  o.frame_step = 1;
+  o.points = {PointsSource::kRandom};
+  const PrepareReport r = prepare_scene(scene, o);
+  EXPECT_EQ(r.flows_written, 3u * 2 * 2);
+  EXPECT_TRUE(fs::exists(scene.flow_path(0, 1, 2)));
+  EXPECT_TRUE(fs::exists(scene.flow_path(2, 1, 0)));
+  EXPECT_FALSE(fs::exists(scene.flow_path(0, 0, 2)));
+  EXPECT_EQ(files_under(scene.root / "points").size(), 3u);
+  // Random points per frame: training's 20 000 spread over the frames, at least 1 000.
+  for (const auto& [frame, n] : r.points_written) EXPECT_EQ(n, 20000u / 3) << frame;
+}
+
+TEST(Prepare, ImportsFlowFilesByteForByte) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  PrepareOptions o = quiet();
+  o.flow_dir = dir / "exact" / "flow";  // the scene's own naming: <camera>/<from>_<to>.flo
+  o.points = {PointsSource::kRandom};
+  const PrepareReport r = prepare_scene(scene, o);
+  EXPECT_TRUE(r.flows_imported);
+  EXPECT_EQ(r.flows_written, 12u);
+  for (const std::string& rel : files_under(scene.root / "flow"))
+    EXPECT_EQ(test::read_text(scene.root / "flow" / rel), test::read_text(o.flow_dir / rel)) << rel;
+}
+
+TEST(Prepare, RejectsAWrongSizeImportBeforeWritingAnything) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  const fs::path bad = dir / "exact" / "flow" / "cam01" / "00002_00004.flo";
+  io::write_flo(bad, Flow(32, 48));
+  PrepareOptions o = quiet();
+  o.flow_dir = dir / "exact" / "flow";
+  test::expect_error([&] { prepare_scene(scene, o); }, {bad.string(), "32x48", "64x48", "cam01"});
+  EXPECT_TRUE(files_under(scene.root / "flow").empty());
+  EXPECT_TRUE(files_under(scene.root / "points").empty());
+
+  fs::remove(bad);
+  test::expect_error([&] { prepare_scene(scene, o); }, {bad.string(), "missing", "1 of the 12"});
+  EXPECT_TRUE(files_under(scene.root / "flow").empty());
+}
+
+TEST(Prepare, ImportsPerFramePlyFiles) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kPly};
+  o.points_dir = dir / "exact" / "points";
+  const PrepareReport r = prepare_scene(scene, o);
+  EXPECT_EQ(r.points_source, "ply");
+  for (int k : {0, 2, 4})
+    EXPECT_EQ(io::read_points_ply(scene.points_path(k)).xyz,
+              io::read_points_ply(o.points_dir / fmt::format("{:05d}.ply", k)).xyz);
+  // A missing frame is named, and nothing is written.
+  test::TempDir dir2;
+  const io::Scene scene2 = bare_scene(dir2 / "scene", dir2 / "exact");
+  fs::remove(dir2 / "exact" / "points" / "00004.ply");
+  o.points_dir = dir2 / "exact" / "points";
+  test::expect_error([&] { prepare_scene(scene2, o); }, {"00004.ply"});
+  EXPECT_TRUE(files_under(scene2.root / "flow").empty());
+}
+
+TEST(Prepare, DefaultsToRandomPointsWithoutMasksAndHullNeedsThem) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  fs::remove_all(scene.root / "masks");
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kHull};
+  test::expect_error([&] { prepare_scene(scene, o); }, {"no mask", "--points hull"});
+  EXPECT_TRUE(files_under(scene.root / "flow").empty());
+  o.points = {PointsSource::kColmap};
+  o.colmap.executable = (dir / "no-such-colmap").string();
+  test::expect_error([&] { prepare_scene(scene, o); }, {"COLMAP not found"});
+  EXPECT_TRUE(files_under(scene.root / "flow").empty());
+  o.points = {};
+  EXPECT_EQ(prepare_scene(scene, o).points_source, "random");
+}
+
+TEST(Prepare, SeveralPointSourcesAreConcatenated) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kRandom};
+  const PrepareReport random = prepare_scene(scene, o);
+  o.points = {PointsSource::kHull};
+  o.force = true;
+  const PrepareReport hull = prepare_scene(scene, o);
+  o.points = {PointsSource::kHull, PointsSource::kRandom};
+  const PrepareReport both = prepare_scene(scene, o);
+  EXPECT_EQ(both.points_source, "hull,random");
+  ASSERT_EQ(both.points_written.size(), hull.points_written.size());
+  for (std::size_t i = 0; i < both.points_written.size(); ++i) {
+    EXPECT_GT(hull.points_written[i].second, 0u);
+    EXPECT_EQ(both.points_written[i].second,
+              hull.points_written[i].second + random.points_written[i].second);
+    const io::PointCloud cloud =
+        io::read_points_ply(scene.points_path(both.points_written[i].first));
+    EXPECT_EQ(cloud.size(), both.points_written[i].second);
+    EXPECT_EQ(cloud.rgb.size(), cloud.xyz.size());
+  }
+}
+
+}  // namespace
+}  // namespace retimegs::prepare
