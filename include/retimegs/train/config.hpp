@@ -16,6 +16,11 @@ struct Ablations {
   bool linear = false;  // x(t) = μ + (t - μ_τ) v2
 };
 
+// Sets the ablations named in `list` (comma-separated: no-flow-init, no-flow-loss, no-triple,
+// no-stretch, linear; empty: none) on top of `ablate`. Throws Error naming `flag` on an empty
+// item or an unknown name.
+Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag);
+
 struct TrainConfig {
   int iters = 20000;
   std::uint64_t seed = 0;
