@@ -2,20 +2,16 @@
 // odd|all|LIST]
 //               [--cameras LIST] [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
 #include <filesystem>
-#include <fstream>
 #include <memory>
 
 #include <spdlog/spdlog.h>
 
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
-#include "retimegs/io/splat_ply.hpp"
-#include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
 namespace fs = std::filesystem;
@@ -73,9 +69,6 @@ void add_eval_command(CLI::App& app) {
     if (!args->save.empty()) options.save_renders = fs::path(args->save);
 
     eval::FrameRenderer renderer;
-    std::shared_ptr<model::Model> model4d;
-    std::shared_ptr<Splats> splats;
-    const float black[3] = {0, 0, 0};
     if (!args->baseline.empty()) {
       std::vector<int> train;
       for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1)
@@ -83,25 +76,11 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(
           scene, train,
           args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
-    } else if (fs::path(args->model).extension() == ".ply") {
-      splats = std::make_shared<Splats>(io::read_splat_ply(args->model));
-      renderer = [&scene, splats, &black](int c, int) {
-        return eval::render_splats(*splats, scene.cameras[c], black);
-      };
     } else {
-      model4d = std::make_shared<model::Model>(model::read_model(args->model));
-      renderer = [&scene, model4d, &black](int c, int k) {
-        return eval::render_model(*model4d, scene.cameras[c], double(k), black);
-      };
+      renderer = eval::model_renderer(scene, eval::load_model(args->model));
     }
     const eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
-    AtomicFile out(args->out);
-    {
-      std::ofstream o(out.temp_path());
-      o << eval::to_json(result) << "\n";
-      if (!o) fail("{}: write failed", args->out);
-    }
-    out.commit();
+    eval::write_json(result, args->out);
     if (!result.note.empty()) spdlog::info("{}", result.note);
     spdlog::info("psnr {:.3f}  ssim {:.4f}  lpips {}  ({} views{}) -> {}", result.psnr, result.ssim,
                  result.lpips ? fmt::format("{:.4f}", *result.lpips) : "null",

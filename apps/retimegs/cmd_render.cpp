@@ -8,15 +8,11 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "retimegs/core/camera_path.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/core/progress.hpp"
 #include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
-#include "retimegs/io/splat_ply.hpp"
-#include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
 
@@ -91,26 +87,10 @@ void add_render_command(CLI::App& app) {
       path = {scene.cameras[scene.camera_index(args->camera)]};
     }
 
-    const bool is_ply = std::filesystem::path(args->model).extension() == ".ply";
-    std::optional<model::Model> model4d;
-    std::optional<Splats> splats;
-    if (is_ply)
-      splats = io::read_splat_ply(args->model);
-    else
-      model4d = model::read_model(args->model);
-
+    const eval::LoadedModel model = eval::load_model(args->model);
     const int frames = int(frame_times.size());
     io::FrameWriter writer(args->out, frames, scene.fps, args->force);
-    Progress progress("render", frames, frames > 1);
-    for (int f = 0; f < frames; ++f) {
-      const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
-      const Camera cam = camera_along_path(path, s);
-      writer.write(is_ply ? eval::render_splats(*splats, cam, background.data())
-                          : eval::render_model(*model4d, cam, frame_times[f], background.data()));
-      progress.tick();
-    }
-    progress.finish();
-    writer.finish();
+    eval::render_frames(model, path, frame_times, background.data(), writer);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });
 }

@@ -5,7 +5,6 @@
 #include <optional>
 #include <sstream>
 
-#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
@@ -65,24 +64,7 @@ void add_train_command(CLI::App& app) {
     if (config.iters < 1) fail("--iters: must be >= 1, got {}", config.iters);
     if (config.cap < 1) fail("--cap: must be >= 1");
     if (!args->baseline.empty()) config.stgs_baseline = true;
-    if (!args->ablate.empty())
-      for (const std::string& a : split_list(args->ablate, "--ablate")) {
-        if (a == "no-flow-init")
-          config.ablate.no_flow_init = true;
-        else if (a == "no-flow-loss")
-          config.ablate.no_flow_loss = true;
-        else if (a == "no-triple")
-          config.ablate.no_triple = true;
-        else if (a == "no-stretch")
-          config.ablate.no_stretch = true;
-        else if (a == "linear")
-          config.ablate.linear = true;
-        else
-          fail(
-              "--ablate: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, "
-              "linear)",
-              a);
-      }
+    config.ablate = train::parse_ablations(args->ablate, config.ablate, "--ablate");
     const io::Scene scene = io::read_scene(args->scene);
     train::train(scene, run);
   });

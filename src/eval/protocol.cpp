@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 
 #include <nlohmann/json.hpp>
 
@@ -93,6 +94,16 @@ std::string to_json(const EvalResult& r) {
             {"per_view", views}};
   if (!r.note.empty()) j["note"] = r.note;
   return j.dump(2);
+}
+
+void write_json(const EvalResult& result, const fs::path& path) {
+  AtomicFile out(path);
+  {
+    std::ofstream o(out.temp_path());
+    o << to_json(result) << "\n";
+    if (!o) fail("{}: write failed", path.string());
+  }
+  out.commit();
 }
 
 FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,

@@ -1,5 +1,10 @@
 #include "retimegs/eval/render_model.hpp"
 
+#include <memory>
+
+#include "retimegs/core/camera_path.hpp"
+#include "retimegs/core/progress.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -18,6 +23,40 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
   return render::rasterize_forward(model::splats_to_gaussians(splats, camera), camera, background,
                                    options)
       .blend.image;
+}
+
+LoadedModel load_model(const std::filesystem::path& path) {
+  if (path.extension() == ".ply") return io::read_splat_ply(path);
+  return model::read_model(path);
+}
+
+Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
+                    const float* background, const render::RenderOptions& options) {
+  if (const auto* splats = std::get_if<Splats>(&model))
+    return render_splats(*splats, camera, background, options);
+  return render_model(std::get<model::Model>(model), camera, t, background, options);
+}
+
+void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
+                   const std::vector<double>& times, const float* background,
+                   io::FrameWriter& writer) {
+  const int frames = int(times.size());
+  Progress progress("render", frames, frames > 1);
+  for (int f = 0; f < frames; ++f) {
+    const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
+    writer.write(render_loaded(model, camera_along_path(path, s), times[f], background));
+    progress.tick();
+  }
+  progress.finish();
+  writer.finish();
+}
+
+FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model) {
+  auto owned = std::make_shared<const LoadedModel>(std::move(model));
+  return [&scene, owned](int camera, int frame) {
+    const float black[3] = {0, 0, 0};
+    return render_loaded(*owned, scene.cameras[camera], double(frame), black);
+  };
 }
 
 }  // namespace retimegs::eval

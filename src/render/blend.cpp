@@ -4,15 +4,15 @@
 // the block). For each Gaussian of the tile's depth-ordered list, footprint_blocks finds in
 // closed form the blocks that hold a pixel centre of its alpha >= min_alpha ellipse, and only
 // those blocks are visited: square blocks hug the small footprints of typical scenes (sigma
-// 1.5-4 px) far better than 16x1 rows, which left two thirds of the lanes idle.
+// 1.5-4 px) far better than 16x1 rows, most of whose lanes would fall outside the footprint.
 //
 // The forward goes block-major over chunks of 64 list entries: the chunk's footprints first,
 // then each block with live pixels runs over the chunk entries that reach it with its pixel
 // state (transmittance, colour, last contributor) in registers and stops when its pixels
-// saturate. (Gaussian-major, the state of 16 blocks lived in memory: every update was a chain
-// of loads and stores, and the blend took 1.2-1.4x as long.) The backward walks the list back to
-// front from the last contributor, Gaussian-major: each Gaussian's gradient is accumulated in
-// registers over its blocks, then added to the thread's gradient buffer once.
+// saturate. (Gaussian-major, the state of 16 blocks would live in memory, and every update
+// would be a chain of loads and stores.) The backward walks the list back to front from the last
+// contributor, Gaussian-major: each Gaussian's gradient is accumulated in registers over its
+// blocks, then added to the thread's gradient buffer once.
 //
 // Both loops are bound by each (Gaussian, block) visit's dependency chain (record -> log2 alpha
 // -> exp2 -> compositing, ~70 cycles), not by their instruction count: the out-of-order window
@@ -372,9 +372,8 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       const vf px = list.pixel_x(block), py = list.pixel_y(block);
       // Software-pipelined two entries ahead: (j1, alpha1) and (j2, alpha2) are the next entries
       // with their alphas computed, in program order before the current entry is composited, so
-      // that their chains are under way while the compositing waits on the current one. (One
-      // entry ahead took ~8 % off the blend, two another ~3 %; three, in an array, and the same
-      // two written with a helper lambda measured slower.)
+      // that their chains are under way while the compositing waits on the current one. Two is
+      // the depth kept: a third, held in an array, is slower.
       const auto alpha_of = [&](int j) {
         const float* s = records + j * stride;
         return simd::min(rule.alpha_clamp, simd::exp2(log2_alpha(s, s[kU] - px, s[kV] - py)));
@@ -706,10 +705,9 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
   // [threads, N, grad_stride]: each thread owns a fixed run of tiles and sums into its own
   // buffer, so the order of every sum is fixed by the thread count alone. Runs of neighbouring
   // tiles rather than every threads-th tile: a thread then writes the rows of the Gaussians of its
-  // part of the image only (round-robin tiles made every thread write nearly every row; the
-  // backward blend of the 300k-Gaussian bench scene took ~8 % longer at 2 threads). Left
-  // uninitialised here and zeroed by its own thread (in parallel, and first touch puts the pages
-  // near that thread).
+  // part of the image only (with round-robin tiles every thread would write nearly every row,
+  // scattered over its whole buffer). Left uninitialised here and zeroed by its own thread (in
+  // parallel, and first touch puts the pages near that thread).
   const std::size_t buffer_size = n * grad_stride;
   UninitVector<float> buffers(threads * buffer_size);
   const std::vector<int> first_tile =

@@ -28,7 +28,7 @@ using vf = float __attribute__((vector_size(kLanes * sizeof(float))));
 using vi = std::int32_t __attribute__((vector_size(kLanes * sizeof(std::int32_t))));
 
 // x - 0 is x for every x (-0 included), so this is a plain broadcast; vf{} + x is not (-0 + 0 is
-// +0), and GCC computed the scalar sum before broadcasting it.
+// +0), so GCC would compute the scalar sum before broadcasting it.
 inline vf splat(float x) {
   return x - vf{};
 }
@@ -326,8 +326,8 @@ inline vf sum8(const vf (&v)[8]) {
 
 // Rows <-> columns of a [16, W] row-major block (W <= 4): column k holds component k of row l in
 // lane l. Contiguous vector loads or stores and at most three two-vector shuffles per result
-// (GCC's __builtin_shuffle: vpermt2ps on AVX-512), in place of the 16-element gathers GCC emitted
-// for the per-lane form, which took a quarter of the projection's time.
+// (GCC's __builtin_shuffle: vpermt2ps on AVX-512), in place of the 16-element gathers GCC emits
+// for a per-lane form (a gather loads one element at a time).
 namespace detail {
 using Index = std::array<std::int32_t, kLanes>;
 

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -18,6 +22,32 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center, lr_temporal_scale, ssim_lambda,
     flow_weight_start, flow_weight_end, opacity_reg, scale_reg, gamma, cap, min_opacity, growth,
     init_opacity, stretch_distance, stretch_color, stretch_speed, checkpoint_every)
+
+Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag) {
+  if (list.empty()) return ablate;
+  std::vector<std::string> names;
+  for (std::size_t start = 0; start <= list.size();) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    names.push_back(list.substr(start, comma - start));
+    if (names.back().empty()) fail("{}: empty item in '{}'", flag, list);
+    start = comma + 1;
+  }
+  const std::pair<std::string_view, bool Ablations::*> known[] = {
+      {"no-flow-init", &Ablations::no_flow_init},
+      {"no-flow-loss", &Ablations::no_flow_loss},
+      {"no-triple", &Ablations::no_triple},
+      {"no-stretch", &Ablations::no_stretch},
+      {"linear", &Ablations::linear}};
+  for (const std::string& name : names) {
+    const auto* hit = std::find_if(std::begin(known), std::end(known),
+                                   [&](const auto& k) { return k.first == name; });
+    if (hit == std::end(known))
+      fail("{}: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear)",
+           flag, name);
+    ablate.*(hit->second) = true;
+  }
+  return ablate;
+}
 
 int TrainConfig::scaled(int iteration) const {
   constexpr double kPaperIterations = 20000;

@@ -18,7 +18,7 @@ namespace {
 
 constexpr int kDepthSplat = 1;                // z-buffer footprint of a point: (2r + 1)^2 pixels
 constexpr double kOcclusionTolerance = 0.03;  // relative depth slack of the visibility test
-constexpr std::size_t kRandomPoints = 20000;  // fallback point count per frame... in total
+constexpr std::size_t kRandomPoints = 20000;  // points of the random fallback, in all
 
 // Bilinear flow sample at continuous pixel (u, v) (centres at +0.5); false when any of the four
 // taps is outside or unknown.
@@ -247,7 +247,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     p.opacity_logit[j] = logit;
     p.mu_tau[j] = time[k];
     p.tau_l[j] = p.tau_r[j] = float(step / 2);
-    p.temporal_log_scale[j] = float(std::log(step));  // STGS: a window about two intervals wide
+    p.temporal_log_scale[j] = float(std::log(step));  // STGS: σ_τ is 1/e one interval off μ_τ
   }
   return p;
 }

@@ -12,9 +12,8 @@ namespace retimegs {
 
 // Keeps freed blocks of up to 32 MiB in the process heap instead of returning them to the kernel
 // (glibc's mallopt; no effect elsewhere). By default glibc gives large freed blocks back (unmaps
-// them, or trims the heap top), so every step of a render loop faults in and zeroes its memory
-// again, a 4 KiB page at a time: ~10 000 page faults per forward + backward of the 300k-Gaussian
-// 960x540 benchmark scene.
+// them, or trims the heap top), so every step of a render loop would fault its tens of megabytes
+// back in, zeroed, a 4 KiB page at a time.
 // Called once by the `retimegs` program and the benchmarks; memory stays at the peak of a step.
 void keep_freed_memory();
 

@@ -47,6 +47,8 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
 
 // The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "frames", "per_view"}.
 std::string to_json(const EvalResult& result);
+// That JSON and a newline, written atomically to `path`.
+void write_json(const EvalResult& result, const std::filesystem::path& path);
 
 // Trivial in-betweening baselines over the training frames `train_frames` (sorted): crossfade
 // blends the two neighbouring training frames by time, nearest copies the closer one (the earlier

@@ -1,9 +1,16 @@
 #pragma once
 // One RGB image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
-// model. The shared path of `retimegs render`, `eval` and the trainer's previews.
+// model. The shared path of `retimegs render` and `retimegs eval`.
+#include <filesystem>
+#include <variant>
+#include <vector>
+
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/splats.hpp"
+#include "retimegs/eval/protocol.hpp"
+#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/render/options.hpp"
 
@@ -15,5 +22,25 @@ Image render_model(const model::Model& model, const Camera& camera, double t,
 
 Image render_splats(const Splats& splats, const Camera& camera, const float* background,
                     const render::RenderOptions& options = {});
+
+// A model read from a file, by its extension: `.ply` is a static 3DGS model (Inria layout),
+// anything else a 4D model (.rgs). Throws Error naming the file on a bad model.
+using LoadedModel = std::variant<model::Model, Splats>;
+LoadedModel load_model(const std::filesystem::path& path);
+
+// render_model or render_splats, whichever `model` holds (static splats ignore t).
+Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
+                    const float* background, const render::RenderOptions& options = {});
+
+// The frames of `retimegs render`: frame f at times[f], seen from the camera at s = f / (F - 1)
+// along `path` (camera_along_path; one camera stays put), written to `writer`, which is then
+// finished. A progress bar is shown when there is more than one frame.
+void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
+                   const std::vector<double>& times, const float* background,
+                   io::FrameWriter& writer);
+
+// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `frame` on black.
+// `scene` must outlive the returned renderer; the model is owned by it.
+FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model);
 
 }  // namespace retimegs::eval

@@ -37,7 +37,7 @@ struct Scene {
 
 enum class SceneCheck {
   kJson,   // scene.json only
-  kFiles,  // + every image exists with its camera's size; masks, flows and points that exist too
+  kFiles,  // + every image exists with its camera's size, and so has every mask that exists
 };
 
 // Reads and validates scene.json (required keys, types, finite numbers, positive sizes and

@@ -16,6 +16,11 @@ struct Ablations {
   bool linear = false;  // x(t) = μ + (t - μ_τ) v2
 };
 
+// Sets the ablations named in `list` (comma-separated: no-flow-init, no-flow-loss, no-triple,
+// no-stretch, linear; empty: none) on top of `ablate`. Throws Error naming `flag` on an empty
+// item or an unknown name.
+Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag);
+
 struct TrainConfig {
   int iters = 20000;
   std::uint64_t seed = 0;
@@ -35,8 +40,8 @@ struct TrainConfig {
 
   // Learning rates (gsplat defaults; means and velocities x scene extent).
   double lr_means = 1.6e-4, lr_means_final = 0.01;  // means decay to 1 % over training
-  // x extent / Δt. bench/velocity_lr.sh: 4x this is +0.64 / +0.37 dB on the synthetic presets but
-  // -1.7 dB on the Panoptic capture (noisy DIS flow, small motion), so the means' rate is kept.
+  // x extent / Δt. The means' rate: a faster one helps scenes with large, exact motion but hurts
+  // captures with noisy flow and small motion (bench/velocity_lr.sh; README, Results).
   double lr_velocity = 1.6e-4;
   double lr_scales = 5e-3, lr_quats = 1e-3, lr_quat_rate = 1e-3, lr_opacities = 5e-2;
   double lr_sh0 = 2.5e-3, lr_sh_rest_factor = 1.0 / 20;
