@@ -15,6 +15,19 @@ constexpr double kRadiusSigmas = 3.0;  // the footprint is 3 standard deviations
 // Field-of-view guard of the Jacobian: x/z is clamped to the image plus 30 % of its half-width
 // (gsplat: lim = 1.3 * tan_fov, measured from the principal point).
 constexpr double kFovGuard = 0.3;
+// The guard's bounds for one camera: x/z in [-x_neg, x_pos] and y/z in [-y_neg, y_pos].
+template <typename T>
+struct FovGuardT {
+  T x_pos, x_neg, y_pos, y_neg;
+
+  explicit FovGuardT(const PinholeT<T>& camera) {
+    const T tan_x = T(0.5) * camera.width / camera.fx, tan_y = T(0.5) * camera.height / camera.fy;
+    x_pos = (camera.width - camera.cx) / camera.fx + T(kFovGuard) * tan_x;
+    x_neg = camera.cx / camera.fx + T(kFovGuard) * tan_x;
+    y_pos = (camera.height - camera.cy) / camera.fy + T(kFovGuard) * tan_y;
+    y_neg = camera.cy / camera.fy + T(kFovGuard) * tan_y;
+  }
+};
 // Pixel coordinates are clamped to this before integer conversion (far off-image anyway).
 constexpr double kMaxPixelCoordinate = 1e8;
 
