@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "constants.hpp"
 #include "project_lanes.hpp"
 #include "retimegs/core/error.hpp"
 #include "simd.hpp"
@@ -198,8 +199,7 @@ std::array<T, 2> alpha_extent(const T* conic, T opacity, const RenderOptions& op
   if (!(level > 0)) return {0, 0};
   const T det = conic[0] * conic[2] - conic[1] * conic[1];
   const T cov_xx = conic[2] / det, cov_yy = conic[0] / det;
-  // Margin: 0.1 % + 0.01 px covers the rounding of sigma and of the fast exp in the blend.
-  constexpr T kRelMargin = T(1.001), kAbsMargin = T(0.01);
+  constexpr T kRelMargin = T(kExtentRelMargin), kAbsMargin = T(kExtentAbsMargin);
   return {std::sqrt(2 * level * cov_xx) * kRelMargin + kAbsMargin,
           std::sqrt(2 * level * cov_yy) * kRelMargin + kAbsMargin};
 }

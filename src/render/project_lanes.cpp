@@ -168,18 +168,17 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
 // Lanes whose radius_tile_rect (project.cpp) is not empty, with C-style truncation.
 simd::mask tile_rect_not_empty(vf u, vf v, vi radius, int tiles_x, int tiles_y) {
   const vf lim = simd::splat(float(kMaxPixelCoordinate));
-  const float inv_tile = 1.0f / kTileSize;  // exact: a power of two
   u = simd::min(simd::max(u, -lim), lim);
   v = simd::min(simd::max(v, -lim), lim);
-  const vf r = __builtin_convertvector(radius, vf) * inv_tile;
+  const vf r = __builtin_convertvector(radius, vf) * kInverseTileSize;
   const auto clamp = [](vi a, int hi) {
     return simd::min(simd::max(a, vi{}), simd::splat_int(hi));
   };
   const auto trunc = [](vf a) { return __builtin_convertvector(a, vi); };
-  const vi x0 = clamp(trunc(u * inv_tile - r), tiles_x);
-  const vi x1 = clamp(trunc(u * inv_tile + r) + 1, tiles_x);
-  const vi y0 = clamp(trunc(v * inv_tile - r), tiles_y);
-  const vi y1 = clamp(trunc(v * inv_tile + r) + 1, tiles_y);
+  const vi x0 = clamp(trunc(u * kInverseTileSize - r), tiles_x);
+  const vi x1 = clamp(trunc(u * kInverseTileSize + r) + 1, tiles_x);
+  const vi y0 = clamp(trunc(v * kInverseTileSize - r), tiles_y);
+  const vi y1 = clamp(trunc(v * kInverseTileSize + r) + 1, tiles_y);
   return simd::less(x0, x1) & simd::less(y0, y1);
 }
 
