@@ -1,8 +1,10 @@
 #include "retimegs/model/evaluate.hpp"
 
+#include <array>
 #include <cmath>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/pinhole.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/model/trajectory.hpp"
@@ -14,34 +16,32 @@ namespace {
 constexpr double kFlowNearZ =
     1e-2;  // camera z floor for projecting control points (render near plane)
 
-// The camera's numbers in T.
+// Pixel coordinates of world point p and, when a jacobian is given, d(u, v)/dp [2, 3]. The
+// camera z is floored at kFlowNearZ, where it gets no gradient.
 template <typename T>
-struct CameraT {
-  T r[9], tr[3], fx, fy, cx, cy, eye[3];
-  explicit CameraT(const Camera& c) {
-    for (int i = 0; i < 9; ++i) r[i] = T(c.world_to_camera(i / 3, i % 3));
-    for (int i = 0; i < 3; ++i) tr[i] = T(c.world_to_camera(i, 3));
-    fx = T(c.fx), fy = T(c.fy), cx = T(c.cx), cy = T(c.cy);
-    const Eigen::Vector3d e = c.center();
-    for (int i = 0; i < 3; ++i) eye[i] = T(e[i]);
+void project_point(const PinholeT<T>& camera, const T p[3], T uv[2], T* jacobian = nullptr) {
+  const auto [x, y, z_cam] = camera.to_camera(p[0], p[1], p[2]);
+  const bool clamped = z_cam < T(kFlowNearZ);
+  const T z = clamped ? T(kFlowNearZ) : z_cam;
+  const auto pixel = camera.project(x, y, z);
+  uv[0] = pixel[0], uv[1] = pixel[1];
+  if (!jacobian) return;
+  PinholeJacobianT<T> j = camera.jacobian(x, y, z);
+  if (clamped) j.j02 = j.j12 = 0;
+  // Through the camera point's rotation: d(u, v)/dp = J R.
+  const auto& r = camera.rotation;
+  for (int a = 0; a < 3; ++a) {
+    jacobian[a] = j.j00 * r[a] + j.j02 * r[6 + a];
+    jacobian[3 + a] = j.j11 * r[3 + a] + j.j12 * r[6 + a];
   }
-  // Pixel coordinates of world point p and, when jacobian != nullptr, d(u, v)/dp [2, 3].
-  void project(const T p[3], T uv[2], T* jacobian) const {
-    T x[3];
-    for (int a = 0; a < 3; ++a)
-      x[a] = r[3 * a] * p[0] + r[3 * a + 1] * p[1] + r[3 * a + 2] * p[2] + tr[a];
-    const bool clamped = x[2] < T(kFlowNearZ);
-    const T z = clamped ? T(kFlowNearZ) : x[2], iz = T(1) / z;
-    uv[0] = fx * x[0] * iz + cx;
-    uv[1] = fy * x[1] * iz + cy;
-    if (!jacobian) return;
-    const T dz = clamped ? T(0) : T(1);
-    for (int a = 0; a < 3; ++a) {
-      jacobian[a] = fx * (r[a] * iz - dz * x[0] * r[6 + a] * iz * iz);
-      jacobian[3 + a] = fy * (r[3 + a] * iz - dz * x[1] * r[6 + a] * iz * iz);
-    }
-  }
-};
+}
+
+// The camera centre in T, where the view directions of the SH colours start.
+template <typename T>
+std::array<T, 3> eye_of(const Camera& camera) {
+  const Eigen::Vector3d e = camera.center();
+  return {T(e[0]), T(e[1]), T(e[2])};
+}
 
 // Index of training time t, or -1 when t is not on the grid.
 int grid_index(const TimeGrid& grid, double t) {
@@ -127,7 +127,8 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
   const std::size_t m = selected.size();
   out.gaussians = GaussiansT<T>(m, channels);
   out.temporal.resize(m);
-  const CameraT<T> cam(camera);
+  const PinholeT<T> pinhole(camera);
+  const std::array<T, 3> eye = eye_of<T>(camera);
   GaussiansT<T>& g = out.gaussians;
 #pragma omp parallel for schedule(static)
   for (std::size_t row = 0; row < m; ++row) {
@@ -142,7 +143,7 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
     for (int a = 0; a < 3; ++a) g.log_scales[3 * row + a] = p.log_scale[3 * i + a];
     const T dt = t - p.mu_tau[i];
     for (int a = 0; a < 4; ++a) g.quats[4 * row + a] = p.q0[4 * i + a] + p.q1[4 * i + a] * dt;
-    const T dir[3] = {x[0] - cam.eye[0], x[1] - cam.eye[1], x[2] - cam.eye[2]};
+    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     T* features = &g.features[channels * row];
     sh_color(config.sh_degree, &p.sh[3 * PrimitivesT<T>::kShCoeffs * i], dir, features);
     if (options.flow_features) {
@@ -151,9 +152,9 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
       control_point_position(rule.base, step, mu, v, pb);
       control_point_position(rule.forward, step, mu, v, pf);
       control_point_position(rule.backward, step, mu, v, pk);
-      cam.project(pb, uv_b, nullptr);
-      cam.project(pf, uv_f, nullptr);
-      cam.project(pk, uv_k, nullptr);
+      project_point(pinhole, pb, uv_b);
+      project_point(pinhole, pf, uv_f);
+      project_point(pinhole, pk, uv_k);
       features[3] = uv_f[0] - uv_b[0], features[4] = uv_f[1] - uv_b[1];
       features[5] = uv_k[0] - uv_b[0], features[6] = uv_k[1] - uv_b[1];
     }
@@ -169,7 +170,8 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
                        PrimitiveGradsT<T>& grads) {
   const T t = T(t_in), step = T(grid.step);
   const int channels = evaluated.gaussians.channels;
-  const CameraT<T> cam(camera);
+  const PinholeT<T> pinhole(camera);
+  const std::array<T, 3> eye = eye_of<T>(camera);
   const bool stgs = config.representation == Representation::kStgs;
   constexpr int kSh = PrimitivesT<T>::kShCoeffs;
   const std::size_t m = evaluated.primitive_from_gaussian.size();
@@ -205,7 +207,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
     T x[3];
     apply_trajectory(coefficients, mu, v, x);
     T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
-    const T dir[3] = {x[0] - cam.eye[0], x[1] - cam.eye[1], x[2] - cam.eye[2]};
+    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     sh_color_vjp(config.sh_degree, &p.sh[3 * kSh * i], dir, &vg.v_features[channels * row],
                  &grads.v_sh[3 * kSh * i], v_x);
     apply_trajectory_vjp(config.representation, coefficients, v, v_x, v_mu, v_v, v_mu_tau);
@@ -221,7 +223,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
       for (int q = 0; q < 3; ++q) {
         T point[3], uv[2], jac[6];
         control_point_position(points[q], step, mu, v, point);
-        cam.project(point, uv, jac);
+        project_point(pinhole, point, uv, jac);
         const T v_point[3] = {jac[0] * v_uv[q][0] + jac[3] * v_uv[q][1],
                               jac[1] * v_uv[q][0] + jac[4] * v_uv[q][1],
                               jac[2] * v_uv[q][0] + jac[5] * v_uv[q][1]};

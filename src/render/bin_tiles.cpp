@@ -10,6 +10,7 @@
 #include <cstring>
 #include <utility>
 
+#include "constants.hpp"
 #include "retimegs/core/error.hpp"
 #include "simd.hpp"
 
@@ -92,8 +93,8 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
   using simd::vi;
   constexpr int kLanes = simd::kLanes;
   const std::size_t n = p.size();
-  const vf lim = simd::splat(1e8f);                   // kMaxPixelCoordinate
-  const vf inv_tile = simd::splat(1.0f / kTileSize);  // exact: a power of two
+  const vf lim = simd::splat(float(kMaxPixelCoordinate));
+  const vf inv_tile = simd::splat(kInverseTileSize);
   const auto clamp_int = [](vi a, int hi) {
     return simd::min(simd::max(a, vi{}), simd::splat_int(hi));
   };
@@ -102,7 +103,7 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
     return simd::floor_to_int(simd::min(simd::max(x, -lim), lim) * inv_tile);
   };
   const bool tight = options.tight_tile_bounds && options.min_alpha > 0;
-  constexpr float kRelMargin = 1.001f, kAbsMargin = 0.01f;  // as alpha_extent
+  constexpr float kRelMargin = float(kExtentRelMargin), kAbsMargin = float(kExtentAbsMargin);
   const std::size_t batches = (n + kLanes - 1) / kLanes;
   constexpr std::size_t kBatchesPerThread = 256;  // below: one thread (fork/join would dominate)
   const int threads =

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "constants.hpp"
 #include "project_lanes.hpp"
 #include "retimegs/core/error.hpp"
 #include "simd.hpp"
@@ -117,19 +118,13 @@ Geometry<T> geometry(const GaussiansT<T>& g, std::size_t i, const PinholeT<T>& c
   geo.cov_cam = rv * (geo.m * geo.m.transpose()) * rv.transpose();
 
   const T z = geo.p.z();
-  const T tan_x = T(0.5) * camera.width / camera.fx, tan_y = T(0.5) * camera.height / camera.fy;
-  const T lim_x_pos = (camera.width - camera.cx) / camera.fx + T(kFovGuard) * tan_x;
-  const T lim_x_neg = camera.cx / camera.fx + T(kFovGuard) * tan_x;
-  const T lim_y_pos = (camera.height - camera.cy) / camera.fy + T(kFovGuard) * tan_y;
-  const T lim_y_neg = camera.cy / camera.fy + T(kFovGuard) * tan_y;
+  const FovGuardT<T> lim(camera);
   const T xz = geo.p.x() / z, yz = geo.p.y() / z;
-  geo.clamped_x = !(xz >= -lim_x_neg && xz <= lim_x_pos);
-  geo.clamped_y = !(yz >= -lim_y_neg && yz <= lim_y_pos);
-  geo.tx_over_z = std::clamp(xz, -lim_x_neg, lim_x_pos);
-  geo.ty_over_z = std::clamp(yz, -lim_y_neg, lim_y_pos);
-  const T tx = z * geo.tx_over_z, ty = z * geo.ty_over_z;
-  geo.jac << camera.fx / z, 0, -camera.fx * tx / (z * z),  //
-      0, camera.fy / z, -camera.fy * ty / (z * z);
+  geo.clamped_x = !(xz >= -lim.x_neg && xz <= lim.x_pos);
+  geo.clamped_y = !(yz >= -lim.y_neg && yz <= lim.y_pos);
+  geo.tx_over_z = std::clamp(xz, -lim.x_neg, lim.x_pos);
+  geo.ty_over_z = std::clamp(yz, -lim.y_neg, lim.y_pos);
+  geo.jac = camera.jacobian(z * geo.tx_over_z, z * geo.ty_over_z, z).matrix();
   geo.cov2d = geo.jac * geo.cov_cam * geo.jac.transpose();
   geo.cov2d(0, 0) += low_pass;
   geo.cov2d(1, 1) += low_pass;
@@ -176,20 +171,6 @@ void check_gaussians(const GaussiansT<T>& g) {
 }
 
 template <typename T>
-PinholeT<T>::PinholeT(const Camera& camera)
-    : fx(T(camera.fx)),
-      fy(T(camera.fy)),
-      cx(T(camera.cx)),
-      cy(T(camera.cy)),
-      width(camera.width),
-      height(camera.height) {
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) rotation[3 * r + c] = T(camera.world_to_camera(r, c));
-    translation[r] = T(camera.world_to_camera(r, 3));
-  }
-}
-
-template <typename T>
 TileRect radius_tile_rect(T u, T v, int radius, int tiles_x, int tiles_y) {
   const T lim = T(kMaxPixelCoordinate), tile = T(kTileSize);
   u = std::clamp(u, -lim, lim);
@@ -218,8 +199,7 @@ std::array<T, 2> alpha_extent(const T* conic, T opacity, const RenderOptions& op
   if (!(level > 0)) return {0, 0};
   const T det = conic[0] * conic[2] - conic[1] * conic[1];
   const T cov_xx = conic[2] / det, cov_yy = conic[0] / det;
-  // Margin: 0.1 % + 0.01 px covers the rounding of sigma and of the fast exp in the blend.
-  constexpr T kRelMargin = T(1.001), kAbsMargin = T(0.01);
+  constexpr T kRelMargin = T(kExtentRelMargin), kAbsMargin = T(kExtentAbsMargin);
   return {std::sqrt(2 * level * cov_xx) * kRelMargin + kAbsMargin,
           std::sqrt(2 * level * cov_yy) * kRelMargin + kAbsMargin};
 }
@@ -276,7 +256,7 @@ ProjectedT<T> project_forward_scalar(const GaussiansT<T>& g, const PinholeT<T>& 
     const T lambda = b + std::sqrt(std::max(b * b - det, T(kRadiusDiscriminantFloor)));
     const int radius = int(std::ceil(T(kRadiusSigmas) * std::sqrt(lambda)));
     const T zc = z + T(options.centre_depth_offset);
-    const T u = camera.fx * geo.p.x() / zc + camera.cx, v = camera.fy * geo.p.y() / zc + camera.cy;
+    const auto [u, v] = camera.project(geo.p.x(), geo.p.y(), zc);
     if (radius_tile_rect(u, v, radius, tiles_x, tiles_y).area() <= 0) continue;
     out.means2d[2 * i] = u;
     out.means2d[2 * i + 1] = v;
@@ -342,12 +322,11 @@ void project_backward_scalar(const GaussiansT<T>& g, const PinholeT<T>& camera,
     const T rzc = 1 / (z + T(options.centre_depth_offset));
     Vec3<T> v_p(camera.fx * rzc * v_u, camera.fy * rzc * v_v,
                 -(camera.fx * x * v_u + camera.fy * y * v_v) * rzc * rzc + grads.v_depths[i]);
-    const T rz = 1 / z, rz2 = rz * rz, rz3 = rz2 * rz;
-    const T tx = z * geo.tx_over_z, ty = z * geo.ty_over_z;
-    // J = [[fx/z, 0, -fx tx/z^2], [0, fy/z, -fy ty/z^2]], tx = x (or z * limit when clamped).
-    v_p.z() += -camera.fx * rz2 * v_jac(0, 0) - camera.fy * rz2 * v_jac(1, 1) +
-               2 * camera.fx * tx * rz3 * v_jac(0, 2) + 2 * camera.fy * ty * rz3 * v_jac(1, 2);
-    const T v_tx = -camera.fx * rz2 * v_jac(0, 2), v_ty = -camera.fy * rz2 * v_jac(1, 2);
+    // Through the Jacobian, taken at the guarded point (z tx_over_z, z ty_over_z, z).
+    const auto [v_tx, v_ty, v_z] = camera.jacobian_vjp(
+        z * geo.tx_over_z, z * geo.ty_over_z, z,
+        PinholeJacobianT<T>{v_jac(0, 0), v_jac(0, 2), v_jac(1, 1), v_jac(1, 2)});
+    v_p.z() += v_z;
     if (geo.clamped_x) {
       v_p.z() += v_tx * geo.tx_over_z;
     } else {
@@ -389,7 +368,6 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
 #define RETIMEGS_INSTANTIATE_PROJECT(T)                                               \
   template void check_sizes_and_features<T>(const GaussiansT<T>&);                    \
   template void check_gaussians<T>(const GaussiansT<T>&);                             \
-  template struct PinholeT<T>;                                                        \
   template TileRect radius_tile_rect<T>(T, T, int, int, int);                         \
   template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);       \
   template TileRect blend_tile_rect<T>(const T*, const T*, int, T, int, int,          \

@@ -4,6 +4,7 @@
 #include "project_lanes.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -59,23 +60,11 @@ struct Batch {
   }
 };
 
-// The camera's numbers that every lane shares.
-struct CameraConstants {
-  float rv[9];  // [3, 3] world -> camera rotation, row-major
-  float t[3];
-  float fx, fy, cx, cy;
-  float lim_x_pos, lim_x_neg, lim_y_pos, lim_y_neg;  // field-of-view guard of x/z and y/z
+// The camera's numbers that every lane shares: the pinhole and its field-of-view guard.
+struct CameraConstants : PinholeT<float> {
+  FovGuardT<float> lim;
 
-  explicit CameraConstants(const PinholeT<float>& camera)
-      : fx(camera.fx), fy(camera.fy), cx(camera.cx), cy(camera.cy) {
-    std::copy(camera.rotation.begin(), camera.rotation.end(), rv);
-    std::copy(camera.translation.begin(), camera.translation.end(), t);
-    const float tan_x = 0.5f * camera.width / camera.fx, tan_y = 0.5f * camera.height / camera.fy;
-    lim_x_pos = (camera.width - camera.cx) / camera.fx + float(kFovGuard) * tan_x;
-    lim_x_neg = camera.cx / camera.fx + float(kFovGuard) * tan_x;
-    lim_y_pos = (camera.height - camera.cy) / camera.fy + float(kFovGuard) * tan_y;
-    lim_y_neg = camera.cy / camera.fy + float(kFovGuard) * tan_y;
-  }
+  explicit CameraConstants(const PinholeT<float>& camera) : PinholeT<float>(camera), lim(camera) {}
 };
 
 // e^x for |x| < 87 (log-scales), from the blend's 2^y.
@@ -86,16 +75,17 @@ inline vf exp_lanes(vf x) {
 // Everything the forward computes for a batch that the backward needs again (project.cpp's
 // Geometry, one value per lane). Symmetric 3x3 matrices keep 6 entries: 00 01 02 11 12 22.
 struct GeometryLanes {
-  vf p[3];                  // camera-space mean
+  std::array<vf, 3> p;      // camera-space mean
   vf qnorm, q[4];           // |q| and the normalised quaternion (w, x, y, z)
   vf rq[9];                 // [3, 3] rotation of the Gaussian
   vf scale[3];              // exp(log_scale)
   vf m[9];                  // [3, 3] rq diag(scale)
   vf cov_cam[6];            // camera-space 3-D covariance
-  vf j00, j02, j11, j12;    // the non-zero entries of the Jacobian d pixel / d camera point
   vf jc[2][3];              // [2, 3] J cov_cam
   vf tx_over_z, ty_over_z;  // guarded x/z, y/z
   simd::mask clamped_x, clamped_y;
+  // d pixel / d camera point J, at the guarded point (z tx_over_z, z ty_over_z, z)
+  PinholeJacobianT<vf> jac;
   vf cov2d[3];  // blurred 2-D covariance: 00 01 11
 };
 
@@ -116,9 +106,7 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   GeometryLanes geo;
   vf mean[3];
   batch.load<3>(g.means.data(), mean);
-  for (int i = 0; i < 3; ++i)
-    geo.p[i] = cam.rv[3 * i] * mean[0] + cam.rv[3 * i + 1] * mean[1] + cam.rv[3 * i + 2] * mean[2] +
-               cam.t[i];
+  geo.p = cam.to_camera(mean[0], mean[1], mean[2]);
   vf q[4];
   batch.load<4>(g.quats.data(), q);
   geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -148,53 +136,49 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   vf rc[9];  // rv cov_world
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      rc[3 * i + j] = cam.rv[3 * i] * cov_world[kSym[0][j]] +
-                      cam.rv[3 * i + 1] * cov_world[kSym[1][j]] +
-                      cam.rv[3 * i + 2] * cov_world[kSym[2][j]];
+      rc[3 * i + j] = cam.rotation[3 * i] * cov_world[kSym[0][j]] +
+                      cam.rotation[3 * i + 1] * cov_world[kSym[1][j]] +
+                      cam.rotation[3 * i + 2] * cov_world[kSym[2][j]];
   for (int i = 0; i < 3; ++i)
     for (int j = i; j < 3; ++j)
-      geo.cov_cam[kSym[i][j]] = rc[3 * i] * cam.rv[3 * j] + rc[3 * i + 1] * cam.rv[3 * j + 1] +
-                                rc[3 * i + 2] * cam.rv[3 * j + 2];
+      geo.cov_cam[kSym[i][j]] = rc[3 * i] * cam.rotation[3 * j] +
+                                rc[3 * i + 1] * cam.rotation[3 * j + 1] +
+                                rc[3 * i + 2] * cam.rotation[3 * j + 2];
 
   const vf pz = geo.p[2];
   const vf xz = geo.p[0] / pz, yz = geo.p[1] / pz;
-  geo.clamped_x = ~(simd::greater_equal(xz, simd::splat(-cam.lim_x_neg)) &
-                    simd::less_equal(xz, simd::splat(cam.lim_x_pos)));
-  geo.clamped_y = ~(simd::greater_equal(yz, simd::splat(-cam.lim_y_neg)) &
-                    simd::less_equal(yz, simd::splat(cam.lim_y_pos)));
-  geo.tx_over_z = simd::min(simd::max(xz, simd::splat(-cam.lim_x_neg)), simd::splat(cam.lim_x_pos));
-  geo.ty_over_z = simd::min(simd::max(yz, simd::splat(-cam.lim_y_neg)), simd::splat(cam.lim_y_pos));
-  const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
-  geo.j00 = cam.fx / pz;
-  geo.j02 = -cam.fx * tx / (pz * pz);
-  geo.j11 = cam.fy / pz;
-  geo.j12 = -cam.fy * ty / (pz * pz);
+  geo.clamped_x = ~(simd::greater_equal(xz, simd::splat(-cam.lim.x_neg)) &
+                    simd::less_equal(xz, simd::splat(cam.lim.x_pos)));
+  geo.clamped_y = ~(simd::greater_equal(yz, simd::splat(-cam.lim.y_neg)) &
+                    simd::less_equal(yz, simd::splat(cam.lim.y_pos)));
+  geo.tx_over_z = simd::min(simd::max(xz, simd::splat(-cam.lim.x_neg)), simd::splat(cam.lim.x_pos));
+  geo.ty_over_z = simd::min(simd::max(yz, simd::splat(-cam.lim.y_neg)), simd::splat(cam.lim.y_pos));
+  geo.jac = cam.jacobian(pz * geo.tx_over_z, pz * geo.ty_over_z, pz);
   const vf* c = geo.cov_cam;
   for (int j = 0; j < 3; ++j) {
-    geo.jc[0][j] = geo.j00 * c[kSym[0][j]] + geo.j02 * c[kSym[2][j]];
-    geo.jc[1][j] = geo.j11 * c[kSym[1][j]] + geo.j12 * c[kSym[2][j]];
+    geo.jc[0][j] = geo.jac.j00 * c[kSym[0][j]] + geo.jac.j02 * c[kSym[2][j]];
+    geo.jc[1][j] = geo.jac.j11 * c[kSym[1][j]] + geo.jac.j12 * c[kSym[2][j]];
   }
-  geo.cov2d[0] = geo.jc[0][0] * geo.j00 + geo.jc[0][2] * geo.j02 + low_pass;
-  geo.cov2d[1] = geo.jc[0][1] * geo.j11 + geo.jc[0][2] * geo.j12;
-  geo.cov2d[2] = geo.jc[1][1] * geo.j11 + geo.jc[1][2] * geo.j12 + low_pass;
+  geo.cov2d[0] = geo.jc[0][0] * geo.jac.j00 + geo.jc[0][2] * geo.jac.j02 + low_pass;
+  geo.cov2d[1] = geo.jc[0][1] * geo.jac.j11 + geo.jc[0][2] * geo.jac.j12;
+  geo.cov2d[2] = geo.jc[1][1] * geo.jac.j11 + geo.jc[1][2] * geo.jac.j12 + low_pass;
   return geo;
 }
 
 // Lanes whose radius_tile_rect (project.cpp) is not empty, with C-style truncation.
 simd::mask tile_rect_not_empty(vf u, vf v, vi radius, int tiles_x, int tiles_y) {
   const vf lim = simd::splat(float(kMaxPixelCoordinate));
-  const float inv_tile = 1.0f / kTileSize;  // exact: a power of two
   u = simd::min(simd::max(u, -lim), lim);
   v = simd::min(simd::max(v, -lim), lim);
-  const vf r = __builtin_convertvector(radius, vf) * inv_tile;
+  const vf r = __builtin_convertvector(radius, vf) * kInverseTileSize;
   const auto clamp = [](vi a, int hi) {
     return simd::min(simd::max(a, vi{}), simd::splat_int(hi));
   };
   const auto trunc = [](vf a) { return __builtin_convertvector(a, vi); };
-  const vi x0 = clamp(trunc(u * inv_tile - r), tiles_x);
-  const vi x1 = clamp(trunc(u * inv_tile + r) + 1, tiles_x);
-  const vi y0 = clamp(trunc(v * inv_tile - r), tiles_y);
-  const vi y1 = clamp(trunc(v * inv_tile + r) + 1, tiles_y);
+  const vi x0 = clamp(trunc(u * kInverseTileSize - r), tiles_x);
+  const vi x1 = clamp(trunc(u * kInverseTileSize + r) + 1, tiles_x);
+  const vi y0 = clamp(trunc(v * kInverseTileSize - r), tiles_y);
+  const vi y1 = clamp(trunc(v * kInverseTileSize + r) + 1, tiles_y);
   return simd::less(x0, x1) & simd::less(y0, y1);
 }
 
@@ -234,7 +218,7 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
                                                  simd::splat(float(kRadiusDiscriminantFloor))));
     const vi radius = simd::ceil_to_int(float(kRadiusSigmas) * simd::sqrt_nonnegative(lambda));
     const vf zc = z + options.centre_depth_offset;
-    const vf u = cam.fx * geo.p[0] / zc + cam.cx, v = cam.fy * geo.p[1] / zc + cam.cy;
+    const auto [u, v] = cam.project(geo.p[0], geo.p[1], zc);
     // Culled: opacity <= 0 or < min_alpha, z < near plane, singular covariance, off image.
     const simd::mask visible = simd::less(simd::splat(0.0f), opacity) &
                                simd::greater_equal(opacity, simd::splat(min_opacity)) &
@@ -292,7 +276,7 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     for (int r = 0; r < 2; ++r)
       for (int j = 0; j < 3; ++j)
         v_jac[r][j] = 2.0f * (v_cov2d[r][0] * geo.jc[0][j] + v_cov2d[r][1] * geo.jc[1][j]);
-    const vf jac[2][3] = {{geo.j00, vf{}, geo.j02}, {vf{}, geo.j11, geo.j12}};
+    const vf jac[2][3] = {{geo.jac.j00, vf{}, geo.jac.j02}, {vf{}, geo.jac.j11, geo.jac.j12}};
     vf wj[2][3];  // v_cov2d J
     for (int r = 0; r < 2; ++r)
       for (int j = 0; j < 3; ++j) wj[r][j] = v_cov2d[r][0] * jac[0][j] + v_cov2d[r][1] * jac[1][j];
@@ -303,12 +287,12 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     vf tmp[3][3], v_cov3d[3][3];  // v_cov_cam Rv, Rv^T v_cov_cam Rv
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
-        tmp[i][j] = v_cov_cam[i][0] * cam.rv[j] + v_cov_cam[i][1] * cam.rv[3 + j] +
-                    v_cov_cam[i][2] * cam.rv[6 + j];
+        tmp[i][j] = v_cov_cam[i][0] * cam.rotation[j] + v_cov_cam[i][1] * cam.rotation[3 + j] +
+                    v_cov_cam[i][2] * cam.rotation[6 + j];
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
-        v_cov3d[i][j] =
-            cam.rv[i] * tmp[0][j] + cam.rv[3 + i] * tmp[1][j] + cam.rv[6 + i] * tmp[2][j];
+        v_cov3d[i][j] = cam.rotation[i] * tmp[0][j] + cam.rotation[3 + i] * tmp[1][j] +
+                        cam.rotation[6 + i] * tmp[2][j];
     vf v_m[3][3], v_rq[3][3];
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
@@ -348,11 +332,10 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     vf v_p[3] = {
         cam.fx * rzc * v_u, cam.fy * rzc * v_v,
         -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths.data())};
-    const vf rz = 1.0f / pz, rz2 = rz * rz, rz3 = rz2 * rz;
-    const vf tx = pz * geo.tx_over_z, ty = pz * geo.ty_over_z;
-    v_p[2] += -cam.fx * rz2 * v_jac[0][0] - cam.fy * rz2 * v_jac[1][1] +
-              2.0f * cam.fx * tx * rz3 * v_jac[0][2] + 2.0f * cam.fy * ty * rz3 * v_jac[1][2];
-    const vf v_tx = -cam.fx * rz2 * v_jac[0][2], v_ty = -cam.fy * rz2 * v_jac[1][2];
+    const auto [v_tx, v_ty, v_z] =
+        cam.jacobian_vjp(pz * geo.tx_over_z, pz * geo.ty_over_z, pz,
+                         PinholeJacobianT<vf>{v_jac[0][0], v_jac[0][2], v_jac[1][1], v_jac[1][2]});
+    v_p[2] += v_z;
     // A clamped direction's x/z is a constant times z.
     v_p[2] += simd::select(geo.clamped_x, v_tx * geo.tx_over_z, vf{}) +
               simd::select(geo.clamped_y, v_ty * geo.ty_over_z, vf{});
@@ -360,7 +343,8 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     v_p[1] += simd::select(geo.clamped_y, vf{}, v_ty);
     vf v_mean[3];
     for (int k = 0; k < 3; ++k)
-      v_mean[k] = cam.rv[k] * v_p[0] + cam.rv[3 + k] * v_p[1] + cam.rv[6 + k] * v_p[2];
+      v_mean[k] =
+          cam.rotation[k] * v_p[0] + cam.rotation[3 + k] * v_p[1] + cam.rotation[6 + k] * v_p[2];
     batch.store<3>(grads.v_means.data(), v_mean, visible);
   }
 }

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
 
+#include "retimegs/core/pinhole.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/train/neighbors.hpp"
 
@@ -67,10 +68,9 @@ Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<O
     for (const Observation& o : obs) {
       const Eigen::Vector3d p = o.camera->world_to_cam(x + d);
       if (p.z() <= 1e-6) return lifted;
-      Eigen::Matrix<double, 2, 3> j;  // d π / d x_world = d π / d p · R
-      j << o.camera->fx / p.z(), 0, -o.camera->fx * p.x() / (p.z() * p.z()), 0,
-          o.camera->fy / p.z(), -o.camera->fy * p.y() / (p.z() * p.z());
-      j = j * o.camera->rotation();
+      // d π / d x_world = d π / d p · R
+      const Eigen::Matrix<double, 2, 3> j =
+          PinholeT<double>(*o.camera).jacobian(p.x(), p.y(), p.z()).matrix() * o.camera->rotation();
       const Eigen::Vector2d r = o.camera->project_cam(p) - o.target;
       a += j.transpose() * j;
       b -= j.transpose() * r;

@@ -5,23 +5,14 @@
 #include <cstdint>
 #include <vector>
 
-#include "retimegs/core/camera.hpp"
 #include "retimegs/core/gaussians.hpp"
+#include "retimegs/core/pinhole.hpp"
 #include "retimegs/render/options.hpp"
 
 namespace retimegs::render {
 
-// A Camera's numbers in the scalar type of the pipeline.
-template <typename T>
-struct PinholeT {
-  std::array<T, 9> rotation{};  // [3, 3] world -> camera, row-major
-  std::array<T, 3> translation{};
-  T fx = 0, fy = 0, cx = 0, cy = 0;
-  int width = 0, height = 0;
-
-  PinholeT() = default;
-  explicit PinholeT(const Camera& camera);
-};
+// The stages take the camera as core's pinhole (also named render::PinholeT by their callers).
+using retimegs::PinholeT;
 
 // 2-D Gaussians, one row per input Gaussian. Culled rows have radius 0 and all-zero values.
 template <typename T>
