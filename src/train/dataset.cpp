@@ -1,9 +1,9 @@
 #include "retimegs/train/dataset.hpp"
 
 #include <cmath>
-#include <string>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 
 namespace retimegs::train {
 
@@ -34,23 +34,15 @@ TrainingSet load_training_set(const io::Scene& scene, TrainFrames which) {
   set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
   set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
   set.points.assign(nf, std::nullopt);
-  std::string error;
-#pragma omp parallel for schedule(dynamic) collapse(2)
-  for (std::size_t c = 0; c < nc; ++c)
-    for (std::size_t i = 0; i < nf; ++i) {
-      try {
-        const int cam = set.cameras[c], k = set.frames[i];
-        set.images[c][i] = io::load_image(scene, cam, k);
-        set.masks[c][i] = io::load_mask(scene, cam, k);
-        if (i + 1 < nf) set.forward[c][i] = io::load_flow(scene, cam, k, set.frames[i + 1]);
-        if (i > 0) set.backward[c][i] = io::load_flow(scene, cam, k, set.frames[i - 1]);
-        if (c == 0) set.points[i] = io::load_points(scene, k);
-      } catch (const std::exception& e) {
-#pragma omp critical
-        if (error.empty()) error = e.what();
-      }
-    }
-  if (!error.empty()) throw Error(error);
+  parallel_for(nc * nf, [&](std::size_t job) {
+    const std::size_t c = job / nf, i = job % nf;
+    const int cam = set.cameras[c], k = set.frames[i];
+    set.images[c][i] = io::load_image(scene, cam, k);
+    set.masks[c][i] = io::load_mask(scene, cam, k);
+    if (i + 1 < nf) set.forward[c][i] = io::load_flow(scene, cam, k, set.frames[i + 1]);
+    if (i > 0) set.backward[c][i] = io::load_flow(scene, cam, k, set.frames[i - 1]);
+    if (c == 0) set.points[i] = io::load_points(scene, k);
+  });
 
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (int c : set.cameras) mean += scene.cameras[c].center();
