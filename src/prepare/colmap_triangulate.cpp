@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 
@@ -166,7 +167,7 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
   const std::string threads = std::to_string(options.threads);
   for (const auto& cam : model.cameras) {
     const fs::path list = work_dir / "lists" / fmt::format("camera{}.txt", cam.id);
-    std::ofstream(list) << fmt::format("{}\n", fmt::join(group_images[cam.id], "\n"));
+    write_text_file(list, fmt::format("{}\n", fmt::join(group_images[cam.id], "\n")));
     run_colmap(exe, "feature_extractor",
                {"--database_path",
                 database.string(),
