@@ -15,6 +15,7 @@
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
@@ -77,11 +78,10 @@ void add_eval_command(CLI::App& app) {
     std::shared_ptr<Splats> splats;
     const float black[3] = {0, 0, 0};
     if (!args->baseline.empty()) {
-      std::vector<int> train;
-      for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1)
-        train.push_back(k);
+      const io::FrameSelection train =
+          io::parse_frame_selection(args->train_frames, "--train-frames");
       renderer = eval::baseline_renderer(
-          scene, train,
+          scene, io::training_views(scene, train).frames,
           args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
     } else if (fs::path(args->model).extension() == ".ply") {
       splats = std::make_shared<Splats>(io::read_splat_ply(args->model));

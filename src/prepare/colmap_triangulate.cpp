@@ -19,6 +19,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 
 extern char** environ;
@@ -123,9 +124,7 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
   if (frame < 0 || frame >= scene.num_frames)
     fail("--points colmap: frame {} is outside the scene's frames 0:{}", frame,
          scene.num_frames - 1);
-  std::vector<int> cams;  // training cameras
-  for (int c = 0; c < int(scene.cameras.size()); ++c)
-    if (scene.cameras[c].split == Split::kTrain) cams.push_back(c);
+  const std::vector<int> cams = io::training_cameras(scene);
   if (cams.size() < 2)
     fail("--points colmap: triangulation needs at least 2 training cameras, the scene has {}",
          cams.size());

@@ -148,9 +148,9 @@ void common_region(const io::Scene& scene, const std::vector<int>& cameras, Vect
       return;
     }
   }
-  const Box box = cameras_look_box(scene, cameras);
-  lo = box.lo;
-  hi = box.hi;
+  const io::Box box = io::cameras_look_box(scene, cameras);
+  lo = box.lo();
+  hi = box.hi();
 }
 
 // Per-camera depth map of the points: each point covers the pixels within its voxel's projected

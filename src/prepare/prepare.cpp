@@ -138,31 +138,18 @@ bool has_every_mask(const io::Scene& scene, const std::vector<int>& cameras,
 
 }  // namespace
 
-std::vector<int> training_cameras(const io::Scene& scene) {
-  std::vector<int> cameras;
-  for (int c = 0; c < int(scene.cameras.size()); ++c)
-    if (scene.cameras[c].split == Split::kTrain) cameras.push_back(c);
-  return cameras;
-}
-
-std::vector<int> training_frames(const io::Scene& scene, int step) {
-  if (step < 1) fail("training frame step must be >= 1, got {}", step);
-  std::vector<int> frames;
-  for (int k = 0; k < scene.num_frames; k += step) frames.push_back(k);
-  return frames;
-}
-
 PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
   PrepareReport report;
-  const std::vector<int> cameras = training_cameras(scene);
-  const std::vector<int> frames = training_frames(scene, options.frame_step);
+  const io::TrainingViews views = io::training_views(scene, options.frames);
+  const std::vector<int>& cameras = views.cameras;
+  const std::vector<int>& frames = views.frames;
   if (cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
 
   // What is missing.
   std::vector<FlowJob> jobs;
   for (int c : cameras)
-    for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
-      FlowJob job{c, frames[i], frames[i + 1]};
+    for (const auto& [from, to] : views.flow_pairs) {
+      FlowJob job{c, from, to};
       job.write_forward = options.force || !fs::exists(scene.flow_path(c, job.from, job.to));
       job.write_backward = options.force || !fs::exists(scene.flow_path(c, job.to, job.from));
       report.flows_kept += !job.write_forward + !job.write_backward;
