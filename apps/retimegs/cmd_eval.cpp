@@ -12,6 +12,7 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/training_views.hpp"
 
 namespace retimegs::app {
 namespace fs = std::filesystem;
@@ -70,11 +71,10 @@ void add_eval_command(CLI::App& app) {
 
     eval::FrameRenderer renderer;
     if (!args->baseline.empty()) {
-      std::vector<int> train;
-      for (int k = 0; k < scene.num_frames; k += args->train_frames == "even" ? 2 : 1)
-        train.push_back(k);
+      const io::FrameSelection train =
+          io::parse_frame_selection(args->train_frames, "--train-frames");
       renderer = eval::baseline_renderer(
-          scene, train,
+          scene, io::training_views(scene, train).frames,
           args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
     } else {
       renderer = eval::model_renderer(scene, eval::load_model(args->model));

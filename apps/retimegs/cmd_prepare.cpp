@@ -11,6 +11,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/prepare.hpp"
 
 namespace retimegs::app {
@@ -58,7 +59,7 @@ void add_prepare_command(CLI::App& app) {
   cmd->callback([args] {
     set_threads(args->threads);
     prepare::PrepareOptions options;
-    options.frame_step = args->frames == "all" ? 1 : 2;
+    options.frames = io::parse_frame_selection(args->frames, "--train-frames");
     options.flow_method = prepare::parse_flow_method(args->flow);
     options.flow_dir = args->flow_dir;
     options.force = args->force;

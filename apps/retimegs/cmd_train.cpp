@@ -9,6 +9,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/train/trainer.hpp"
 
 namespace retimegs::app {
@@ -49,7 +50,7 @@ void add_train_command(CLI::App& app) {
     train::TrainRun run;
     run.out = args->out;
     run.resume = args->resume;
-    run.frames = args->frames == "all" ? train::TrainFrames::kAll : train::TrainFrames::kEven;
+    run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     train::TrainConfig& config = run.config;
     if (!args->config.empty()) {
       std::ifstream in(args->config);

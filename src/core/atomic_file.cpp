@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <fstream>
 #include <system_error>
 
 #include "retimegs/core/error.hpp"
@@ -43,6 +44,17 @@ void AtomicFile::commit() {
   fs::rename(temp_, final_, ec);
   if (ec) fail("{}: cannot move finished file into place: {}", final_.string(), ec.message());
   committed_ = true;
+}
+
+void write_text_file(const fs::path& path, std::string_view text) {
+  AtomicFile file(path);
+  {
+    std::ofstream out(file.temp_path());
+    out.write(text.data(), std::streamsize(text.size()));
+    out.close();
+    if (!out) fail("{}: write failed", path.string());
+  }
+  file.commit();
 }
 
 AtomicDirectory::AtomicDirectory(fs::path final_path, bool replace)

@@ -2,6 +2,9 @@
 
 #include <omp.h>
 
+#include <atomic>
+#include <exception>
+
 #include "retimegs/core/error.hpp"
 
 namespace retimegs {
@@ -13,6 +16,23 @@ void set_threads(int threads) {
 
 int max_threads() {
   return omp_get_max_threads();
+}
+
+void parallel_for(std::size_t n, const std::function<void(std::size_t)>& body) {
+  std::exception_ptr error;
+  std::atomic<bool> failed{false};
+#pragma omp parallel for schedule(dynamic)
+  for (std::size_t i = 0; i < n; ++i) {
+    if (failed.load()) continue;
+    try {
+      body(i);
+    } catch (...) {
+#pragma omp critical(retimegs_parallel_for)
+      if (!error) error = std::current_exception();
+      failed = true;
+    }
+  }
+  if (error) std::rethrow_exception(error);
 }
 
 }  // namespace retimegs

@@ -2,14 +2,13 @@
 #include "import_common.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
 
 namespace retimegs::ingest::detail {
@@ -195,20 +194,7 @@ Image Undistorter::apply(const Image& image) const {
 void parallel_jobs(std::size_t count, std::size_t ticks, const std::string& label,
                    bool progress_enabled, const std::function<void(std::size_t, Progress&)>& job) {
   Progress progress(label, ticks, progress_enabled);
-  std::exception_ptr error;
-  std::atomic<bool> failed{false};
-#pragma omp parallel for schedule(dynamic)
-  for (std::size_t i = 0; i < count; ++i) {
-    if (failed.load()) continue;  // finish quickly after the first error
-    try {
-      job(i, progress);
-    } catch (...) {
-#pragma omp critical
-      if (!error) error = std::current_exception();
-      failed = true;
-    }
-  }
-  if (error) std::rethrow_exception(error);
+  parallel_for(count, [&](std::size_t i) { job(i, progress); });
   progress.finish();
 }
 

@@ -62,7 +62,7 @@ class Undistorter {
 };
 
 // Runs job(i, progress) for i in [0, count) in parallel under a progress bar of `ticks` steps
-// (the jobs tick it); the first exception thrown by any job is rethrown once all have stopped.
+// (the jobs tick it); errors as in parallel_for (core/parallel.hpp): the first is rethrown.
 void parallel_jobs(std::size_t count, std::size_t ticks, const std::string& label, bool progress,
                    const std::function<void(std::size_t, Progress&)>& job);
 

@@ -147,36 +147,27 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
 
   AtomicDirectory dir(out, options.force);
   scene.root = dir.temp_path();
-  Progress progress("import panoptic", jobs.size(), options.progress);
-  std::string error;
-#pragma omp parallel for schedule(dynamic)
-  for (std::size_t i = 0; i < jobs.size(); ++i) {
-    try {
-      const Job& job = jobs[i];
-      const Camera& cam = scene.cameras[job.camera];
-      const Image image = io::read_image(job.image);
-      if (image.width != cams[job.camera].camera.width ||
-          image.height != cams[job.camera].camera.height)
-        fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
-             image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
-      io::write_png(scene.image_path(job.camera, job.frame),
-                    detail::resize_area(image, cam.width, cam.height));
-      if (!job.mask.empty()) {
-        const Image mask = io::read_mask(job.mask);
-        if (mask.width != image.width || mask.height != image.height)
-          fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width,
-               mask.height, image.width, image.height);
-        io::write_png(scene.mask_path(job.camera, job.frame),
-                      detail::resize_area(mask, cam.width, cam.height));
-      }
-      progress.tick();
-    } catch (const std::exception& e) {
-#pragma omp critical
-      if (error.empty()) error = e.what();
+  const auto import_job = [&](std::size_t i, Progress& progress) {
+    const Job& job = jobs[i];
+    const Camera& cam = scene.cameras[job.camera];
+    const Image image = io::read_image(job.image);
+    if (image.width != cams[job.camera].camera.width ||
+        image.height != cams[job.camera].camera.height)
+      fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
+           image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
+    io::write_png(scene.image_path(job.camera, job.frame),
+                  detail::resize_area(image, cam.width, cam.height));
+    if (!job.mask.empty()) {
+      const Image mask = io::read_mask(job.mask);
+      if (mask.width != image.width || mask.height != image.height)
+        fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width, mask.height,
+             image.width, image.height);
+      io::write_png(scene.mask_path(job.camera, job.frame),
+                    detail::resize_area(mask, cam.width, cam.height));
     }
-  }
-  if (!error.empty()) throw Error(error);
-  progress.finish();
+    progress.tick();
+  };
+  detail::parallel_jobs(jobs.size(), jobs.size(), "import panoptic", options.progress, import_job);
   io::write_scene_json(scene);
   dir.commit();
 }

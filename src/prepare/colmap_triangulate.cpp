@@ -17,7 +17,9 @@
 
 #include <fmt/format.h>
 
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 
 extern char** environ;
@@ -122,9 +124,7 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
   if (frame < 0 || frame >= scene.num_frames)
     fail("--points colmap: frame {} is outside the scene's frames 0:{}", frame,
          scene.num_frames - 1);
-  std::vector<int> cams;  // training cameras
-  for (int c = 0; c < int(scene.cameras.size()); ++c)
-    if (scene.cameras[c].split == Split::kTrain) cams.push_back(c);
+  const std::vector<int> cams = io::training_cameras(scene);
   if (cams.size() < 2)
     fail("--points colmap: triangulation needs at least 2 training cameras, the scene has {}",
          cams.size());
@@ -166,7 +166,7 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
   const std::string threads = std::to_string(options.threads);
   for (const auto& cam : model.cameras) {
     const fs::path list = work_dir / "lists" / fmt::format("camera{}.txt", cam.id);
-    std::ofstream(list) << fmt::format("{}\n", fmt::join(group_images[cam.id], "\n"));
+    write_text_file(list, fmt::format("{}\n", fmt::join(group_images[cam.id], "\n")));
     run_colmap(exe, "feature_extractor",
                {"--database_path",
                 database.string(),

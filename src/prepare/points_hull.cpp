@@ -4,13 +4,13 @@
 #include <limits>
 #include <optional>
 #include <random>
-#include <string>
 
 #include <Eigen/Eigenvalues>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/prepare/points.hpp"
 
 namespace retimegs::prepare {
@@ -148,9 +148,9 @@ void common_region(const io::Scene& scene, const std::vector<int>& cameras, Vect
       return;
     }
   }
-  const Box box = cameras_look_box(scene, cameras);
-  lo = box.lo;
-  hi = box.hi;
+  const io::Box box = io::cameras_look_box(scene, cameras);
+  lo = box.lo();
+  hi = box.hi();
 }
 
 // Per-camera depth map of the points: each point covers the pixels within its voxel's projected
@@ -185,28 +185,20 @@ io::PointCloud visual_hull(const io::Scene& scene, const std::vector<int>& camer
   if (cameras.size() < 2)
     fail("visual hull: needs at least 2 cameras with masks, got {}", cameras.size());
   std::vector<View> views(cameras.size());
-  std::string error;
-#pragma omp parallel for schedule(dynamic)
-  for (std::size_t v = 0; v < cameras.size(); ++v) {
-    try {
-      const int c = cameras[v];
-      const std::optional<Image> mask = io::load_mask(scene, c, frame);
-      if (!mask)
-        fail("{}: no mask; the visual hull needs the masks of every training camera",
-             scene.mask_path(c, frame).string());
-      cv::Mat background(mask->height, mask->width, CV_8UC1);
-      for (int y = 0; y < mask->height; ++y)
-        for (int x = 0; x < mask->width; ++x)
-          background.at<unsigned char>(y, x) = mask->at(y, x) > 0.5f ? 0 : 255;
-      views[v].camera = &scene.cameras[c];
-      cv::distanceTransform(background, views[v].distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-      views[v].image = io::load_image(scene, c, frame);
-    } catch (const std::exception& e) {
-#pragma omp critical
-      if (error.empty()) error = e.what();
-    }
-  }
-  if (!error.empty()) throw Error(error);
+  parallel_for(cameras.size(), [&](std::size_t v) {
+    const int c = cameras[v];
+    const std::optional<Image> mask = io::load_mask(scene, c, frame);
+    if (!mask)
+      fail("{}: no mask; the visual hull needs the masks of every training camera",
+           scene.mask_path(c, frame).string());
+    cv::Mat background(mask->height, mask->width, CV_8UC1);
+    for (int y = 0; y < mask->height; ++y)
+      for (int x = 0; x < mask->width; ++x)
+        background.at<unsigned char>(y, x) = mask->at(y, x) > 0.5f ? 0 : 255;
+    views[v].camera = &scene.cameras[c];
+    cv::distanceTransform(background, views[v].distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    views[v].image = io::load_image(scene, c, frame);
+  });
   const CarveRule rule{std::max(2, (int(views.size()) + 1) / 2), std::max(0, options.slack)};
 
   // Coarse pass over the common region, fine pass over the coarse hull's bounds.

@@ -55,27 +55,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Runs body(i) for i in [0, n) on the OpenMP threads (dynamic schedule); rethrows the first
-// error afterwards as an Error. Files that body() finished stay (each is atomic).
-template <typename Body>
-void parallel_jobs(std::size_t n, Body&& body) {
-  std::string error;
-#pragma omp parallel for schedule(dynamic)
-  for (std::size_t i = 0; i < n; ++i) {
-    bool skip = false;
-#pragma omp critical(prepare_error)
-    skip = !error.empty();
-    if (skip) continue;
-    try {
-      body(i);
-    } catch (const std::exception& e) {
-#pragma omp critical(prepare_error)
-      if (error.empty()) error = e.what();
-    }
-  }
-  if (!error.empty()) throw Error(error);
-}
-
 // OpenCV's own threads off while the OpenMP workers each run an estimator (no oversubscription).
 class OpenCvThreads {
  public:
@@ -126,7 +105,7 @@ void check_flow_imports(const io::Scene& scene, const std::vector<FlowJob>& jobs
         "--flow-dir: {}: missing ({} of the {} flow files to import are missing; expected "
         "<dir>/<camera>/<from:05d>_<to:05d>.flo)",
         first->string(), missing, needed.size());
-  parallel_jobs(needed.size(), [&](std::size_t i) {
+  parallel_for(needed.size(), [&](std::size_t i) {
     const Flow flow = io::read_flo(needed[i].path);  // tag, size, length, NaN
     const Camera& cam = scene.cameras[needed[i].camera];
     if (flow.width != cam.width || flow.height != cam.height)
@@ -159,31 +138,18 @@ bool has_every_mask(const io::Scene& scene, const std::vector<int>& cameras,
 
 }  // namespace
 
-std::vector<int> training_cameras(const io::Scene& scene) {
-  std::vector<int> cameras;
-  for (int c = 0; c < int(scene.cameras.size()); ++c)
-    if (scene.cameras[c].split == Split::kTrain) cameras.push_back(c);
-  return cameras;
-}
-
-std::vector<int> training_frames(const io::Scene& scene, int step) {
-  if (step < 1) fail("training frame step must be >= 1, got {}", step);
-  std::vector<int> frames;
-  for (int k = 0; k < scene.num_frames; k += step) frames.push_back(k);
-  return frames;
-}
-
 PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
   PrepareReport report;
-  const std::vector<int> cameras = training_cameras(scene);
-  const std::vector<int> frames = training_frames(scene, options.frame_step);
+  const io::TrainingViews views = io::training_views(scene, options.frames);
+  const std::vector<int>& cameras = views.cameras;
+  const std::vector<int>& frames = views.frames;
   if (cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
 
   // What is missing.
   std::vector<FlowJob> jobs;
   for (int c : cameras)
-    for (std::size_t i = 0; i + 1 < frames.size(); ++i) {
-      FlowJob job{c, frames[i], frames[i + 1]};
+    for (const auto& [from, to] : views.flow_pairs) {
+      FlowJob job{c, from, to};
       job.write_forward = options.force || !fs::exists(scene.flow_path(c, job.from, job.to));
       job.write_backward = options.force || !fs::exists(scene.flow_path(c, job.to, job.from));
       report.flows_kept += !job.write_forward + !job.write_backward;
@@ -238,7 +204,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
                       options.progress);
     const OpenCvThreads single(max_threads() > 1 ? 1 : cv::getNumThreads());
     std::size_t unknown = 0, pixels = 0;
-    parallel_jobs(jobs.size(), [&](std::size_t j) {
+    // After an error the flows already written stay: each file is atomic, and a re-run keeps them.
+    parallel_for(jobs.size(), [&](std::size_t j) {
       const FlowJob& job = jobs[j];
       const fs::path forward = scene.flow_path(job.camera, job.from, job.to);
       const fs::path backward = scene.flow_path(job.camera, job.to, job.from);

@@ -1,9 +1,9 @@
 #include "retimegs/train/dataset.hpp"
 
 #include <cmath>
-#include <string>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 
 namespace retimegs::train {
 
@@ -15,18 +15,18 @@ std::size_t TrainingSet::flow_files() const {
   return n;
 }
 
-TrainingSet load_training_set(const io::Scene& scene, TrainFrames which) {
-  TrainingSet set;
-  set.scene = scene;
-  const int step = which == TrainFrames::kEven ? 2 : 1;
-  for (int k = 0; k < scene.num_frames; k += step) set.frames.push_back(k);
-  if (set.frames.size() < 2)
+TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) {
+  const io::TrainingViews views = io::training_views(scene, which);
+  if (views.frames.size() < 2)
     fail("{}: training needs at least 2 training frames; the scene has {} frame(s)",
          scene.json_path().string(), scene.num_frames);
-  set.grid = {0.0, double(step), int(set.frames.size())};
-  for (int c = 0; c < int(scene.cameras.size()); ++c)
-    if (scene.cameras[c].split == Split::kTrain) set.cameras.push_back(c);
-  if (set.cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
+  if (views.cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
+  TrainingSet set;
+  set.scene = scene;
+  set.cameras = views.cameras;
+  set.frames = views.frames;
+  set.grid = {0.0, double(views.step), int(views.frames.size())};
+  set.scene_extent = views.extent;
 
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
   set.images.assign(nc, std::vector<Image>(nf));
@@ -34,30 +34,21 @@ TrainingSet load_training_set(const io::Scene& scene, TrainFrames which) {
   set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
   set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
   set.points.assign(nf, std::nullopt);
-  std::string error;
-#pragma omp parallel for schedule(dynamic) collapse(2)
-  for (std::size_t c = 0; c < nc; ++c)
-    for (std::size_t i = 0; i < nf; ++i) {
-      try {
-        const int cam = set.cameras[c], k = set.frames[i];
-        set.images[c][i] = io::load_image(scene, cam, k);
-        set.masks[c][i] = io::load_mask(scene, cam, k);
-        if (i + 1 < nf) set.forward[c][i] = io::load_flow(scene, cam, k, set.frames[i + 1]);
-        if (i > 0) set.backward[c][i] = io::load_flow(scene, cam, k, set.frames[i - 1]);
-        if (c == 0) set.points[i] = io::load_points(scene, k);
-      } catch (const std::exception& e) {
-#pragma omp critical
-        if (error.empty()) error = e.what();
-      }
+  parallel_for(nc * nf, [&](std::size_t job) {
+    const std::size_t c = job / nf, i = job % nf;
+    const int cam = set.cameras[c], k = set.frames[i];
+    set.images[c][i] = io::load_image(scene, cam, k);
+    set.masks[c][i] = io::load_mask(scene, cam, k);
+    if (i < views.flow_pairs.size()) {
+      const auto [from, to] = views.flow_pairs[i];  // (k, t_{i+1})
+      set.forward[c][i] = io::load_flow(scene, cam, from, to);
     }
-  if (!error.empty()) throw Error(error);
-
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (int c : set.cameras) mean += scene.cameras[c].center();
-  mean /= double(nc);
-  double radius = 0;
-  for (int c : set.cameras) radius = std::max(radius, (scene.cameras[c].center() - mean).norm());
-  set.scene_extent = radius > 0 ? 1.1 * radius : 1.0;
+    if (i > 0) {
+      const auto [to, from] = views.flow_pairs[i - 1];  // (t_{i-1}, k)
+      set.backward[c][i] = io::load_flow(scene, cam, from, to);
+    }
+    if (c == 0) set.points[i] = io::load_points(scene, k);
+  });
   return set;
 }
 

@@ -147,15 +147,11 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
 
   std::mt19937_64 rng(options.seed);
   if (!any_points) {
-    // Random fallback: points in a box around the training cameras' common look-at region.
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (int c : set.cameras) {
-      const Camera& cam = set.scene.cameras[c];
-      centre += cam.center() + cam.rotation().row(2).transpose() * set.scene_extent;
-    }
-    centre /= double(set.cameras.size());
+    // Random fallback: points uniform in the box prepare's random points are drawn from.
+    const io::Box box = io::cameras_look_box(set.scene, set.cameras);
+    const Eigen::Vector3d& centre = box.centre;
+    const double half = box.half;
     std::uniform_real_distribution<double> u(-1, 1), colour(0, 1);
-    const double half = 0.5 * set.scene_extent;
     for (std::size_t k = 0; k < kRandomPoints; ++k) {
       for (int a = 0; a < 3; ++a) xyz.push_back(float(centre[a] + half * u(rng)));
       for (int a = 0; a < 3; ++a) rgb.push_back(float(colour(rng)));

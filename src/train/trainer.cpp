@@ -239,22 +239,43 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
     io::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
     io::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
   }
-  std::ofstream(out.temp_path() / "state.json") << state.dump(2) << "\n";
+  write_text_file(out.temp_path() / "state.json", state.dump(2) + "\n");
   out.commit();
 }
 
+namespace {
+
+// The value at `key` ("rng", "adam_steps/mu") of a checkpoint's state.json `file` as a T; throws
+// Error naming the file and the key when it is missing or of another type.
+template <typename T>
+T state_value(const json& state, const std::string& key, const fs::path& file) {
+  const json::json_pointer pointer("/" + key);
+  if (!state.contains(pointer)) fail("{}: checkpoint state lacks '{}'", file.string(), key);
+  try {
+    return state.at(pointer).get<T>();
+  } catch (const json::exception&) {
+    fail("{}: checkpoint state '{}' has the wrong type: {}", file.string(), key,
+         state.at(pointer).dump());
+  }
+}
+
+}  // namespace
+
 void Trainer::load_checkpoint(const fs::path& dir) {
   model_ = model::read_model(dir / "model.rgs");
+  const fs::path file = dir / "state.json";
+  std::ifstream in(file);
+  if (!in) fail("{}: cannot open checkpoint state", file.string());
   json state;
   try {
-    std::ifstream in(dir / "state.json");
     state = json::parse(in);
-    iteration_ = state.at("iteration").get<int>();
-    std::istringstream(state.at("rng").get<std::string>()) >> rng_;
-    model_.config.sh_degree = state.at("sh_degree").get<int>();
   } catch (const json::exception& e) {
-    fail("{}: malformed checkpoint state: {}", (dir / "state.json").string(), e.what());
+    fail("{}: malformed checkpoint state: {}", file.string(), e.what());
   }
+  iteration_ = state_value<int>(state, "iteration", file);
+  if (!(std::istringstream(state_value<std::string>(state, "rng", file)) >> rng_))
+    fail("{}: checkpoint state 'rng' is not a generator state", file.string());
+  model_.config.sh_degree = state_value<int>(state, "sh_degree", file);
   make_optimizers();
   for (auto& [name, adam] : adam_) {
     const auto m = io::read_npy(dir / "adam" / (name + "_m.npy")).to_float();
@@ -262,7 +283,7 @@ void Trainer::load_checkpoint(const fs::path& dir) {
     if (m.size() != adam.m().size() || v.size() != adam.v().size())
       fail("{}: optimizer state of '{}' does not match the model", dir.string(), name);
     adam.m() = m, adam.v() = v;
-    adam.step_count() = state["adam_steps"].value(name, std::int64_t(0));
+    adam.step_count() = state_value<std::int64_t>(state, "adam_steps/" + name, file);
   }
 }
 
@@ -296,9 +317,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
     spdlog::info("resuming from {} (iteration {})", latest.string(), trainer.iteration());
   } else {
     spdlog::info("{}", trainer.initialize());
-    AtomicFile cfg(run.out / "config.json");
-    std::ofstream(cfg.temp_path()) << to_json(config) << "\n";
-    cfg.commit();
+    write_text_file(run.out / "config.json", to_json(config) + "\n");
   }
   spdlog::info(
       "training {} primitives (cap {}) on {} cameras x {} frames, {} flow files, {} "

@@ -35,6 +35,18 @@ TEST(AtomicFile, AbandonedWriteLeavesNothing) {
   EXPECT_TRUE(fs::is_empty(dir / "sub"));
 }
 
+TEST(AtomicFile, TextFileIsWrittenWholeOrNamesThePath) {
+  test::TempDir dir;
+  write_text_file(dir / "sub" / "state.json", "{\"a\": 1}\n");
+  EXPECT_EQ(test::read_text(dir / "sub" / "state.json"), "{\"a\": 1}\n");
+  write_text_file(dir / "sub" / "state.json", "replaced");
+  EXPECT_EQ(test::read_text(dir / "sub" / "state.json"), "replaced");
+  // A folder in the way: an Error naming the path, and no temporary file left behind.
+  fs::create_directories(dir / "taken" / "inner");
+  test::expect_error([&] { write_text_file(dir / "taken", "text"); }, {(dir / "taken").string()});
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 2);
+}
+
 TEST(AtomicDirectory, RefusesExistingUnlessReplacing) {
   test::TempDir dir;
   fs::create_directories(dir / "scene");

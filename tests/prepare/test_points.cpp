@@ -198,14 +198,14 @@ TEST(RandomPoints, FillTrainingsFallbackBoxDeterministically) {
   test::TempDir dir;
   const io::Scene scene = minimal_scene(dir / "scene", 4, 32, 24, 2);
   const std::vector<int> cams = training_cameras(scene);
-  const Box box = cameras_look_box(scene, cams);
+  const io::Box box = io::cameras_look_box(scene, cams);
   const io::PointCloud a = random_points(scene, cams, 0, 2000, 7);
   ASSERT_EQ(a.size(), 2000u);
   ASSERT_EQ(a.rgb.size(), a.xyz.size());
   for (std::size_t i = 0; i < a.size(); ++i)
     for (int k = 0; k < 3; ++k) {
-      EXPECT_GE(a.xyz[3 * i + k], box.lo[k] - 1e-5);
-      EXPECT_LE(a.xyz[3 * i + k], box.hi[k] + 1e-5);
+      EXPECT_GE(a.xyz[3 * i + k], box.lo()[k] - 1e-5);
+      EXPECT_LE(a.xyz[3 * i + k], box.hi()[k] + 1e-5);
     }
   EXPECT_EQ(random_points(scene, cams, 0, 2000, 7).xyz, a.xyz);
   EXPECT_NE(random_points(scene, cams, 1, 2000, 7).xyz, a.xyz);
@@ -215,7 +215,7 @@ TEST(RandomPoints, FillTrainingsFallbackBoxDeterministically) {
   mean /= double(cams.size());
   double radius = 0;
   for (int c : cams) radius = std::max(radius, (scene.cameras[c].center() - mean).norm());
-  EXPECT_NEAR((box.hi - box.lo).x(), 1.1 * radius, 1e-9);
+  EXPECT_NEAR((box.hi() - box.lo()).x(), 1.1 * radius, 1e-9);
 }
 
 TEST(FramePoints, ImportRejectsEmptyMissingAndNonFiniteClouds) {

@@ -117,7 +117,7 @@ TEST(Prepare, AllFramesUseStrideOne) {
   test::TempDir dir;
   const io::Scene scene = bare_scene(dir / "scene", dir / "exact", 3);
   PrepareOptions o = quiet();
-  o.frame_step = 1;
+  o.frames = io::FrameSelection::kAll;
   o.points = {PointsSource::kRandom};
   const PrepareReport r = prepare_scene(scene, o);
   EXPECT_EQ(r.flows_written, 3u * 2 * 2);

@@ -16,8 +16,8 @@ TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   test::TempDir dir;
   minimal_scene(dir / "scene", 6, 128, 96);
   const io::Scene scene = io::read_scene(dir / "scene");
-  const TrainingSet set = load_training_set(scene, TrainFrames::kEven);   // frames 0, 2, 4
-  const std::vector<PointMotion> motion = estimate_point_motion(set, 1);  // frame 2
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);  // frames 0, 2, 4
+  const std::vector<PointMotion> motion = estimate_point_motion(set, 1);        // frame 2
   const io::PointCloud& here = *set.points[1];
   const io::PointCloud& next = *set.points[2];
   const PointIndex index(next.xyz);
@@ -65,7 +65,8 @@ TEST(Initialize, RandomFallbackWithoutPointsIsStated) {
   test::TempDir dir;
   minimal_scene(dir / "scene", 3, 48, 36);
   std::filesystem::remove_all(dir / "scene" / "points");
-  const TrainingSet set = load_training_set(io::read_scene(dir / "scene"), TrainFrames::kEven);
+  const TrainingSet set =
+      load_training_set(io::read_scene(dir / "scene"), io::FrameSelection::kEven);
   std::string note;
   InitOptions init;
   init.max_primitives = 5000;

@@ -2,6 +2,8 @@
 // in-between frames; resuming from a checkpoint reproduces the uninterrupted run bit for bit; the
 // same seed gives the same model.
 #include <filesystem>
+#include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -76,6 +78,30 @@ TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {
   train(scene, run);
   EXPECT_NE(test::read_text(dir / "full" / "model.rgs"),
             test::read_text(dir / "other" / "model.rgs"));
+}
+
+TEST(Trainer, ResumeFromAStateLackingAKeyNamesTheFileAndTheKey) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  TrainRun run;
+  run.config.iters = 2;
+  run.config.cap = 500;
+  run.config.checkpoint_every = 1;
+  run.progress = false;
+  run.out = dir / "run";
+  train(scene, run);
+  // Drop the "iteration" line of the iteration-1 checkpoint's state (one key per line).
+  const fs::path state = dir / "run" / "checkpoints" / "iter_000001" / "state.json";
+  std::istringstream in(test::read_text(state));
+  std::string text;
+  for (std::string line; std::getline(in, line);)
+    if (line.find("\"iteration\"") == std::string::npos) text += line + "\n";
+  test::write_text(state, text);
+  run.resume = true;
+  const std::string message = test::message_of([&] { train(scene, run); });
+  EXPECT_NE(message.find(state.string()), std::string::npos) << message;
+  EXPECT_NE(message.find("lacks 'iteration'"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
 }
 
 }  // namespace

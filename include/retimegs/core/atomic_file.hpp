@@ -1,6 +1,7 @@
 #pragma once
 // Outputs appear whole or not at all: write to a temporary sibling name, then rename.
 #include <filesystem>
+#include <string_view>
 
 namespace retimegs {
 
@@ -21,6 +22,10 @@ class AtomicFile {
   std::filesystem::path final_, temp_;
   bool committed_ = false;
 };
+
+// Writes `text` to `path` through an AtomicFile, checking the stream: throws Error naming `path`
+// when it cannot be written whole (nothing appears at `path` then).
+void write_text_file(const std::filesystem::path& path, std::string_view text);
 
 // The same for a whole directory tree (a scene, a folder of renders). `final_path` must not exist
 // unless `replace` is set, in which case the old tree is removed at commit time.

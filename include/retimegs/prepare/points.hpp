@@ -6,10 +6,9 @@
 #include <filesystem>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
 
 namespace retimegs::prepare {
 
@@ -27,7 +26,7 @@ struct HullOptions {
 // Visual hull of the foreground at `frame` from the masks of `cameras` (scene camera indices):
 //  1. bounds: a cube around the point nearest to every optical axis (least squares), with half
 //     side the largest camera distance to it (the cameras' common look-at region); falls back to
-//     cameras_look_box() when the axes are near-parallel (forward-facing rigs);
+//     io::cameras_look_box() when the axes are near-parallel (forward-facing rigs);
 //  2. carve a coarse voxel grid over it, then a fine one over the kept voxels' bounding box. A
 //     voxel is kept when at least half of the cameras (and 2) see it (its centre projects into
 //     the image) and it lies inside the silhouette of every camera that sees it, or of all but
@@ -44,15 +43,7 @@ struct HullOptions {
 io::PointCloud visual_hull(const io::Scene& scene, const std::vector<int>& cameras, int frame,
                            const HullOptions& options = {});
 
-// The box that training's random fallback (src/train/initialize.cpp) seeds its points in: centred
-// on the mean over `cameras` of (centre + extent x viewing direction), half side extent / 2,
-// extent = 1.1 x the largest distance of a camera centre from their mean (gsplat's scene scale).
-struct Box {
-  Eigen::Vector3d lo, hi;
-};
-Box cameras_look_box(const io::Scene& scene, const std::vector<int>& cameras);
-
-// Last resort: `count` points uniform in cameras_look_box, uniform random colours; the same
+// Last resort: `count` points uniform in io::cameras_look_box, uniform random colours; the same
 // distribution as training's fallback when a scene has no points (which seeds 20 000 in total),
 // written per frame so that a prepared scene is complete. Deterministic in (seed, frame).
 io::PointCloud random_points(const io::Scene& scene, const std::vector<int>& cameras, int frame,

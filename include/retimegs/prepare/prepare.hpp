@@ -1,9 +1,7 @@
 #pragma once
 // `retimegs prepare`: fills in what training needs that a scene lacks (DESIGN.md §1):
-//  - flow/<camera>/<from:05d>_<to:05d>.flo in both directions between consecutive training frames
-//    of every training camera, i.e. exactly the pairs src/train/dataset.cpp reads: frames
-//    0, s, 2s, ... with s = 2 (--train-frames even) or 1 (all), forward t_i -> t_{i+1} and
-//    backward t_{i+1} -> t_i. Test cameras get none (training never reads them);
+//  - flow/<camera>/<from:05d>_<to:05d>.flo in both directions for every training camera and every
+//    pair of io::training_views() (the flows training reads). Test cameras get none;
 //  - points/<frame:05d>.ply at every training frame.
 // Existing files are kept unless `force`, so a re-run resumes; every file is written atomically.
 #include <cstdint>
@@ -12,6 +10,7 @@
 #include <vector>
 
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 #include "retimegs/prepare/flow_estimate.hpp"
 #include "retimegs/prepare/points.hpp"
@@ -26,7 +25,7 @@ enum class PointsSource {
 };
 
 struct PrepareOptions {
-  int frame_step = 2;  // 2: --train-frames even, 1: all
+  io::FrameSelection frames = io::FrameSelection::kEven;
   FlowMethod flow_method = FlowMethod::kDis;
   ConsistencyOptions consistency;
   // Non-empty: import flow_dir/<camera>/<from:05d>_<to:05d>.flo (the scene's own naming, e.g.
@@ -60,10 +59,6 @@ struct PrepareReport {
   std::size_t points_kept = 0;                              // files
   double flow_seconds = 0, points_seconds = 0;
 };
-
-// Training cameras (split "train") and frames 0, step, 2 step, ... < num_frames.
-std::vector<int> training_cameras(const io::Scene& scene);
-std::vector<int> training_frames(const io::Scene& scene, int step);
 
 // Checks every input first (flow_dir files, PLY files, masks for the hull) so that bad input
 // throws Error naming the file before anything is written; then writes what is missing.

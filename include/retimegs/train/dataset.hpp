@@ -6,14 +6,14 @@
 
 #include "retimegs/core/image.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
 
-enum class TrainFrames { kEven, kAll };
-
 struct TrainingSet {
   io::Scene scene;
+  // As io::training_views() gives them.
   std::vector<int> cameras;  // indices of the training cameras (split "train")
   std::vector<int> frames;   // scene frames used for training: t_i = frames[i]
   model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
@@ -25,13 +25,12 @@ struct TrainingSet {
   std::vector<std::vector<std::optional<Flow>>> backward;  // t_i -> t_{i-1}
   std::vector<std::optional<io::PointCloud>> points;       // per frame slot
 
-  // Radius of the training cameras' centres about their mean, x 1.1 (gsplat's scene scale).
-  double scene_extent = 1.0;
+  double scene_extent = 1.0;  // io::TrainingViews::extent
   std::size_t flow_files() const;
 };
 
 // Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
 // the wrong size, ...). Needs at least 2 training frames and 1 training camera.
-TrainingSet load_training_set(const io::Scene& scene, TrainFrames which);
+TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which);
 
 }  // namespace retimegs::train

@@ -56,7 +56,7 @@ class Trainer {
 struct TrainRun {
   std::filesystem::path out;  // RUN/
   TrainConfig config;
-  TrainFrames frames = TrainFrames::kEven;
+  io::FrameSelection frames = io::FrameSelection::kEven;
   bool resume = false;
   bool progress = true;
 };

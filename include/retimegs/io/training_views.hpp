@@ -1,0 +1,54 @@
+#pragma once
+// Which views train, and the scene size they give. prepare writes exactly these flows and points,
+// train reads exactly these, eval's baselines blend these frames, and prepare's random points and
+// training's random fallback share one box: all call the functions below, none re-derives them.
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::io {
+
+// --train-frames: even trains on frames 0, 2, 4, ... (the odd ones are held out for evaluation),
+// all on every frame.
+enum class FrameSelection { kEven, kAll };
+
+// "even" or "all"; throws Error naming `flag` otherwise.
+FrameSelection parse_frame_selection(const std::string& text, const std::string& flag);
+
+struct TrainingViews {
+  std::vector<int> cameras;  // scene indices of the training cameras (split "train")
+  std::vector<int> frames;   // 0, step, 2 step, ... < num_frames
+  int step = 1;              // 2 (kEven) or 1 (kAll)
+  // Consecutive training frames (frames[i], frames[i + 1]): every training camera has a flow
+  // between them in both directions.
+  std::vector<std::pair<int, int>> flow_pairs;
+  // 1.1 x the largest distance of a training camera's centre from their mean (gsplat's scene
+  // scale; 1 when they coincide or there are none): the unit of learning rates and distances.
+  double extent = 1;
+};
+
+// Empty lists are not errors here: each command checks for what it needs.
+TrainingViews training_views(const Scene& scene, FrameSelection which);
+
+// The training cameras alone (split "train"), as in training_views().
+std::vector<int> training_cameras(const Scene& scene);
+
+// An axis-aligned cube.
+struct Box {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double half = 0;  // half the side
+  Eigen::Vector3d lo() const { return centre - Eigen::Vector3d::Constant(half); }
+  Eigen::Vector3d hi() const { return centre + Eigen::Vector3d::Constant(half); }
+};
+
+// Where random points are seeded (prepare's random_points, training's fallback for a scene
+// without points): centred on the mean over `cameras` of (centre + extent x viewing direction),
+// side extent, with the extent of TrainingViews taken over `cameras`. Throws Error naming the
+// scene when `cameras` is empty.
+Box cameras_look_box(const Scene& scene, const std::vector<int>& cameras);
+
+}  // namespace retimegs::io

@@ -1,0 +1,59 @@
+#include "retimegs/io/training_views.hpp"
+
+#include <algorithm>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs::io {
+
+namespace {
+
+double cameras_extent(const Scene& scene, const std::vector<int>& cameras) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int c : cameras) mean += scene.cameras[c].center();
+  mean /= double(std::max<std::size_t>(cameras.size(), 1));
+  double radius = 0;
+  for (int c : cameras) radius = std::max(radius, (scene.cameras[c].center() - mean).norm());
+  return radius > 0 ? 1.1 * radius : 1.0;
+}
+
+}  // namespace
+
+FrameSelection parse_frame_selection(const std::string& text, const std::string& flag) {
+  if (text == "even") return FrameSelection::kEven;
+  if (text == "all") return FrameSelection::kAll;
+  fail("{}: must be even or all, got '{}'", flag, text);
+}
+
+std::vector<int> training_cameras(const Scene& scene) {
+  std::vector<int> cameras;
+  for (int c = 0; c < int(scene.cameras.size()); ++c)
+    if (scene.cameras[c].split == Split::kTrain) cameras.push_back(c);
+  return cameras;
+}
+
+TrainingViews training_views(const Scene& scene, FrameSelection which) {
+  TrainingViews views;
+  views.cameras = training_cameras(scene);
+  views.step = which == FrameSelection::kEven ? 2 : 1;
+  for (int k = 0; k < scene.num_frames; k += views.step) views.frames.push_back(k);
+  for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
+    views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);
+  views.extent = cameras_extent(scene, views.cameras);
+  return views;
+}
+
+Box cameras_look_box(const Scene& scene, const std::vector<int>& cameras) {
+  if (cameras.empty()) fail("{}: no cameras to bound the scene", scene.json_path().string());
+  const double extent = cameras_extent(scene, cameras);
+  Box box;
+  for (int c : cameras) {
+    const Camera& cam = scene.cameras[c];
+    box.centre += cam.center() + cam.rotation().row(2).transpose() * extent;
+  }
+  box.centre /= double(cameras.size());
+  box.half = 0.5 * extent;
+  return box;
+}
+
+}  // namespace retimegs::io
