@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 
 #include <nlohmann/json.hpp>
 
@@ -97,13 +96,7 @@ std::string to_json(const EvalResult& r) {
 }
 
 void write_json(const EvalResult& result, const fs::path& path) {
-  AtomicFile out(path);
-  {
-    std::ofstream o(out.temp_path());
-    o << to_json(result) << "\n";
-    if (!o) fail("{}: write failed", path.string());
-  }
-  out.commit();
+  write_text_file(path, to_json(result) + "\n");
 }
 
 FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,

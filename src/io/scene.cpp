@@ -210,13 +210,7 @@ void write_scene_json(const Scene& scene) {
                   {"fps", scene.fps},
                   {"cameras", cams},
                   {"up", {scene.up.x(), scene.up.y(), scene.up.z()}}};
-  AtomicFile out(scene.json_path());
-  {
-    std::ofstream o(out.temp_path());
-    o << j.dump(2) << "\n";
-    if (!o) fail("{}: write failed", out.temp_path().string());
-  }
-  out.commit();
+  write_text_file(scene.json_path(), j.dump(2) + "\n");
 }
 
 Image load_image(const Scene& scene, int camera, int frame) {
