@@ -83,7 +83,7 @@ void Trainer::make_optimizers() {
        optimised_fields(model_.primitives, unused, model_.config.representation)) {
     std::vector<float> column_scale;
     if (name == "sh") {  // higher SH bands learn at 1/20 of the DC rate
-      column_scale.assign(3 * model::Primitives::kShCoeffs, float(config_.lr_sh_rest_factor));
+      column_scale.assign(model::Primitives::kShWidth, float(config_.lr_sh_rest_factor));
       std::fill_n(column_scale.begin(), 3, 1.0f);
     }
     adam_.emplace(name, Adam(model_.primitives.size(), field_width(model_.primitives, name), {},
@@ -152,9 +152,11 @@ StepStats Trainer::step() {
     stats.image_loss += image_loss(out.blend.image, target, config_.ssim_lambda, 1.0, v_image);
     if (pass.flow) {
       if (const auto& f = set_.forward[c][i])
-        stats.flow_loss += flow_loss(out.blend.image, 3, *f, w_flow, v_image);
+        stats.flow_loss +=
+            flow_loss(out.blend.image, model::kForwardFlowChannel, *f, w_flow, v_image);
       if (const auto& f = set_.backward[c][i])
-        stats.flow_loss += flow_loss(out.blend.image, 5, *f, w_flow, v_image);
+        stats.flow_loss +=
+            flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
     }
     if (k == 0) stats.psnr = psnr(out.blend.image, target);
     const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
