@@ -4,6 +4,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/ssim.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::train {
 
@@ -63,6 +64,29 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
     }
   }
   return sum / double(known);
+}
+
+double regularizer(const model::Primitives& p, double opacity_weight, double scale_weight) {
+  const std::size_t n = p.size();
+  double reg = 0;
+  for (std::size_t r = 0; r < n; ++r) {
+    reg += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
+    for (int a = 0; a < 3; ++a)
+      reg += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
+  }
+  return reg;
+}
+
+void regularizer_backward(const model::Primitives& p, double opacity_weight, double scale_weight,
+                          model::PrimitiveGrads& grads) {
+  const std::size_t n = p.size();
+  for (std::size_t r = 0; r < n; ++r) {
+    const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
+    grads.v_opacity_logit[r] += float(opacity_weight / double(n) * sigma * (1 - sigma));
+    for (int a = 0; a < 3; ++a)
+      grads.v_log_scale[3 * r + a] +=
+          float(scale_weight / double(3 * n) * std::exp(double(p.log_scale[3 * r + a])));
+  }
 }
 
 double psnr(const Image& render, const Image& target) {

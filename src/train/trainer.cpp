@@ -12,7 +12,6 @@
 #include "retimegs/core/progress.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
-#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/losses.hpp"
@@ -165,21 +164,8 @@ StepStats Trainer::step() {
   }
   stats.renders = int(passes.size());
 
-  // Regularisers: opacity_reg · mean σ, scale_reg · mean exp(s).
-  const std::size_t n = p.size();
-  double reg = 0;
-  if (n > 0) {
-    for (std::size_t r = 0; r < n; ++r) {
-      const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
-      reg += config_.opacity_reg * sigma / double(n);
-      grads.v_opacity_logit[r] += float(config_.opacity_reg / double(n) * sigma * (1 - sigma));
-      for (int a = 0; a < 3; ++a) {
-        const double s = std::exp(double(p.log_scale[3 * r + a]));
-        reg += config_.scale_reg * s / double(3 * n);
-        grads.v_log_scale[3 * r + a] += float(config_.scale_reg / double(3 * n) * s);
-      }
-    }
-  }
+  const double reg = regularizer(p, config_.opacity_reg, config_.scale_reg);
+  regularizer_backward(p, config_.opacity_reg, config_.scale_reg, grads);
   stats.loss = stats.image_loss + w_flow * stats.flow_loss + reg;
   stats.flow_weight = w_flow;
 

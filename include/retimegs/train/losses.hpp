@@ -1,8 +1,10 @@
 #pragma once
-// Training losses on rendered images (DESIGN.md §2): the image loss (1 − λ)·L1 + λ·(1 − SSIM) and
-// the per-pixel L1 flow loss that skips unknown flow pixels. Each returns its value and adds
-// weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first).
+// Training losses (DESIGN.md §2). On rendered images: the image loss (1 − λ)·L1 + λ·(1 − SSIM)
+// and the per-pixel L1 flow loss that skips unknown flow pixels; each returns its value and adds
+// weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first). On
+// the primitives: the 3DGS-MCMC regulariser, as a forward / backward pair.
 #include "retimegs/core/image.hpp"
+#include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
 
@@ -14,6 +16,14 @@ double image_loss(const Image& render, const Image& target, double ssim_lambda, 
 // (channel, channel + 1). Returns 0 (and no gradient) when no pixel is known.
 double flow_loss(const Image& render, int channel, const Flow& target, double weight,
                  Image& v_render);
+
+// opacity_weight · mean σ + scale_weight · mean exp(s) over the N primitives (and their 3 axes
+// for the scale): faint primitives drift towards death, where relocation reuses them, and splats
+// stay small. 0 when there is no primitive.
+double regularizer(const model::Primitives& primitives, double opacity_weight, double scale_weight);
+// Adds d regularizer / d opacity_logit and d regularizer / d log_scale into `grads`.
+void regularizer_backward(const model::Primitives& primitives, double opacity_weight,
+                          double scale_weight, model::PrimitiveGrads& grads);
 
 // PSNR of the render's RGB against the target, [0, 1] values.
 double psnr(const Image& render, const Image& target);
