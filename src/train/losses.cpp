@@ -8,7 +8,6 @@
 
 namespace retimegs::train {
 
-namespace {
 Image rgb_of(const Image& render) {
   if (render.channels == 3) return render;
   Image rgb(render.width, render.height, 3);
@@ -16,7 +15,6 @@ Image rgb_of(const Image& render) {
     for (int c = 0; c < 3; ++c) rgb.data[3 * p + c] = render.data[render.channels * p + c];
   return rgb;
 }
-}  // namespace
 
 double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
                   Image& v_render) {
@@ -87,17 +85,6 @@ void regularizer_backward(const model::Primitives& p, double opacity_weight, dou
       grads.v_log_scale[3 * r + a] +=
           float(scale_weight / double(3 * n) * std::exp(double(p.log_scale[3 * r + a])));
   }
-}
-
-double psnr(const Image& render, const Image& target) {
-  double se = 0;
-  for (std::size_t p = 0; p < target.pixels(); ++p)
-    for (int c = 0; c < 3; ++c) {
-      const double d = render.data[render.channels * p + c] - target.data[3 * p + c];
-      se += d * d;
-    }
-  const double mse = se / double(3 * target.pixels());
-  return mse > 0 ? 10 * std::log10(1 / mse) : 99.0;
 }
 
 }  // namespace retimegs::train

@@ -10,6 +10,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
+#include "retimegs/core/psnr.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -98,7 +99,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, S
       stats.flow_loss +=
           flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
   }
-  if (pass.group == model::Group::kAll) stats.psnr = psnr(out.blend.image, target);
+  if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb_of(out.blend.image), target);
   const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
                                                       render_options, out, v_image.data.data());
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,

@@ -8,6 +8,9 @@
 
 namespace retimegs::train {
 
+// The render's RGB, its first 3 channels, as an image of its own.
+Image rgb_of(const Image& render);
+
 // RGB = the render's first 3 channels against target [H, W, 3].
 double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
                   Image& v_render);
@@ -24,8 +27,5 @@ double regularizer(const model::Primitives& primitives, double opacity_weight, d
 // Adds d regularizer / d opacity_logit and d regularizer / d log_scale into `grads`.
 void regularizer_backward(const model::Primitives& primitives, double opacity_weight,
                           double scale_weight, model::PrimitiveGrads& grads);
-
-// PSNR of the render's RGB against the target, [0, 1] values.
-double psnr(const Image& render, const Image& target);
 
 }  // namespace retimegs::train

@@ -22,7 +22,8 @@ struct StepStats {
   int iteration = 0;
   int camera = 0, frame = 0;  // scene indices of this step's view
   int renders = 0;
-  double loss = 0, image_loss = 0, flow_loss = 0, psnr = 0;
+  double loss = 0, image_loss = 0, flow_loss = 0;
+  double psnr = 0;  // of the all-primitives render (core/psnr.hpp: +infinity on a perfect match)
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
 };
