@@ -3,7 +3,37 @@
 #include <algorithm>
 #include <cmath>
 
+#include "retimegs/core/error.hpp"
+
 namespace retimegs {
+namespace {
+
+void check_finite(const Image& image, const char* function, const char* which) {
+  const auto bad =
+      std::find_if(image.data.begin(), image.data.end(), [](float v) { return !std::isfinite(v); });
+  if (bad == image.data.end()) return;
+  const std::size_t at = bad - image.data.begin(), pixel = at / image.channels;
+  fail("{}: the {} image has a non-finite value ({}) at pixel ({}, {}) channel {}", function, which,
+       *bad, pixel % image.width, pixel / image.width, at % image.channels);
+}
+
+}  // namespace
+
+void check_image_pair(const Image& a, const Image& b, const char* function) {
+  if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+    fail("{}: images differ in size ({}x{}x{} vs {}x{}x{})", function, a.width, a.height,
+         a.channels, b.width, b.height, b.channels);
+  if (a.empty()) fail("{}: images are empty", function);
+  check_finite(a, function, "first");
+  check_finite(b, function, "second");
+}
+
+void check_mask(const Image& mask, const Image& image, const char* function) {
+  if (mask.channels != 1 || mask.width != image.width || mask.height != image.height)
+    fail("{}: the mask is {}x{}x{} but a {}x{}x1 mask is needed for a {}x{} image", function,
+         mask.width, mask.height, mask.channels, image.width, image.height, image.width,
+         image.height);
+}
 
 float sample_bilinear(const Image& image, double u, double v, int c) {
   const double x = std::clamp(u - 0.5, 0.0, double(image.width - 1));

@@ -8,6 +8,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
+#include "retimegs/core/psnr.hpp"
 #include "retimegs/eval/lpips.hpp"
 #include "retimegs/eval/metrics.hpp"
 #include "retimegs/io/image_io.hpp"

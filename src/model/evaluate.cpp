@@ -145,7 +145,7 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
     for (int a = 0; a < 4; ++a) g.quats[4 * row + a] = p.q0[4 * i + a] + p.q1[4 * i + a] * dt;
     const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     T* features = &g.features[channels * row];
-    sh_color(config.sh_degree, &p.sh[3 * PrimitivesT<T>::kShCoeffs * i], dir, features);
+    sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, features);
     if (options.flow_features) {
       const FlowRule rule = flow_rule(p.mu_tau[i], t);
       T pb[3], pf[3], pk[3], uv_b[2], uv_f[2], uv_k[2];
@@ -155,8 +155,10 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
       project_point(pinhole, pb, uv_b);
       project_point(pinhole, pf, uv_f);
       project_point(pinhole, pk, uv_k);
-      features[3] = uv_f[0] - uv_b[0], features[4] = uv_f[1] - uv_b[1];
-      features[5] = uv_k[0] - uv_b[0], features[6] = uv_k[1] - uv_b[1];
+      T* forward = &features[kForwardFlowChannel];
+      T* backward = &features[kBackwardFlowChannel];
+      forward[0] = uv_f[0] - uv_b[0], forward[1] = uv_f[1] - uv_b[1];
+      backward[0] = uv_k[0] - uv_b[0], backward[1] = uv_k[1] - uv_b[1];
     }
   }
   out.primitive_from_gaussian = std::move(selected);
@@ -173,7 +175,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   const PinholeT<T> pinhole(camera);
   const std::array<T, 3> eye = eye_of<T>(camera);
   const bool stgs = config.representation == Representation::kStgs;
-  constexpr int kSh = PrimitivesT<T>::kShCoeffs;
+  constexpr int kSh = PrimitivesT<T>::kShWidth;
   const std::size_t m = evaluated.primitive_from_gaussian.size();
   // Every primitive appears at most once in a batch: rows write disjoint gradient slots.
 #pragma omp parallel for schedule(static)
@@ -208,13 +210,13 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
     apply_trajectory(coefficients, mu, v, x);
     T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
     const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
-    sh_color_vjp(config.sh_degree, &p.sh[3 * kSh * i], dir, &vg.v_features[channels * row],
-                 &grads.v_sh[3 * kSh * i], v_x);
+    sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, &vg.v_features[channels * row],
+                 &grads.v_sh[kSh * i], v_x);
     apply_trajectory_vjp(config.representation, coefficients, v, v_x, v_mu, v_v, v_mu_tau);
     // Flow features: differences of projected control points.
     if (options.flow_features) {
       const FlowRule rule = flow_rule(p.mu_tau[i], t);
-      const T* v_flow = &vg.v_features[channels * row + 3];
+      const T* v_flow = &vg.v_features[channels * row + kForwardFlowChannel];
       const int points[3] = {rule.base, rule.forward, rule.backward};
       // d feature / d point: forward = π(pf) - π(pb), backward = π(pk) - π(pb).
       const T v_uv[3][2] = {{-v_flow[0] - v_flow[2], -v_flow[1] - v_flow[3]},

@@ -35,7 +35,8 @@ Splats export_splats(const Model& model, double t, double min_opacity) {
     const float dt = float(t - p.mu_tau[i]);
     for (int a = 0; a < 4; ++a) s.quats.push_back(p.q0[4 * i + a] + p.q1[4 * i + a] * dt);
     s.opacity_logits.push_back(float(std::log(opacity) - std::log1p(-std::min(opacity, 1 - 1e-7))));
-    s.sh.insert(s.sh.end(), &p.sh[48 * i], &p.sh[48 * i + 3 * k]);
+    s.sh.insert(s.sh.end(), &p.sh[Primitives::kShWidth * i],
+                &p.sh[Primitives::kShWidth * i + 3 * k]);
   }
   return s;
 }

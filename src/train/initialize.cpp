@@ -235,7 +235,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     for (int a = 0; a < 3; ++a) {
       p.mu[3 * j + a] = positions[3 * j + a];
       p.log_scale[3 * j + a] = std::log(std::max(scale[j], 1e-7f));
-      p.sh[48 * j + a] = float((rgb[3 * k + a] - 0.5) / model::kShC0);
+      p.sh[model::Primitives::kShWidth * j + a] = float((rgb[3 * k + a] - 0.5) / model::kShC0);
       if (!stgs)  // v1 = v2 = v3 (STGS polynomial coefficients start at zero)
         for (int r = 0; r < 3; ++r) p.velocity[9 * j + 3 * r + a] = velocity[3 * k + a];
     }

@@ -4,10 +4,10 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/ssim.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::train {
 
-namespace {
 Image rgb_of(const Image& render) {
   if (render.channels == 3) return render;
   Image rgb(render.width, render.height, 3);
@@ -15,7 +15,6 @@ Image rgb_of(const Image& render) {
     for (int c = 0; c < 3; ++c) rgb.data[3 * p + c] = render.data[render.channels * p + c];
   return rgb;
 }
-}  // namespace
 
 double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
                   Image& v_render) {
@@ -65,15 +64,27 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
   return sum / double(known);
 }
 
-double psnr(const Image& render, const Image& target) {
-  double se = 0;
-  for (std::size_t p = 0; p < target.pixels(); ++p)
-    for (int c = 0; c < 3; ++c) {
-      const double d = render.data[render.channels * p + c] - target.data[3 * p + c];
-      se += d * d;
-    }
-  const double mse = se / double(3 * target.pixels());
-  return mse > 0 ? 10 * std::log10(1 / mse) : 99.0;
+double regularizer(const model::Primitives& p, double opacity_weight, double scale_weight) {
+  const std::size_t n = p.size();
+  double reg = 0;
+  for (std::size_t r = 0; r < n; ++r) {
+    reg += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
+    for (int a = 0; a < 3; ++a)
+      reg += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
+  }
+  return reg;
+}
+
+void regularizer_backward(const model::Primitives& p, double opacity_weight, double scale_weight,
+                          model::PrimitiveGrads& grads) {
+  const std::size_t n = p.size();
+  for (std::size_t r = 0; r < n; ++r) {
+    const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
+    grads.v_opacity_logit[r] += float(opacity_weight / double(n) * sigma * (1 - sigma));
+    for (int a = 0; a < 3; ++a)
+      grads.v_log_scale[3 * r + a] +=
+          float(scale_weight / double(3 * n) * std::exp(double(p.log_scale[3 * r + a])));
+  }
 }
 
 }  // namespace retimegs::train

@@ -63,10 +63,11 @@ StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
         continue;
       const std::int32_t c = starting[k];
       if (max_speed(p, c) > settings.max_speed) continue;
+      const float* dc_a = &p.sh[model::Primitives::kShWidth * a];
+      const float* dc_c = &p.sh[model::Primitives::kShWidth * c];
       double color = 0;
       for (int ch = 0; ch < 3; ++ch)
-        color =
-            std::max(color, model::kShC0 * std::abs(double(p.sh[48 * a + ch]) - p.sh[48 * c + ch]));
+        color = std::max(color, model::kShC0 * std::abs(double(dc_a[ch]) - dc_c[ch]));
       if (color > settings.max_color) continue;
       // Union of the two supports for both (μ_τ stays).
       const double from = std::min(lo[a], lo[c]), to = std::max(hi[a], hi[c]);

@@ -10,54 +10,22 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
+#include "retimegs/core/psnr.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
-#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/losses.hpp"
-#include "retimegs/train/relocation.hpp"
-#include "retimegs/train/stretch.hpp"
 
 namespace retimegs::train {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-namespace {
-
-struct RenderPass {
-  model::Group group;
-  bool compensate, flow;
-};
-
-// Field name -> (parameters, gradient) of the optimised fields of `rep`.
-std::vector<std::tuple<std::string, std::vector<float>*, std::vector<float>*>> optimised_fields(
-    model::Primitives& p, model::PrimitiveGrads& g, model::Representation rep) {
-  std::vector<std::tuple<std::string, std::vector<float>*, std::vector<float>*>> out = {
-      {"mu", &p.mu, &g.v_mu},
-      {"velocity", &p.velocity, &g.v_velocity},
-      {"log_scale", &p.log_scale, &g.v_log_scale},
-      {"q0", &p.q0, &g.v_q0},
-      {"q1", &p.q1, &g.v_q1},
-      {"sh", &p.sh, &g.v_sh},
-      {"opacity_logit", &p.opacity_logit, &g.v_opacity_logit}};
-  if (rep == model::Representation::kStgs) {
-    out.emplace_back("mu_tau", &p.mu_tau, &g.v_mu_tau);
-    out.emplace_back("temporal_log_scale", &p.temporal_log_scale, &g.v_temporal_log_scale);
-  }
-  return out;
-}
-
-int field_width(const model::Primitives& p, const std::string& name) {
-  for (const auto& f : p.fields())
-    if (name == f.name) return f.width;
-  fail("unknown field '{}'", name);
-}
-
-}  // namespace
-
 Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
-    : set_(set), config_(config), rng_(config.seed) {
+    : set_(set),
+      config_(config),
+      strategy_(std::make_unique<McmcStrategy>(config, set.scene_extent)),
+      rng_(config.seed) {
   model_.grid = set.grid;
   model_.config = config.model_config();
   model_.training_config = to_json(config);
@@ -77,18 +45,8 @@ std::string Trainer::initialize() {
 }
 
 void Trainer::make_optimizers() {
-  adam_.clear();
-  model::PrimitiveGrads unused;
-  for (const auto& [name, params, grads] :
-       optimised_fields(model_.primitives, unused, model_.config.representation)) {
-    std::vector<float> column_scale;
-    if (name == "sh") {  // higher SH bands learn at 1/20 of the DC rate
-      column_scale.assign(3 * model::Primitives::kShCoeffs, float(config_.lr_sh_rest_factor));
-      std::fill_n(column_scale.begin(), 3, 1.0f);
-    }
-    adam_.emplace(name, Adam(model_.primitives.size(), field_width(model_.primitives, name), {},
-                             column_scale));
-  }
+  adam_ = Optimizers(model_.primitives, model_.config.representation, config_, set_.scene_extent,
+                     set_.grid.step);
 }
 
 double Trainer::flow_weight(int it) const {
@@ -105,13 +63,54 @@ double Trainer::lr_factor(int it) const {
   return std::pow(config_.lr_decay_final, double(it - start) / double(config_.iters - start));
 }
 
+std::vector<Trainer::RenderPass> Trainer::render_passes(int i, bool flow) const {
+  const int nf = int(set_.frames.size());
+  if (model_.config.representation != model::Representation::kStgs && !config_.ablate.no_triple &&
+      i > 0 && i + 1 < nf)
+    return {{model::Group::kAll, false, false},
+            {model::Group::kLeft, true, flow},
+            {model::Group::kRight, true, flow}};
+  return {{model::Group::kAll, false, flow}};
+}
+
+void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
+                          model::PrimitiveGrads& grads) const {
+  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  const double t = set_.grid.at(i);
+  const Image& target = set_.images[c][i];
+  model::EvaluateOptions eo;
+  eo.group = pass.group;
+  eo.compensate = pass.compensate;
+  eo.flow_features = pass.flow;
+  const model::Evaluated e =
+      model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo);
+  const int channels = e.gaussians.channels;
+  const std::vector<float> background(channels, 0.0f);
+  const render::RenderOptions render_options;
+  const render::RenderOutput out =
+      render::rasterize_forward(e.gaussians, camera, background.data(), render_options);
+  Image v_image(camera.width, camera.height, channels);
+  stats.image_loss += image_loss(out.blend.image, target, config_.ssim_lambda, 1.0, v_image);
+  if (pass.flow) {
+    if (const auto& f = set_.forward[c][i])
+      stats.flow_loss +=
+          flow_loss(out.blend.image, model::kForwardFlowChannel, *f, w_flow, v_image);
+    if (const auto& f = set_.backward[c][i])
+      stats.flow_loss +=
+          flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
+  }
+  if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb_of(out.blend.image), target);
+  const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
+                                                      render_options, out, v_image.data.data());
+  model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
+                           grads);
+}
+
 StepStats Trainer::step() {
   const int it = ++iteration_;
   StepStats stats;
   stats.iteration = it;
   model::Primitives& p = model_.primitives;
-  const model::Representation rep = model_.config.representation;
-  const bool stgs = rep == model::Representation::kStgs;
   model_.config.sh_degree =
       std::min(config_.max_sh_degree, it / config_.scaled(config_.sh_degree_every));
 
@@ -120,107 +119,26 @@ StepStats Trainer::step() {
   std::uniform_int_distribution<int> pick_camera(0, nc - 1), pick_frame(0, nf - 1);
   const int c = pick_camera(rng_), i = pick_frame(rng_);
   stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
-  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
-  const double t = set_.grid.at(i);
-  const Image& target = set_.images[c][i];
 
-  // Renders: triple at interior frames (flow on the two groups), one at the ends.
+  // Renders, losses and their gradient.
   const double w_flow = flow_weight(it);
-  const bool flow = w_flow > 0;
-  std::vector<RenderPass> passes;
-  if (!stgs && !config_.ablate.no_triple && i > 0 && i + 1 < nf)
-    passes = {{model::Group::kAll, false, false},
-              {model::Group::kLeft, true, flow},
-              {model::Group::kRight, true, flow}};
-  else
-    passes = {{model::Group::kAll, false, flow}};
-
+  const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
   model::PrimitiveGrads grads(p.size());
-  const render::RenderOptions render_options;
-  for (std::size_t k = 0; k < passes.size(); ++k) {
-    const RenderPass& pass = passes[k];
-    model::EvaluateOptions eo;
-    eo.group = pass.group;
-    eo.compensate = pass.compensate;
-    eo.flow_features = pass.flow;
-    const model::Evaluated e = model::evaluate(p, model_.config, model_.grid, t, camera, eo);
-    const int channels = e.gaussians.channels;
-    const std::vector<float> background(channels, 0.0f);
-    const render::RenderOutput out =
-        render::rasterize_forward(e.gaussians, camera, background.data(), render_options);
-    Image v_image(camera.width, camera.height, channels);
-    stats.image_loss += image_loss(out.blend.image, target, config_.ssim_lambda, 1.0, v_image);
-    if (pass.flow) {
-      if (const auto& f = set_.forward[c][i])
-        stats.flow_loss += flow_loss(out.blend.image, 3, *f, w_flow, v_image);
-      if (const auto& f = set_.backward[c][i])
-        stats.flow_loss += flow_loss(out.blend.image, 5, *f, w_flow, v_image);
-    }
-    if (k == 0) stats.psnr = psnr(out.blend.image, target);
-    const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
-                                                        render_options, out, v_image.data.data());
-    model::evaluate_backward(p, model_.config, model_.grid, t, camera, eo, e, vg, grads);
-  }
+  for (const RenderPass& pass : passes) render_pass(pass, c, i, w_flow, stats, grads);
   stats.renders = int(passes.size());
-
-  // Regularisers: opacity_reg · mean σ, scale_reg · mean exp(s).
-  const std::size_t n = p.size();
-  double reg = 0;
-  if (n > 0) {
-    for (std::size_t r = 0; r < n; ++r) {
-      const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
-      reg += config_.opacity_reg * sigma / double(n);
-      grads.v_opacity_logit[r] += float(config_.opacity_reg / double(n) * sigma * (1 - sigma));
-      for (int a = 0; a < 3; ++a) {
-        const double s = std::exp(double(p.log_scale[3 * r + a]));
-        reg += config_.scale_reg * s / double(3 * n);
-        grads.v_log_scale[3 * r + a] += float(config_.scale_reg / double(3 * n) * s);
-      }
-    }
-  }
+  const double reg = regularizer(p, config_.opacity_reg, config_.scale_reg);
+  regularizer_backward(p, config_.opacity_reg, config_.scale_reg, grads);
   stats.loss = stats.image_loss + w_flow * stats.flow_loss + reg;
   stats.flow_weight = w_flow;
 
-  // Adam.
+  // Optimiser step, then relocation, growth, noise and stretching.
   const double decay = lr_factor(it);
-  const double extent = set_.scene_extent, dt = set_.grid.step;
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
-  const double lr_means = config_.lr_means * extent * means_decay * decay;
-  const std::map<std::string, double> lr = {
-      {"mu", lr_means},
-      {"velocity", config_.lr_velocity * extent / dt * means_decay * decay},
-      {"log_scale", config_.lr_scales * decay},
-      {"q0", config_.lr_quats * decay},
-      {"q1", config_.lr_quat_rate / dt * decay},
-      {"sh", config_.lr_sh0 * decay},
-      {"opacity_logit", config_.lr_opacities * decay},
-      {"mu_tau", config_.lr_temporal_center * decay},
-      {"temporal_log_scale", config_.lr_temporal_scale * decay}};
-  for (auto& [name, params, g] : optimised_fields(p, grads, rep))
-    adam_.at(name).step(params->data(), g->data(), lr.at(name));
-  stats.lr_means = lr_means;
-  inject_noise(p, lr_means, rng_);
-
-  // Relocation and growth.
-  if (it % config_.scaled(config_.relocate_every) == 0 &&
-      it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
-    const Relocation moved = relocate(p, rep, config_.min_opacity, rng_);
-    const Relocation grown = grow(p, rep, config_.cap, config_.growth, config_.min_opacity, rng_);
-    for (auto& [name, adam] : adam_) {
-      adam.reset_rows(moved.touched);
-      adam.resize(p.size());
-      adam.reset_rows(grown.touched);
-    }
-    stats.relocated = moved.moved, stats.added = grown.added;
-  }
-  // Dynamic stretching.
-  if (!stgs && !config_.ablate.no_stretch && it % config_.scaled(config_.stretch_every) == 0 &&
-      it < config_.iters) {
-    const StretchSettings settings{config_.stretch_distance * extent, config_.stretch_color,
-                                   config_.stretch_speed * extent};
-    const StretchResult s = stretch(p, model_.config, model_.grid, settings, rng_);
-    stats.stretched = s.stretched, stats.pruned = s.pruned;
-  }
+  adam_.step(p, grads, means_decay, decay);
+  stats.lr_means = adam_.means_rate(means_decay, decay);
+  const DensityChanges changes = strategy_->after_step(it, stats.lr_means, model_, adam_, rng_);
+  stats.relocated = changes.relocated, stats.added = changes.added;
+  stats.stretched = changes.stretched, stats.pruned = changes.pruned;
   stats.primitives = p.size();
   return stats;
 }

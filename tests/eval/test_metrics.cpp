@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/psnr.hpp"
 #include "retimegs/core/ssim.hpp"
 #include "retimegs/eval/metrics.hpp"
 #include "retimegs/io/image_io.hpp"

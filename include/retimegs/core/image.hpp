@@ -24,6 +24,19 @@ struct Image {
   const float* pixel(int y, int x) const { return &data[(std::size_t(y) * width + x) * channels]; }
 };
 
+// Masks are [H, W, 1] with foreground where > 0.5 (io::read_mask gives 0 / 1; a soft mask is split
+// at one half).
+constexpr float kMaskThreshold = 0.5f;
+inline bool is_foreground(const Image& mask, std::size_t pixel) {
+  return mask.data[pixel] > kMaskThreshold;
+}
+
+// For functions that compare images; each throws Error naming `function`. check_image_pair: a and
+// b agree in size and channels, are not empty and hold finite values only (the message names the
+// first bad value's pixel and channel). check_mask: the mask is [H, W, 1] at the image's size.
+void check_image_pair(const Image& a, const Image& b, const char* function);
+void check_mask(const Image& mask, const Image& image, const char* function);
+
 // Dense 2-D motion field (Middlebury convention): pixel (x, y) of the source frame moves to
 // (x + u, y + v) in the target frame. Unknown pixels (occluded / out of view; stored as
 // |u| or |v| > 1e9 in .flo files) have valid = 0 and uv = 0.

@@ -1,15 +1,12 @@
 #pragma once
-// Image-quality metrics of the evaluation protocol (DESIGN.md §5), on images with values in [0, 1].
-// `a` is the render and `b` the ground truth; masks are [H, W, 1] with foreground where > 0.5
-// (io::read_mask gives 0 / 1). Every function throws Error naming the problem on a size or
-// channel mismatch, a non-finite value, or a mask without foreground.
+// Image-quality metrics of the evaluation protocol (DESIGN.md §5), on images with values in [0, 1],
+// besides PSNR (core/psnr.hpp, which training shares). `a` is the render and `b` the ground truth;
+// masks are [H, W, 1] with foreground where > 0.5 (io::read_mask gives 0 / 1). Every function
+// throws Error naming the problem on a size or channel mismatch, a non-finite value, or a mask
+// without foreground.
 #include "retimegs/core/image.hpp"
 
 namespace retimegs::eval {
-
-// PSNR in dB: 10·log10(1 / MSE), the MSE over pixels and channels; with a mask only the pixels
-// where mask > 0.5 count. +infinity when the compared values are identical.
-double psnr(const Image& a, const Image& b, const Image* mask = nullptr);
 
 // Half-open pixel rectangle [x0, x1) × [y0, y1).
 struct PixelBox {

@@ -17,6 +17,8 @@ namespace retimegs::model {
 enum class Group { kAll, kLeft, kRight };
 
 constexpr int kFlowChannels = 4;  // forward (u, v), backward (u, v) in pixels
+// Where the flow features sit in a render with flow_features: right after RGB.
+constexpr int kForwardFlowChannel = 3, kBackwardFlowChannel = 5;
 
 struct EvaluateOptions {
   Group group = Group::kAll;

@@ -47,6 +47,7 @@ struct ModelConfig {
 template <typename T>
 struct PrimitivesT {
   static constexpr int kShCoeffs = 16;  // degree-3 storage; the active degree is a config choice
+  static constexpr int kShWidth = 3 * kShCoeffs;  // floats per row of `sh`: RGB per coefficient
 
   std::vector<T> mu;                  // [N, 3] pseudo-mean
   std::vector<T> velocity;            // [N, 3, 3] v1, v2, v3 (STGS: b1, b2, b3)
@@ -95,7 +96,7 @@ struct PrimitivesT {
              {"log_scale", &p.log_scale, 3},
              {"q0", &p.q0, 4},
              {"q1", &p.q1, 4},
-             {"sh", &p.sh, 3 * kShCoeffs},
+             {"sh", &p.sh, kShWidth},
              {"opacity_logit", &p.opacity_logit, 1},
              {"mu_tau", &p.mu_tau, 1},
              {"tau_l", &p.tau_l, 1},
@@ -117,7 +118,7 @@ struct PrimitiveGradsT {
   void resize(std::size_t n) {
     v_mu.assign(3 * n, T(0)), v_velocity.assign(9 * n, T(0)), v_log_scale.assign(3 * n, T(0));
     v_q0.assign(4 * n, T(0)), v_q1.assign(4 * n, T(0));
-    v_sh.assign(3 * PrimitivesT<T>::kShCoeffs * n, T(0)), v_opacity_logit.assign(n, T(0));
+    v_sh.assign(PrimitivesT<T>::kShWidth * n, T(0)), v_opacity_logit.assign(n, T(0));
     v_mu_tau.assign(n, T(0)), v_temporal_log_scale.assign(n, T(0));
   }
 };

@@ -1,10 +1,15 @@
 #pragma once
 // Adam (Kingma & Ba) for one parameter group stored as rows of `width` floats, as torch.optim.Adam
 // computes it (bias-corrected moments, ε added to the corrected square root). Rows can be reset
-// (MCMC relocation) and appended (growth) with zero state.
+// (MCMC relocation) and appended (growth) with zero state. Optimizers holds one per optimised
+// field of the primitives.
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
+
+#include "retimegs/model/primitives.hpp"
+#include "retimegs/train/config.hpp"
 
 namespace retimegs::train {
 
@@ -43,6 +48,44 @@ class Adam {
   std::vector<float> column_scale_;  // [width]
   std::vector<float> m_, v_;         // [rows, width]
   std::int64_t steps_ = 0;
+};
+
+// One Adam per optimised field (model::Primitives::fields() order: mu, velocity, log_scale, q0,
+// q1, sh, opacity_logit, and for the STGS baseline mu_tau and temporal_log_scale), each with its
+// base learning rate, built once per model: the config's rate, times the scene extent for means
+// and velocities, over the frame step Δt for velocities and the rotation rate q1. The SH rest
+// bands learn at lr_sh_rest_factor of the DC rate.
+class Optimizers {
+ public:
+  // The field's name names its checkpoint files, adam/<name>_{m,v}.npy.
+  struct Group {
+    std::string name;
+    Adam adam;
+  };
+
+  Optimizers() = default;
+  Optimizers(const model::Primitives& primitives, model::Representation representation,
+             const TrainConfig& config, double scene_extent, double frame_step);
+
+  // One Adam step of every field at its base rate × decay, and × means_decay too for means and
+  // velocities.
+  void step(model::Primitives& primitives, const model::PrimitiveGrads& grads, double means_decay,
+            double decay);
+  // The means' rate of a step with these factors.
+  double means_rate(double means_decay, double decay) const;
+  // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows.
+  void reset_rows(const std::vector<std::int32_t>& rows);
+  void resize(std::size_t rows);
+
+  // The (name, adam) groups, for checkpoints.
+  std::vector<Group>::iterator begin() { return groups_.begin(); }
+  std::vector<Group>::iterator end() { return groups_.end(); }
+  std::vector<Group>::const_iterator begin() const { return groups_.begin(); }
+  std::vector<Group>::const_iterator end() const { return groups_.end(); }
+
+ private:
+  std::vector<Group> groups_;
+  std::vector<double> base_rates_;  // per group
 };
 
 }  // namespace retimegs::train

@@ -1,10 +1,15 @@
 #pragma once
-// Training losses on rendered images (DESIGN.md §2): the image loss (1 − λ)·L1 + λ·(1 − SSIM) and
-// the per-pixel L1 flow loss that skips unknown flow pixels. Each returns its value and adds
-// weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first).
+// Training losses (DESIGN.md §2). On rendered images: the image loss (1 − λ)·L1 + λ·(1 − SSIM)
+// and the per-pixel L1 flow loss that skips unknown flow pixels; each returns its value and adds
+// weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first). On
+// the primitives: the 3DGS-MCMC regulariser, as a forward / backward pair.
 #include "retimegs/core/image.hpp"
+#include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
+
+// The render's RGB, its first 3 channels, as an image of its own.
+Image rgb_of(const Image& render);
 
 // RGB = the render's first 3 channels against target [H, W, 3].
 double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
@@ -15,7 +20,12 @@ double image_loss(const Image& render, const Image& target, double ssim_lambda, 
 double flow_loss(const Image& render, int channel, const Flow& target, double weight,
                  Image& v_render);
 
-// PSNR of the render's RGB against the target, [0, 1] values.
-double psnr(const Image& render, const Image& target);
+// opacity_weight · mean σ + scale_weight · mean exp(s) over the N primitives (and their 3 axes
+// for the scale): faint primitives drift towards death, where relocation reuses them, and splats
+// stay small. 0 when there is no primitive.
+double regularizer(const model::Primitives& primitives, double opacity_weight, double scale_weight);
+// Adds d regularizer / d opacity_logit and d regularizer / d log_scale into `grads`.
+void regularizer_backward(const model::Primitives& primitives, double opacity_weight,
+                          double scale_weight, model::PrimitiveGrads& grads);
 
 }  // namespace retimegs::train

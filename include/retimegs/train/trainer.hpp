@@ -1,17 +1,20 @@
 #pragma once
 // The RetimeGS optimisation loop (DESIGN.md §2): one (camera, frame) per step, triple rendering at
 // interior training frames with flow supervision of each group, L1 + SSIM and regularisers, Adam
-// per parameter group, MCMC relocation and growth, noise, dynamic stretching, SH degree schedule;
-// checkpoints that resume bit-identically.
+// per parameter group, SH degree schedule; MCMC relocation and growth, noise and dynamic
+// stretching in the density strategy; checkpoints that resume bit-identically.
 #include <filesystem>
-#include <map>
+#include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
+#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
+#include "retimegs/train/strategy.hpp"
 
 namespace retimegs::train {
 
@@ -19,7 +22,8 @@ struct StepStats {
   int iteration = 0;
   int camera = 0, frame = 0;  // scene indices of this step's view
   int renders = 0;
-  double loss = 0, image_loss = 0, flow_loss = 0, psnr = 0;
+  double loss = 0, image_loss = 0, flow_loss = 0;
+  double psnr = 0;  // of the all-primitives render (core/psnr.hpp: +infinity on a perfect match)
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
 };
@@ -41,14 +45,28 @@ class Trainer {
   void load_checkpoint(const std::filesystem::path& dir);
 
  private:
+  // One render of a step's view: triple rendering renders all primitives, then each group
+  // compensated (flow on the groups); otherwise all primitives once.
+  struct RenderPass {
+    model::Group group;
+    bool compensate, flow;
+  };
+
   double flow_weight(int it) const;
   double lr_factor(int it) const;
   void make_optimizers();
+  // Triple at interior frames (frame index i), one render at the ends and for STGS.
+  std::vector<RenderPass> render_passes(int i, bool flow) const;
+  // Renders view (camera index c, frame index i), adds its losses to `stats` (PSNR of the
+  // all-primitives render) and their gradient to `grads`.
+  void render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
+                   model::PrimitiveGrads& grads) const;
 
   const TrainingSet& set_;
   TrainConfig config_;
   model::Model model_;
-  std::map<std::string, Adam> adam_;  // by field name
+  Optimizers adam_;
+  std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
 };

@@ -1,0 +1,49 @@
+#pragma once
+// What gsplat's MCMCStrategy.step_post_backward and LichtFeld-Studio's IStrategy do: the training
+// step computes gradients and calls the optimiser; when to relocate, grow, add noise or stretch,
+// and what that does to the optimiser's state, lives in one place with its own tests.
+#include <cstddef>
+#include <random>
+
+#include "retimegs/model/model_file.hpp"
+#include "retimegs/train/adam.hpp"
+#include "retimegs/train/config.hpp"
+
+namespace retimegs::train {
+
+// What one call changed, for the training log.
+struct DensityChanges {
+  std::size_t relocated = 0, added = 0, stretched = 0, pruned = 0;
+};
+
+class DensityStrategy {
+ public:
+  virtual ~DensityStrategy() = default;
+  // Runs after the optimiser step of `iteration` (counted from 1), whose means' learning rate was
+  // `lr_means`. Keeps `optimizers` sized to the primitives.
+  virtual DensityChanges after_step(int iteration, double lr_means, model::Model& model,
+                                    Optimizers& optimizers, std::mt19937_64& rng) = 0;
+};
+
+// The MCMC schedule of RetimeGS (DESIGN.md §2, §7), milestones in TrainConfig::scaled units:
+//   every step: noise on faint primitives (inject_noise), scaled by the means' learning rate;
+//   every relocate_every steps strictly between relocate_start and relocate_stop: relocation of
+//     the dead primitives, then growth towards the cap; every row whose parameters were replaced
+//     or appended restarts with zero Adam moments, like a fresh parameter;
+//   every stretch_every steps before the last (not for STGS, nor with the no_stretch ablation):
+//     dynamic stretching. It changes only the windows, which are not optimised, and the opacity
+//     of the primitives it prunes; their moments are reset when relocation reuses the slot.
+// The order (noise, relocation, growth, stretching) fixes the draws from the generator.
+class McmcStrategy final : public DensityStrategy {
+ public:
+  McmcStrategy(const TrainConfig& config, double scene_extent);
+
+  DensityChanges after_step(int iteration, double lr_means, model::Model& model,
+                            Optimizers& optimizers, std::mt19937_64& rng) override;
+
+ private:
+  TrainConfig config_;
+  double scene_extent_;
+};
+
+}  // namespace retimegs::train

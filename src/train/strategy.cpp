@@ -1,0 +1,36 @@
+#include "retimegs/train/strategy.hpp"
+
+#include "retimegs/train/relocation.hpp"
+#include "retimegs/train/stretch.hpp"
+
+namespace retimegs::train {
+
+McmcStrategy::McmcStrategy(const TrainConfig& config, double scene_extent)
+    : config_(config), scene_extent_(scene_extent) {}
+
+DensityChanges McmcStrategy::after_step(int it, double lr_means, model::Model& model,
+                                        Optimizers& optimizers, std::mt19937_64& rng) {
+  DensityChanges changes;
+  model::Primitives& p = model.primitives;
+  const model::Representation rep = model.config.representation;
+  inject_noise(p, lr_means, rng);
+  if (it % config_.scaled(config_.relocate_every) == 0 &&
+      it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
+    const Relocation moved = relocate(p, rep, config_.min_opacity, rng);
+    const Relocation grown = grow(p, rep, config_.cap, config_.growth, config_.min_opacity, rng);
+    optimizers.reset_rows(moved.touched);
+    optimizers.resize(p.size());
+    optimizers.reset_rows(grown.touched);
+    changes.relocated = moved.moved, changes.added = grown.added;
+  }
+  if (rep != model::Representation::kStgs && !config_.ablate.no_stretch &&
+      it % config_.scaled(config_.stretch_every) == 0 && it < config_.iters) {
+    const StretchSettings settings{config_.stretch_distance * scene_extent_, config_.stretch_color,
+                                   config_.stretch_speed * scene_extent_};
+    const StretchResult s = stretch(p, model.config, model.grid, settings, rng);
+    changes.stretched = s.stretched, changes.pruned = s.pruned;
+  }
+  return changes;
+}
+
+}  // namespace retimegs::train

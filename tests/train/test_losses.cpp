@@ -1,0 +1,178 @@
+// The training losses' gradients against central differences. Images are float, so the renders
+// hold multiples of 2^-8 and the steps are 2^-11: render ± step is exact in float, and every
+// render value stays 2^-9 away from its target, off the kinks of the L1 terms. The losses sum in
+// double, so the differences are accurate far below the tolerances.
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/train/losses.hpp"
+
+namespace retimegs::train {
+namespace {
+
+constexpr float kStep = 1.0f / 2048;
+
+// RGB plus the flow channels, values k / 256 in [0.25, 0.75].
+Image make_render(int width, int height, std::mt19937& rng) {
+  Image render(width, height, 3 + model::kFlowChannels);
+  std::uniform_int_distribution<int> level(64, 192);
+  for (float& v : render.data) v = float(level(rng)) / 256;
+  return render;
+}
+
+// (render value, target value) pairs differ by at least 2^-9.
+Image make_target(const Image& render, std::mt19937& rng) {
+  Image target(render.width, render.height, 3);
+  std::uniform_int_distribution<int> offset(0, 8);
+  std::bernoulli_distribution sign(0.5);
+  for (std::size_t p = 0; p < render.pixels(); ++p)
+    for (int c = 0; c < 3; ++c) {
+      const float d = (float(offset(rng)) + 0.5f) / 256;
+      target.data[3 * p + c] = render.data[render.channels * p + c] + (sign(rng) ? d : -d);
+    }
+  return target;
+}
+
+TEST(Losses, ImageLossGradientMatchesCentralDifferences) {
+  std::mt19937 rng(4);
+  Image render = make_render(23, 19, rng);
+  const Image target = make_target(render, rng);
+  constexpr double kLambda = 0.2, kWeight = 0.7;
+  Image v_render(render.width, render.height, render.channels);
+  const double loss = image_loss(render, target, kLambda, kWeight, v_render);
+  // The gradient accumulates; the flow channels take none.
+  Image twice = v_render;
+  EXPECT_EQ(image_loss(render, target, kLambda, kWeight, twice), loss);
+  for (std::size_t i = 0; i < render.data.size(); ++i) {
+    ASSERT_EQ(twice.data[i], 2 * v_render.data[i]) << i;
+    if (int(i % render.channels) >= 3) {
+      ASSERT_EQ(v_render.data[i], 0.0f) << i;
+    }
+  }
+  Image unused(render.width, render.height, render.channels);
+  std::uniform_int_distribution<std::size_t> pixel(0, render.pixels() - 1);
+  std::uniform_int_distribution<int> channel(0, 2);
+  for (int trial = 0; trial < 60; ++trial) {
+    const std::size_t i = render.channels * pixel(rng) + channel(rng);
+    const float value = render.data[i];
+    render.data[i] = value + kStep;
+    const double plus = image_loss(render, target, kLambda, kWeight, unused);
+    render.data[i] = value - kStep;
+    const double minus = image_loss(render, target, kLambda, kWeight, unused);
+    render.data[i] = value;
+    const double numeric = kWeight * (plus - minus) / (2.0 * kStep);
+    EXPECT_NEAR(v_render.data[i], numeric, 1e-4 * std::abs(numeric) + 1e-9) << "value " << i;
+  }
+}
+
+TEST(Losses, FlowLossGradientMatchesCentralDifferencesAndSkipsUnknownPixels) {
+  std::mt19937 rng(5);
+  Image render = make_render(17, 13, rng);
+  for (const int channel : {model::kForwardFlowChannel, model::kBackwardFlowChannel}) {
+    // The target flow: render ± at least 2^-9 where known, every third pixel unknown.
+    Flow target(render.width, render.height);
+    std::uniform_int_distribution<int> offset(0, 8);
+    std::bernoulli_distribution sign(0.5);
+    for (std::size_t p = 0; p < render.pixels(); ++p) {
+      target.valid[p] = p % 3 != 0;
+      for (int k = 0; k < 2; ++k) {
+        const float d = (float(offset(rng)) + 0.5f) / 256;
+        target.uv[2 * p + k] =
+            render.data[render.channels * p + channel + k] + (sign(rng) ? d : -d);
+      }
+    }
+    constexpr double kWeight = 0.3;
+    Image v_render(render.width, render.height, render.channels);
+    flow_loss(render, channel, target, kWeight, v_render);
+    Image unused(render.width, render.height, render.channels);
+    for (std::size_t i = 0; i < render.data.size(); ++i) {
+      const std::size_t p = i / render.channels;
+      const int c = int(i % render.channels);
+      if (c != channel && c != channel + 1) {
+        ASSERT_EQ(v_render.data[i], 0.0f) << "channel " << c << " of pixel " << p;
+        continue;
+      }
+      const float value = render.data[i];
+      render.data[i] = value + kStep;
+      const double plus = flow_loss(render, channel, target, kWeight, unused);
+      render.data[i] = value - kStep;
+      const double minus = flow_loss(render, channel, target, kWeight, unused);
+      render.data[i] = value;
+      const double numeric = kWeight * (plus - minus) / (2.0 * kStep);
+      if (!target.valid[p]) {
+        ASSERT_EQ(numeric, 0.0) << p;
+      }
+      ASSERT_NEAR(v_render.data[i], numeric, 1e-6 * std::abs(numeric))
+          << "channel " << channel << " value " << i;
+    }
+  }
+}
+
+TEST(Losses, FlowLossWithoutKnownPixelsIsZero) {
+  Image render(4, 3, 3 + model::kFlowChannels, 0.5f);
+  Flow target(4, 3);
+  std::fill(target.valid.begin(), target.valid.end(), 0);
+  Image v_render(4, 3, render.channels);
+  EXPECT_EQ(flow_loss(render, model::kForwardFlowChannel, target, 1.0, v_render), 0.0);
+  for (const float v : v_render.data) EXPECT_EQ(v, 0.0f);
+}
+
+model::Primitives regularised_primitives() {
+  model::Primitives p;
+  p.resize(6);
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<float> logit(-4, 4), log_scale(-5, 0.5f);
+  for (float& v : p.opacity_logit) v = logit(rng);
+  for (float& v : p.log_scale) v = log_scale(rng);
+  return p;
+}
+
+TEST(Losses, RegularizerIsTheMeanOpacityAndScale) {
+  model::Primitives p;
+  p.resize(2);
+  p.opacity_logit = {0.0f, std::log(3.0f)};  // σ = 1/2, 3/4
+  p.log_scale = {0.0f, 0.0f, 0.0f, std::log(2.0f), std::log(2.0f), std::log(5.0f)};
+  EXPECT_NEAR(regularizer(p, 0.1, 0.01), 0.1 * (0.5 + 0.75) / 2 + 0.01 * (3 + 2 + 2 + 5) / 6.0,
+              1e-7);
+  EXPECT_EQ(regularizer(model::Primitives{}, 0.1, 0.01), 0.0);
+}
+
+TEST(Losses, RegularizerGradientMatchesCentralDifferences) {
+  model::Primitives p = regularised_primitives();
+  constexpr double kOpacity = 0.01, kScale = 0.1;
+  model::PrimitiveGrads grads(p.size());
+  regularizer_backward(p, kOpacity, kScale, grads);
+  // The gradient accumulates, and only opacity and scale have one.
+  model::PrimitiveGrads twice = grads;
+  regularizer_backward(p, kOpacity, kScale, twice);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    ASSERT_EQ(twice.v_opacity_logit[i], 2 * grads.v_opacity_logit[i]) << i;
+  for (std::size_t i = 0; i < 3 * p.size(); ++i)
+    ASSERT_EQ(twice.v_log_scale[i], 2 * grads.v_log_scale[i]) << i;
+  for (const auto* other : {&grads.v_mu, &grads.v_velocity, &grads.v_q0, &grads.v_q1, &grads.v_sh,
+                            &grads.v_mu_tau, &grads.v_temporal_log_scale})
+    for (const float v : *other) ASSERT_EQ(v, 0.0f);
+  const auto check = [&](std::vector<float>& values, const std::vector<float>& analytic,
+                         const char* field) {
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const float value = values[i];
+      const float above = value + 1.0f / 1024, below = value - 1.0f / 1024;
+      values[i] = above;
+      const double plus = regularizer(p, kOpacity, kScale);
+      values[i] = below;
+      const double minus = regularizer(p, kOpacity, kScale);
+      values[i] = value;
+      const double numeric = (plus - minus) / (double(above) - double(below));
+      EXPECT_NEAR(analytic[i], numeric, 1e-5 * std::abs(numeric)) << field << " " << i;
+    }
+  };
+  check(p.opacity_logit, grads.v_opacity_logit, "opacity_logit");
+  check(p.log_scale, grads.v_log_scale, "log_scale");
+}
+
+}  // namespace
+}  // namespace retimegs::train
