@@ -12,6 +12,7 @@
 #include "retimegs/eval/lpips.hpp"
 #include "retimegs/eval/metrics.hpp"
 #include "retimegs/io/image_io.hpp"
+#include "retimegs/io/training_views.hpp"
 
 namespace retimegs::eval {
 namespace fs = std::filesystem;
@@ -120,12 +121,9 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
 }
 
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag) {
+  if (text == "odd") return io::held_out_frames(num_frames, io::FrameSelection::kEven);
+  if (text == "all") return io::training_frames(num_frames, io::FrameSelection::kAll);
   std::vector<int> frames;
-  if (text == "odd" || text == "all") {
-    for (int k = text == "odd" ? 1 : 0; k < num_frames; k += text == "odd" ? 2 : 1)
-      frames.push_back(k);
-    return frames;
-  }
   std::size_t start = 0;
   while (start <= text.size()) {
     const std::size_t comma = std::min(text.find(',', start), text.size());

@@ -37,6 +37,7 @@
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/image_io.hpp"
+#include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
 
 namespace retimegs::ingest {
@@ -184,14 +185,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
       fs::is_directory(source) ? source / "transforms.json" : source;  // folder or the file
   const fs::path base = json_path.parent_path();
   const std::string file = json_path.string();
-  std::ifstream in(json_path);
-  if (!in) fail("{}: cannot open nerfstudio transforms", file);
-  json root;
-  try {
-    root = json::parse(in);
-  } catch (const json::exception& e) {
-    fail("{}: malformed JSON: {}", file, e.what());
-  }
+  const json root = io::read_json_file(json_path, "nerfstudio transforms");
   if (!root.is_object() || !root.contains("frames") || !root["frames"].is_array() ||
       root["frames"].empty())
     fail("{}: missing required key 'frames' (a non-empty array)", file);

@@ -12,6 +12,7 @@
 #include "retimegs/core/progress.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/image_io.hpp"
+#include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
 
 namespace retimegs::ingest {
@@ -31,14 +32,7 @@ struct SourceCamera {
 // later steps must agree).
 std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
   const std::string file = path.string();
-  std::ifstream in(path);
-  if (!in) fail("{}: cannot open Panoptic metadata", file);
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    fail("{}: malformed JSON: {}", file, e.what());
-  }
+  const json j = io::read_json_file(path, "Panoptic metadata");
   for (const char* key : {"w", "h", "k", "w2c", "fn", "cam_id"})
     if (!j.is_object() || !j.contains(key)) fail("{}: missing required key '{}'", file, key);
   if (!j["w"].is_number_integer() || !j["h"].is_number_integer() || j["w"].get<int>() < 1 ||

@@ -11,6 +11,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/image_io.hpp"
+#include "retimegs/io/json_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -149,14 +150,7 @@ Scene read_scene(const fs::path& root, SceneCheck check) {
   scene.root = root;
   const fs::path file = scene.json_path();
   if (!fs::is_directory(root)) fail("{}: scene folder does not exist", root.string());
-  std::ifstream in(file);
-  if (!in) fail("{}: cannot open scene file", file.string());
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    fail("{}: malformed JSON: {}", file.string(), e.what());
-  }
+  const json j = read_json_file(file, "scene file");
   const Fields f(file.string());
   if (const std::string format = f.string(f.require(j, "format", ""), "format"); format != kFormat)
     fail("{}: 'format' must be \"{}\", got \"{}\"", file.string(), kFormat, format);

@@ -32,11 +32,25 @@ std::vector<int> training_cameras(const Scene& scene) {
   return cameras;
 }
 
+std::vector<int> training_frames(int num_frames, FrameSelection which) {
+  std::vector<int> frames;
+  for (int k = 0; k < num_frames; k += which == FrameSelection::kEven ? 2 : 1) frames.push_back(k);
+  return frames;
+}
+
+std::vector<int> held_out_frames(int num_frames, FrameSelection which) {
+  const std::vector<int> train = training_frames(num_frames, which);
+  std::vector<int> frames;
+  for (int k = 0; k < num_frames; ++k)
+    if (!std::binary_search(train.begin(), train.end(), k)) frames.push_back(k);
+  return frames;
+}
+
 TrainingViews training_views(const Scene& scene, FrameSelection which) {
   TrainingViews views;
   views.cameras = training_cameras(scene);
   views.step = which == FrameSelection::kEven ? 2 : 1;
-  for (int k = 0; k < scene.num_frames; k += views.step) views.frames.push_back(k);
+  views.frames = training_frames(scene.num_frames, which);
   for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
     views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);
   views.extent = cameras_extent(scene, views.cameras);

@@ -201,8 +201,8 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
 TileBins bin_tiles(const Projected& projected, const float* opacities, int width, int height,
                    const RenderOptions& options) {
   TileBins bins;
-  bins.tiles_x = (width + kTileSize - 1) / kTileSize;
-  bins.tiles_y = (height + kTileSize - 1) / kTileSize;
+  bins.tiles_x = tile_count(width);
+  bins.tiles_y = tile_count(height);
   const int num_tiles = bins.num_tiles();
 
   // The visible Gaussians in depth order; those that reach no tile are dropped here.

@@ -624,8 +624,7 @@ void check_inputs(const BlendInputs& in, const TileBins& bins) {
     fail("blend: opacities and features are required");
   if (in.channels < 1) fail("blend: channel count must be >= 1, got {}", in.channels);
   if (in.width < 1 || in.height < 1) fail("blend: image size {}x{} is empty", in.width, in.height);
-  if (bins.tiles_x != (in.width + kTileSize - 1) / kTileSize ||
-      bins.tiles_y != (in.height + kTileSize - 1) / kTileSize)
+  if (bins.tiles_x != tile_count(in.width) || bins.tiles_y != tile_count(in.height))
     fail("blend: tile bins ({}x{} tiles) do not match the {}x{} image", bins.tiles_x, bins.tiles_y,
          in.width, in.height);
 }

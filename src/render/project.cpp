@@ -234,8 +234,8 @@ ProjectedT<T> project_forward_scalar(const GaussiansT<T>& g, const PinholeT<T>& 
   out.depths.assign(n, T(0));
   out.radii.assign(n, 0);
   const Mat3<T> rv = rotation_of(camera);
-  const int tiles_x = (camera.width + kTileSize - 1) / kTileSize;
-  const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
+  const int tiles_x = tile_count(camera.width);
+  const int tiles_y = tile_count(camera.height);
   const T min_opacity = std::max(T(options.min_alpha), T(0));
 
 #pragma omp parallel for schedule(static)

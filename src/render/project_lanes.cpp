@@ -195,8 +195,8 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
   out.depths.resize(n);
   out.radii.resize(n);
   const CameraConstants cam(camera);
-  const int tiles_x = (camera.width + kTileSize - 1) / kTileSize;
-  const int tiles_y = (camera.height + kTileSize - 1) / kTileSize;
+  const int tiles_x = tile_count(camera.width);
+  const int tiles_y = tile_count(camera.height);
   const float min_opacity = std::max(options.min_alpha, 0.0f);
   const std::ptrdiff_t batches = std::ptrdiff_t((n + kLanes - 1) / kLanes);
   bool invalid = false;  // some lane's inputs fail check_gaussians

@@ -38,8 +38,8 @@ Scene prepare(const ProjectedT<double>& projected, const GaussiansT<double>& g, 
   s.height = height;
   s.channels = g.channels;
   s.channels_ext = g.channels + (options.render_depth ? 1 : 0);
-  s.tiles_x = (s.width + kTileSize - 1) / kTileSize;
-  s.tiles_y = (s.height + kTileSize - 1) / kTileSize;
+  s.tiles_x = tile_count(s.width);
+  s.tiles_y = tile_count(s.height);
   s.projected = projected;
   s.rects.resize(g.size());
   for (std::size_t i = 0; i < g.size(); ++i) {

@@ -19,7 +19,6 @@ namespace {
 
 constexpr int kDepthSplat = 1;                // z-buffer footprint of a point: (2r + 1)^2 pixels
 constexpr double kOcclusionTolerance = 0.03;  // relative depth slack of the visibility test
-constexpr std::size_t kRandomPoints = 20000;  // points of the random fallback, in all
 
 // Bilinear flow sample at continuous pixel (u, v) (centres at +0.5); false when any of the four
 // taps is outside or unknown.
@@ -152,7 +151,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     const Eigen::Vector3d& centre = box.centre;
     const double half = box.half;
     std::uniform_real_distribution<double> u(-1, 1), colour(0, 1);
-    for (std::size_t k = 0; k < kRandomPoints; ++k) {
+    for (std::size_t k = 0; k < io::kRandomPointsTotal; ++k) {
       for (int a = 0; a < 3; ++a) xyz.push_back(float(centre[a] + half * u(rng)));
       for (int a = 0; a < 3; ++a) rgb.push_back(float(colour(rng)));
       velocity.insert(velocity.end(), {0, 0, 0});
@@ -162,7 +161,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     note = fmt::format(
         "initialisation: the scene has no points; {} random points in a box of side "
         "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
-        kRandomPoints, 2 * half, centre.x(), centre.y(), centre.z());
+        io::kRandomPointsTotal, 2 * half, centre.x(), centre.y(), centre.z());
   } else {
     std::size_t with_motion = 0, total = 0;
     for (int i = 0; i < nf; ++i) {

@@ -11,6 +11,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
+#include "retimegs/io/json_file.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -182,14 +183,7 @@ T state_value(const json& state, const std::string& key, const fs::path& file) {
 void Trainer::load_checkpoint(const fs::path& dir) {
   model_ = model::read_model(dir / "model.rgs");
   const fs::path file = dir / "state.json";
-  std::ifstream in(file);
-  if (!in) fail("{}: cannot open checkpoint state", file.string());
-  json state;
-  try {
-    state = json::parse(in);
-  } catch (const json::exception& e) {
-    fail("{}: malformed checkpoint state: {}", file.string(), e.what());
-  }
+  const json state = io::read_json_file(file, "checkpoint state");
   iteration_ = state_value<int>(state, "iteration", file);
   if (!(std::istringstream(state_value<std::string>(state, "rng", file)) >> rng_))
     fail("{}: checkpoint state 'rng' is not a generator state", file.string());

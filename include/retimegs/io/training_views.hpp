@@ -2,6 +2,7 @@
 // Which views train, and the scene size they give. prepare writes exactly these flows and points,
 // train reads exactly these, eval's baselines blend these frames, and prepare's random points and
 // training's random fallback share one box: all call the functions below, none re-derives them.
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +32,11 @@ struct TrainingViews {
   double extent = 1;
 };
 
+// Frames 0, step, 2 step, ... < num_frames (step 2 for kEven, 1 for kAll), and the others:
+// what evaluation scores by default (`eval --frames odd` is held_out_frames of kEven).
+std::vector<int> training_frames(int num_frames, FrameSelection which);
+std::vector<int> held_out_frames(int num_frames, FrameSelection which);
+
 // Empty lists are not errors here: each command checks for what it needs.
 TrainingViews training_views(const Scene& scene, FrameSelection which);
 
@@ -50,5 +56,10 @@ struct Box {
 // side extent, with the extent of TrainingViews taken over `cameras`. Throws Error naming the
 // scene when `cameras` is empty.
 Box cameras_look_box(const Scene& scene, const std::vector<int>& cameras);
+
+// Random points seeded in that box in all, for a scene without points (gsplat's random
+// initialisation size): prepare spreads them over the training frames, training's fallback seeds
+// them at once.
+constexpr std::size_t kRandomPointsTotal = 20000;
 
 }  // namespace retimegs::io

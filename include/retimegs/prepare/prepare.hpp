@@ -39,9 +39,9 @@ struct PrepareOptions {
   std::filesystem::path points_dir;  // for kPly
   ColmapOptions colmap;              // kColmap; it works in a temporary folder, removed afterwards
   HullOptions hull;
-  // Points per frame of kRandom: training's fallback seeds 20 000 in total, so 20 000 spread over
-  // the training frames, at least kMinRandomPointsPerFrame each.
-  std::size_t random_points_total = 20000;
+  // kRandom's points in all, spread over the training frames (at least kMinRandomPointsPerFrame
+  // each) as training's fallback seeds the same number at once.
+  std::size_t random_points_total = io::kRandomPointsTotal;
   std::uint64_t seed = 0;
   bool force = false;
   bool progress = true;

@@ -4,6 +4,10 @@
 namespace retimegs::render {
 
 constexpr int kTileSize = 16;  // pixels per tile side (gsplat BLOCK_X = BLOCK_Y = 16)
+// Tiles along an image side of `pixels` (the last one may be partly outside).
+constexpr int tile_count(int pixels) {
+  return (pixels + kTileSize - 1) / kTileSize;
+}
 
 // When compositing stops: the Gaussian that would bring the transmittance under the threshold is
 // not added, and the pixel is done. 3DGS and gsplat v1 test `T' < t`, gsplat v0.1.13 `T' <= t`.
