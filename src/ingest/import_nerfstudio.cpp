@@ -270,8 +270,8 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
     const Entry& e = entries[i];
     const int c = camera_index.at(e.camera);
     int k = 0;  // the nearest scene frame time
-    for (int i = 1; i < steps; ++i)
-      if (std::abs(times[i] - e.time) < std::abs(times[k] - e.time)) k = i;
+    for (int j = 1; j < steps; ++j)
+      if (std::abs(times[j] - e.time) < std::abs(times[k] - e.time)) k = j;
     if (grid[c][k] >= 0)
       fail("{}: frames[{}] and frames[{}] are both camera '{}' at time {}", file,
            entries[grid[c][k]].index, e.index, e.camera, e.time);

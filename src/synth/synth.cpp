@@ -84,8 +84,8 @@ std::vector<Camera> make_cameras(const SynthOptions& o, const World& world) {
 
 // World rays of one camera without re-deriving its centre and rotation per pixel.
 struct Rays {
-  explicit Rays(const Camera& cam)
-      : cam(cam), origin(cam.center()), camera_to_world(cam.rotation().transpose()) {}
+  explicit Rays(const Camera& camera)
+      : cam(camera), origin(camera.center()), camera_to_world(camera.rotation().transpose()) {}
   Vector3d direction(double u, double v) const {
     return (camera_to_world * Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1))
         .normalized();

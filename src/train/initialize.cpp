@@ -104,9 +104,9 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
       const int px = int(std::floor(uv.x())), py = int(std::floor(uv.y()));
       for (int dy = -kDepthSplat; dy <= kDepthSplat; ++dy)
         for (int dx = -kDepthSplat; dx <= kDepthSplat; ++dx) {
-          const int x = px + dx, y = py + dy;
-          if (x < 0 || y < 0 || x >= cam.width || y >= cam.height) continue;
-          float& d = depth[std::size_t(y) * cam.width + x];
+          const int sx = px + dx, sy = py + dy;
+          if (sx < 0 || sy < 0 || sx >= cam.width || sy >= cam.height) continue;
+          float& d = depth[std::size_t(sy) * cam.width + sx];
           d = std::min(d, float(in_camera[i].z()));
         }
     }

@@ -114,7 +114,9 @@ TEST(Trajectory, VjpMatchesFiniteDifferencesInsideAndOutside) {
       };
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(v_mu[a], fd(s.mu[a]), 1e-8);
       for (int k = 0; k < 9; ++k) EXPECT_NEAR(v_v[k], fd(s.v[k]), 1e-8) << "t " << t << " v " << k;
-      if (rep == Representation::kStgs) EXPECT_NEAR(v_mu_tau, fd(s.mu_tau), 1e-7);
+      if (rep == Representation::kStgs) {
+        EXPECT_NEAR(v_mu_tau, fd(s.mu_tau), 1e-7);
+      }
     }
   }
 }

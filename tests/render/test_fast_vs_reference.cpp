@@ -120,7 +120,7 @@ TEST_P(RenderFastVsReference, BackwardMatches) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, RenderFastVsReference, ::testing::ValuesIn(kScenarios),
-                         [](const auto& info) { return std::string(info.param.name); });
+                         [](const auto& scenario) { return std::string(scenario.param.name); });
 
 // Same inputs and thread count: bit-identical outputs and gradients. Different thread counts:
 // the same image (tiles do not interact), gradients equal up to summation order.
