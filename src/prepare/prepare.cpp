@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 #include <algorithm>
-#include <chrono>
 #include <optional>
 #include <system_error>
 
@@ -13,6 +12,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
+#include "retimegs/core/stopwatch.hpp"
 #include "retimegs/io/flow_io.hpp"
 
 namespace retimegs::prepare {
@@ -49,10 +49,6 @@ void append(io::PointCloud& a, const io::PointCloud& b) {
   a.xyz.insert(a.xyz.end(), b.xyz.begin(), b.xyz.end());
   if (colours && b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.xyz.size(), kGrey);
   if (colours && !b.rgb.empty()) a.rgb.insert(a.rgb.end(), b.rgb.begin(), b.rgb.end());
-}
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // OpenCV's own threads off while the OpenMP workers each run an estimator (no oversubscription).
@@ -198,7 +194,7 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   }
 
   // Flows.
-  auto start = std::chrono::steady_clock::now();
+  Stopwatch clock;
   if (!jobs.empty()) {
     Progress progress(report.flows_imported ? "flow import" : "flow", jobs.size(),
                       options.progress);
@@ -233,10 +229,9 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
     });
     report.unknown_fraction = pixels ? double(unknown) / double(pixels) : 0.0;
   }
-  report.flow_seconds = seconds_since(start);
+  report.flow_seconds = clock.lap();
 
   // Points, one frame at a time (the hull is parallel inside).
-  start = std::chrono::steady_clock::now();
   if (!point_frames.empty()) {
     for (PointsSource source : sources)
       report.points_source +=
@@ -270,7 +265,7 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
       progress.tick();
     }
   }
-  report.points_seconds = seconds_since(start);
+  report.points_seconds = clock.lap();
   return report;
 }
 

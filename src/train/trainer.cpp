@@ -11,6 +11,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
+#include "retimegs/core/stopwatch.hpp"
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/evaluate.hpp"
@@ -43,6 +44,11 @@ std::string Trainer::initialize() {
   model_.primitives = train::initialize(set_, options, note);
   make_optimizers();
   return note;
+}
+
+void Trainer::initialize(model::Primitives primitives) {
+  model_.primitives = std::move(primitives);
+  make_optimizers();
 }
 
 void Trainer::make_optimizers() {
@@ -83,13 +89,16 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, S
   eo.group = pass.group;
   eo.compensate = pass.compensate;
   eo.flow_features = pass.flow;
+  Stopwatch clock;
   const model::Evaluated e =
       model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo);
+  stats.seconds.evaluate += clock.lap();
   const int channels = e.gaussians.channels;
   const std::vector<float> background(channels, 0.0f);
   const render::RenderOptions render_options;
   const render::RenderOutput out =
       render::rasterize_forward(e.gaussians, camera, background.data(), render_options);
+  stats.seconds.render_forward += clock.lap();
   Image v_image(camera.width, camera.height, channels);
   stats.image_loss += image_loss(out.blend.image, target, config_.ssim_lambda, 1.0, v_image);
   if (pass.flow) {
@@ -101,24 +110,33 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, S
           flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
   }
   if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb_of(out.blend.image), target);
+  stats.seconds.losses += clock.lap();
   const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
                                                       render_options, out, v_image.data.data());
+  stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
                            grads);
+  stats.seconds.evaluate_backward += clock.lap();
 }
 
 StepStats Trainer::step() {
+  const int nc = int(set_.cameras.size()), nf = int(set_.frames.size());
+  std::uniform_int_distribution<int> pick_camera(0, nc - 1), pick_frame(0, nf - 1);
+  const int c = pick_camera(rng_), i = pick_frame(rng_);
+  return step_view(c, i);
+}
+
+StepStats Trainer::step_view(int c, int i) {
+  if (c < 0 || c >= int(set_.cameras.size()) || i < 0 || i >= int(set_.frames.size()))
+    fail("training step: no view (camera {}, frame {}) among {} cameras x {} frames", c, i,
+         set_.cameras.size(), set_.frames.size());
+  Stopwatch step_clock;
   const int it = ++iteration_;
   StepStats stats;
   stats.iteration = it;
   model::Primitives& p = model_.primitives;
   model_.config.sh_degree =
       std::min(config_.max_sh_degree, it / config_.scaled(config_.sh_degree_every));
-
-  // The view of this step.
-  const int nc = int(set_.cameras.size()), nf = int(set_.frames.size());
-  std::uniform_int_distribution<int> pick_camera(0, nc - 1), pick_frame(0, nf - 1);
-  const int c = pick_camera(rng_), i = pick_frame(rng_);
   stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
 
   // Renders, losses and their gradient.
@@ -127,6 +145,7 @@ StepStats Trainer::step() {
   model::PrimitiveGrads grads(p.size());
   for (const RenderPass& pass : passes) render_pass(pass, c, i, w_flow, stats, grads);
   stats.renders = int(passes.size());
+  Stopwatch clock;
   const double reg = regularizer(p, config_.opacity_reg, config_.scale_reg);
   regularizer_backward(p, config_.opacity_reg, config_.scale_reg, grads);
   stats.loss = stats.image_loss + w_flow * stats.flow_loss + reg;
@@ -137,10 +156,12 @@ StepStats Trainer::step() {
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
   adam_.step(p, grads, means_decay, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
+  stats.seconds.optimizer = clock.lap();
   const DensityChanges changes = strategy_->after_step(it, stats.lr_means, model_, adam_, rng_);
   stats.relocated = changes.relocated, stats.added = changes.added;
   stats.stretched = changes.stretched, stats.pruned = changes.pruned;
   stats.primitives = p.size();
+  stats.seconds.total = step_clock.lap();
   return stats;
 }
 

@@ -1,6 +1,7 @@
 // End to end on a tiny synthetic scene: training beats the cross-fade baseline on held-out
 // in-between frames; resuming from a checkpoint reproduces the uninterrupted run bit for bit; the
 // same seed gives the same model.
+#include <algorithm>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -44,6 +45,39 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
   EXPECT_GT(ours.psnr, crossfade.psnr + 0.5)
       << "held-out PSNR " << ours.psnr << " vs cross-fade " << crossfade.psnr;
   EXPECT_GT(ours.ssim, crossfade.ssim);
+}
+
+// step() is step_view() on the view it draws (the first step's losses: later ones differ by the
+// generator's draws of the view); an explicit starting model is used as given; a step's stage
+// times are its parts; a view outside the training set is an error.
+TEST(Trainer, StepViewStagesAndExplicitPrimitives) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);
+  TrainConfig config;
+  config.iters = 40;
+  config.cap = 1500;
+  Trainer drawn(set, config), given(set, config);
+  drawn.initialize();
+  given.initialize(drawn.model().primitives);
+  const StepStats a = drawn.step();
+  const int c =
+      int(std::find(set.cameras.begin(), set.cameras.end(), a.camera) - set.cameras.begin());
+  const int i = int(std::find(set.frames.begin(), set.frames.end(), a.frame) - set.frames.begin());
+  const StepStats b = given.step_view(c, i);
+  EXPECT_EQ(a.loss, b.loss);
+  EXPECT_EQ(a.psnr, b.psnr);
+  EXPECT_EQ(a.renders, b.renders);
+  for (int k = 0; k < 3; ++k) {
+    const StageSeconds t = given.step_view(k % int(set.cameras.size()), 1).seconds;
+    for (double stage : {t.evaluate, t.render_forward, t.losses, t.render_backward,
+                         t.evaluate_backward, t.optimizer})
+      EXPECT_GE(stage, 0);
+    EXPECT_GE(t.other(), 0);
+    EXPECT_GT(t.evaluate * t.render_forward * t.losses * t.render_backward, 0);
+  }
+  test::expect_error([&] { given.step_view(int(set.cameras.size()), 0); }, {"no view"});
+  test::expect_error([&] { given.step_view(0, -1); }, {"no view"});
 }
 
 TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {

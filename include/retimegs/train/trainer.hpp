@@ -18,6 +18,21 @@
 
 namespace retimegs::train {
 
+// Wall-clock seconds of one step by stage (training throughput: bench/train_bench).
+struct StageSeconds {
+  double evaluate = 0;           // model::evaluate of every render pass
+  double render_forward = 0;     // rasterize_forward
+  double losses = 0;             // image and flow losses with their gradient, the log's PSNR
+  double render_backward = 0;    // rasterize_backward
+  double evaluate_backward = 0;  // model::evaluate_backward
+  double optimizer = 0;          // regulariser and Adam
+  double total = 0;              // the whole step (the rest: view choice, strategy, bookkeeping)
+  double other() const {
+    return total - evaluate - render_forward - losses - render_backward - evaluate_backward -
+           optimizer;
+  }
+};
+
 struct StepStats {
   int iteration = 0;
   int camera = 0, frame = 0;  // scene indices of this step's view
@@ -26,6 +41,7 @@ struct StepStats {
   double psnr = 0;  // of the all-primitives render (core/psnr.hpp: +infinity on a perfect match)
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
+  StageSeconds seconds;
 };
 
 class Trainer {
@@ -34,7 +50,12 @@ class Trainer {
 
   // Initial primitives (flow-aware, STGS or random fallback); returns the note to log.
   std::string initialize();
+  // Starts from the given primitives instead (fresh optimiser state).
+  void initialize(model::Primitives primitives);
+  // One step on a view drawn from the generator.
   StepStats step();
+  // One step on view (set.cameras[camera], set.frames[frame]): what step() does once it has drawn.
+  StepStats step_view(int camera, int frame);
 
   int iteration() const { return iteration_; }
   const model::Model& model() const { return model_; }
