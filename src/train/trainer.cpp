@@ -142,7 +142,8 @@ StepStats Trainer::step_view(int c, int i) {
   // Renders, losses and their gradient.
   const double w_flow = flow_weight(it);
   const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
-  model::PrimitiveGrads grads(p.size());
+  model::PrimitiveGrads& grads = grads_;
+  grads.resize(p.size());
   for (const RenderPass& pass : passes) render_pass(pass, c, i, w_flow, stats, grads);
   stats.renders = int(passes.size());
   Stopwatch clock;

@@ -87,6 +87,7 @@ class Trainer {
   TrainConfig config_;
   model::Model model_;
   Optimizers adam_;
+  model::PrimitiveGrads grads_;  // the step's gradient, reused across steps
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
