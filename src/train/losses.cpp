@@ -8,10 +8,17 @@
 
 namespace retimegs::train {
 
+namespace {
+// Images below this many pixels are not worth waking the other threads for.
+constexpr std::ptrdiff_t kParallelPixels = 1 << 14;
+}  // namespace
+
 Image rgb_of(const Image& render) {
   if (render.channels == 3) return render;
   Image rgb(render.width, render.height, 3);
-  for (std::size_t p = 0; p < render.pixels(); ++p)
+  const std::ptrdiff_t pixels = std::ptrdiff_t(render.pixels());
+#pragma omp parallel for schedule(static) if (pixels >= kParallelPixels)
+  for (std::ptrdiff_t p = 0; p < pixels; ++p)
     for (int c = 0; c < 3; ++c) rgb.data[3 * p + c] = render.data[render.channels * p + c];
   return rgb;
 }
@@ -23,22 +30,24 @@ double image_loss(const Image& render, const Image& target, double ssim_lambda, 
          target.height, target.channels);
   const Image rgb = rgb_of(render);
   const std::size_t n = rgb.data.size();
-  double l1 = 0;
-  for (std::size_t i = 0; i < n; ++i) l1 += std::abs(rgb.data[i] - target.data[i]);
-  l1 /= double(n);
   Image v_ssim;
   const double s = ssim_backward(rgb, target, -ssim_lambda * weight, v_ssim);
   const float l1_grad = float((1 - ssim_lambda) * weight / double(n));
   const int channels = render.channels;
-  for (std::size_t p = 0; p < render.pixels(); ++p)
+  const std::ptrdiff_t pixels = std::ptrdiff_t(render.pixels());
+  double l1 = 0;
+#pragma omp parallel for schedule(static) reduction(+ : l1) if (pixels >= kParallelPixels)
+  for (std::ptrdiff_t p = 0; p < pixels; ++p)
     for (int c = 0; c < 3; ++c) {
       const std::size_t i = 3 * p + c;
       const float diff = rgb.data[i] - target.data[i];
+      l1 += std::abs(diff);
       v_render.data[channels * p + c] += (diff > 0   ? l1_grad
                                           : diff < 0 ? -l1_grad
                                                      : 0.0f) +
                                          v_ssim.data[i];
     }
+  l1 /= double(n);
   return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
 }
 
@@ -48,12 +57,15 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
       channel + 2 > render.channels)
     fail("flow loss: render {}x{}x{} vs flow {}x{} at channel {}", render.width, render.height,
          render.channels, target.width, target.height, channel);
+  const std::ptrdiff_t pixels = std::ptrdiff_t(render.pixels());
   std::size_t known = 0;
-  for (unsigned char v : target.valid) known += v;
+#pragma omp parallel for schedule(static) reduction(+ : known) if (pixels >= kParallelPixels)
+  for (std::ptrdiff_t p = 0; p < pixels; ++p) known += target.valid[p];
   if (known == 0) return 0;
   const float grad = float(weight / double(known));
   double sum = 0;
-  for (std::size_t p = 0; p < render.pixels(); ++p) {
+#pragma omp parallel for schedule(static) reduction(+ : sum) if (pixels >= kParallelPixels)
+  for (std::ptrdiff_t p = 0; p < pixels; ++p) {
     if (!target.valid[p]) continue;
     for (int k = 0; k < 2; ++k) {
       const float diff = render.data[render.channels * p + channel + k] - target.uv[2 * p + k];
