@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "retimegs/core/camera.hpp"
+#include "retimegs/core/memory.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/sh.hpp"
@@ -148,4 +149,12 @@ BENCHMARK(BM_TrainStep)
 
 }  // namespace
 
-BENCHMARK_MAIN();
+// As the retimegs program does: freed blocks stay in the heap between steps.
+int main(int argc, char** argv) {
+  retimegs::keep_freed_memory();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
