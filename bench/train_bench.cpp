@@ -56,7 +56,7 @@ train::TrainingSet synthetic_set() {
     for (int x = 0; x < kWidth; ++x)
       for (int ch = 0; ch < 3; ++ch)
         image.at(y, x, ch) = float(0.5 + 0.4 * std::sin(0.05 * x + 0.07 * y + 2.1 * ch));
-  set.images.assign(kCameras, std::vector<Image>(kFrames, image));
+  set.images.assign(kCameras, std::vector<PackedImage>(kFrames, pack(image, "pattern")));
   set.masks.assign(kCameras, std::vector<std::optional<Image>>(kFrames));
   set.forward.assign(kCameras, std::vector<std::optional<Flow>>(kFrames, Flow(kWidth, kHeight)));
   set.backward = set.forward;
@@ -138,6 +138,7 @@ void BM_TrainStep(benchmark::State& state) {
   state.counters["adam_ms"] = sum.optimizer * ms;
   state.counters["other_ms"] = sum.other() * ms;
   state.counters["relocation_ms"] = relocation * 1e3;
+  state.counters["peak_rss_MB"] = double(peak_rss_bytes()) / 1e6;  // of the process so far
 }
 
 BENCHMARK(BM_TrainStep)

@@ -35,6 +35,28 @@ void check_mask(const Image& mask, const Image& image, const char* function) {
          image.height);
 }
 
+PackedImage pack(const Image& image, const std::string& what) {
+  PackedImage packed{image.width, image.height, image.channels, {}};
+  packed.data.resize(image.data.size());
+  for (std::size_t i = 0; i < image.data.size(); ++i) {
+    const float v = image.data[i];
+    if (!(v >= 0 && v <= 1))
+      fail("{}: value {} at pixel ({}, {}) channel {} is outside [0, 1]", what, v,
+           i / image.channels % image.width, i / image.channels / image.width, i % image.channels);
+    packed.data[i] = std::uint16_t(std::lrint(double(v) * 65535.0));
+  }
+  return packed;
+}
+
+void unpack(const PackedImage& packed, Image& out) {
+  out.width = packed.width, out.height = packed.height, out.channels = packed.channels;
+  out.data.resize(packed.data.size());
+  const std::ptrdiff_t n = std::ptrdiff_t(packed.data.size());
+#pragma omp parallel for schedule(static) if (n >= (1 << 16))
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    out.data[i] = float(double(packed.data[i]) * (1.0 / 65535.0));
+}
+
 float sample_bilinear(const Image& image, double u, double v, int c) {
   const double x = std::clamp(u - 0.5, 0.0, double(image.width - 1));
   const double y = std::clamp(v - 0.5, 0.0, double(image.height - 1));

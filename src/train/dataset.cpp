@@ -15,6 +15,13 @@ std::size_t TrainingSet::flow_files() const {
   return n;
 }
 
+std::size_t TrainingSet::image_bytes() const {
+  std::size_t n = 0;
+  for (const auto& per_camera : images)
+    for (const PackedImage& image : per_camera) n += image.bytes();
+  return n;
+}
+
 TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) {
   const io::TrainingViews views = io::training_views(scene, which);
   if (views.frames.size() < 2)
@@ -29,7 +36,7 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) 
   set.scene_extent = views.extent;
 
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
-  set.images.assign(nc, std::vector<Image>(nf));
+  set.images.assign(nc, std::vector<PackedImage>(nf));
   set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
   set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
   set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
@@ -37,7 +44,7 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) 
   parallel_for(nc * nf, [&](std::size_t job) {
     const std::size_t c = job / nf, i = job % nf;
     const int cam = set.cameras[c], k = set.frames[i];
-    set.images[c][i] = io::load_image(scene, cam, k);
+    set.images[c][i] = pack(io::load_image(scene, cam, k), scene.image_path(cam, k).string());
     set.masks[c][i] = io::load_mask(scene, cam, k);
     if (i < views.flow_pairs.size()) {
       const auto [from, to] = views.flow_pairs[i];  // (k, t_{i+1})

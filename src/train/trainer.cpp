@@ -9,6 +9,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/memory.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
@@ -81,10 +82,10 @@ std::vector<Trainer::RenderPass> Trainer::render_passes(int i, bool flow) const 
 }
 
 void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
-                          model::PrimitiveGrads& grads) const {
+                          model::PrimitiveGrads& grads) {
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   const double t = set_.grid.at(i);
-  const Image& target = set_.images[c][i];
+  const Image& target = target_;
   model::EvaluateOptions eo;
   eo.group = pass.group;
   eo.compensate = pass.compensate;
@@ -142,6 +143,7 @@ StepStats Trainer::step_view(int c, int i) {
   // Renders, losses and their gradient.
   const double w_flow = flow_weight(it);
   const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
+  unpack(set_.images[c][i], target_);
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
   for (const RenderPass& pass : passes) render_pass(pass, c, i, w_flow, stats, grads);
@@ -254,10 +256,10 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
     write_text_file(run.out / "config.json", to_json(config) + "\n");
   }
   spdlog::info(
-      "training {} primitives (cap {}) on {} cameras x {} frames, {} flow files, {} "
-      "iterations",
+      "training {} primitives (cap {}) on {} cameras x {} frames ({:.0f} MB of images), {} flow "
+      "files, {} iterations",
       trainer.model().primitives.size(), config.cap, set.cameras.size(), set.frames.size(),
-      set.flow_files(), config.iters);
+      double(set.image_bytes()) / 1e6, set.flow_files(), config.iters);
   std::ofstream log(run.out / "log.jsonl", std::ios::app);
   Progress progress("train", std::size_t(config.iters), run.progress);
   progress.tick(std::size_t(trainer.iteration()));
@@ -291,8 +293,8 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   }
   progress.finish();
   model::write_model(run.out / "model.rgs", trainer.model());
-  spdlog::info("model: {} ({} primitives)", (run.out / "model.rgs").string(),
-               trainer.model().primitives.size());
+  spdlog::info("model: {} ({} primitives); peak memory {:.0f} MB", (run.out / "model.rgs").string(),
+               trainer.model().primitives.size(), double(peak_rss_bytes()) / 1e6);
   return trainer.model();
 }
 

@@ -2,6 +2,8 @@
 // Float images, interleaved channels, row-major: data[(y * width + x) * channels + c].
 // Colour values are linear in the file's 8/16-bit code values, scaled to [0, 1].
 #include <cstddef>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 namespace retimegs {
@@ -23,6 +25,21 @@ struct Image {
   float* pixel(int y, int x) { return &data[(std::size_t(y) * width + x) * channels]; }
   const float* pixel(int y, int x) const { return &data[(std::size_t(y) * width + x) * channels]; }
 };
+
+// An image kept at 16 bits per value, value = code / 65535: half the memory of an Image, for the
+// training views held through a whole run. Exact for what io::read_image gives: its 8-bit values
+// k / 255 are the codes 257 k, its 16-bit values the codes themselves (tests/core checks all).
+struct PackedImage {
+  int width = 0, height = 0, channels = 0;
+  std::vector<std::uint16_t> data;  // [H, W, C]
+  std::size_t bytes() const { return data.size() * sizeof(std::uint16_t); }
+};
+
+// Rounds to the nearest code; throws Error naming `what` and the pixel of a value outside [0, 1]
+// or not finite.
+PackedImage pack(const Image& image, const std::string& what);
+// The float image, written into `out` (resized; its allocation is reused).
+void unpack(const PackedImage& packed, Image& out);
 
 // Masks are [H, W, 1] with foreground where > 0.5 (io::read_mask gives 0 / 1; a soft mask is split
 // at one half).

@@ -17,6 +17,9 @@ namespace retimegs {
 // Called once by the `retimegs` program and the benchmarks; memory stays at the peak of a step.
 void keep_freed_memory();
 
+// The process's peak resident memory so far, in bytes (getrusage's ru_maxrss).
+std::size_t peak_rss_bytes();
+
 namespace detail {
 inline std::atomic<int> uninit_poison{-1};
 }

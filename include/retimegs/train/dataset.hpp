@@ -19,7 +19,7 @@ struct TrainingSet {
   model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
 
   // Indexed [camera slot][frame slot], slots as in `cameras` / `frames`.
-  std::vector<std::vector<Image>> images;                  // RGB [H, W, 3]
+  std::vector<std::vector<PackedImage>> images;            // RGB [H, W, 3]
   std::vector<std::vector<std::optional<Image>>> masks;    // [H, W, 1] when the scene has them
   std::vector<std::vector<std::optional<Flow>>> forward;   // t_i -> t_{i+1}
   std::vector<std::vector<std::optional<Flow>>> backward;  // t_i -> t_{i-1}
@@ -27,6 +27,7 @@ struct TrainingSet {
 
   double scene_extent = 1.0;  // io::TrainingViews::extent
   std::size_t flow_files() const;
+  std::size_t image_bytes() const;  // of the packed images
 };
 
 // Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of

@@ -78,16 +78,17 @@ class Trainer {
   void make_optimizers();
   // Triple at interior frames (frame index i), one render at the ends and for STGS.
   std::vector<RenderPass> render_passes(int i, bool flow) const;
-  // Renders view (camera index c, frame index i), adds its losses to `stats` (PSNR of the
-  // all-primitives render) and their gradient to `grads`.
+  // Renders view (camera index c, frame index i), adds its losses against target_ to `stats` (PSNR
+  // of the all-primitives render) and their gradient to `grads`.
   void render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
-                   model::PrimitiveGrads& grads) const;
+                   model::PrimitiveGrads& grads);
 
   const TrainingSet& set_;
   TrainConfig config_;
   model::Model model_;
   Optimizers adam_;
   model::PrimitiveGrads grads_;  // the step's gradient, reused across steps
+  Image target_;                 // the step's view, unpacked (reused across steps)
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
