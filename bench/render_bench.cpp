@@ -5,8 +5,6 @@
 // exactly these), peer_evaluated = the pairs OpenSplat's CPU forward evaluates on the scene (the
 // data README's work count, recounted below); G_.../s/core = count / wall time / threads. BM_Stage
 // times one stage (stage 0 project, 1 bin, 2 blend, 3 blend backward, 4 project backward).
-#include <benchmark/benchmark.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -17,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench_main.hpp"
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/npy.hpp"
@@ -249,12 +248,4 @@ BENCHMARK(BM_Stage)
 
 }  // namespace
 
-// As the retimegs program does: freed blocks stay in the heap between iterations.
-int main(int argc, char** argv) {
-  retimegs::keep_freed_memory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+RETIMEGS_BENCHMARK_MAIN()

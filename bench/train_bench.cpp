@@ -9,12 +9,11 @@
 // Counters (milliseconds per step): the stages of train::StageSeconds (losses: image and flow
 // losses with their gradients; other: the rest of the step, noise injection included), and
 // relocation_ms, the amortised relocation.
-#include <benchmark/benchmark.h>
-
 #include <cmath>
 #include <random>
 #include <vector>
 
+#include "bench_main.hpp"
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/parallel.hpp"
@@ -150,12 +149,4 @@ BENCHMARK(BM_TrainStep)
 
 }  // namespace
 
-// As the retimegs program does: freed blocks stay in the heap between steps.
-int main(int argc, char** argv) {
-  retimegs::keep_freed_memory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+RETIMEGS_BENCHMARK_MAIN()

@@ -16,6 +16,18 @@ namespace {
 
 constexpr float kStep = 1.0f / 2048;
 
+// d loss / d value by central differences of step kStep (value restored afterwards).
+template <typename Loss>
+double central_difference(float& value, const Loss& loss) {
+  const float keep = value;
+  value = keep + kStep;
+  const double plus = loss();
+  value = keep - kStep;
+  const double minus = loss();
+  value = keep;
+  return (plus - minus) / (2.0 * kStep);
+}
+
 // RGB plus the flow channels, values k / 256 in [0.25, 0.75].
 Image make_render(int width, int height, std::mt19937& rng) {
   Image render(width, height, 3 + model::kFlowChannels);
@@ -58,13 +70,9 @@ TEST(Losses, ImageLossGradientMatchesCentralDifferences) {
   std::uniform_int_distribution<int> channel(0, 2);
   for (int trial = 0; trial < 60; ++trial) {
     const std::size_t i = render.channels * pixel(rng) + channel(rng);
-    const float value = render.data[i];
-    render.data[i] = value + kStep;
-    const double plus = image_loss(render, target, kLambda, kWeight, unused);
-    render.data[i] = value - kStep;
-    const double minus = image_loss(render, target, kLambda, kWeight, unused);
-    render.data[i] = value;
-    const double numeric = kWeight * (plus - minus) / (2.0 * kStep);
+    const double numeric = kWeight * central_difference(render.data[i], [&] {
+                             return image_loss(render, target, kLambda, kWeight, unused);
+                           });
     EXPECT_NEAR(v_render.data[i], numeric, 1e-4 * std::abs(numeric) + 1e-9) << "value " << i;
   }
 }
@@ -96,13 +104,9 @@ TEST(Losses, FlowLossGradientMatchesCentralDifferencesAndSkipsUnknownPixels) {
         ASSERT_EQ(v_render.data[i], 0.0f) << "channel " << c << " of pixel " << p;
         continue;
       }
-      const float value = render.data[i];
-      render.data[i] = value + kStep;
-      const double plus = flow_loss(render, channel, target, kWeight, unused);
-      render.data[i] = value - kStep;
-      const double minus = flow_loss(render, channel, target, kWeight, unused);
-      render.data[i] = value;
-      const double numeric = kWeight * (plus - minus) / (2.0 * kStep);
+      const double numeric = kWeight * central_difference(render.data[i], [&] {
+                               return flow_loss(render, channel, target, kWeight, unused);
+                             });
       if (!target.valid[p]) {
         ASSERT_EQ(numeric, 0.0) << p;
       }
