@@ -51,19 +51,11 @@ int grid_index(const TimeGrid& grid, double t) {
 }
 
 template <typename T>
-RetimeWindow<T> window_of(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
-                          const TimeGrid& grid) {
-  return {p.mu_tau[i],      p.tau_l[i],     p.tau_r[i],
-          T(grid.first),    T(grid.last()), T(grid.to_frames(config.gamma)),
-          T(config.epsilon)};
-}
-
-template <typename T>
 T temporal_opacity(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
                    const TimeGrid& grid, T t) {
   if (config.representation == Representation::kStgs)
     return stgs_temporal_opacity(p.mu_tau[i], p.temporal_log_scale[i], t);
-  return window_of(p, i, config, grid)(t);
+  return retime_window(p, i, config, grid)(t);
 }
 
 // Flow rule of DESIGN.md §2: at t >= μ_τ the primitive sits at p2 (L rule: forward to p3,
@@ -90,7 +82,7 @@ bool in_group(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
   if (config.representation == Representation::kStgs)
     fail("group renders are not defined for the STGS baseline");
   const int index = grid_index(grid, t);
-  const RetimeWindow<T> w = window_of(p, i, config, grid);
+  const RetimeWindow<T> w = retime_window(p, i, config, grid);
   if (group == Group::kLeft) return w.covers(T(grid.at(index - 1)), T(t));
   return w.covers(T(t), T(grid.at(index + 1)));
 }
@@ -112,21 +104,28 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
   const int channels = 3 + (options.flow_features ? kFlowChannels : 0);
 
   // Select the rows in primitive order (deterministic), then fill them in parallel.
-  std::vector<T> temporal(n);
+  const std::size_t candidates = options.rows ? options.rows->size() : n;
   std::vector<std::int32_t> selected;
-  selected.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  std::vector<T> temporal;  // [selected]
+  selected.reserve(candidates);
+  temporal.reserve(candidates);
+  for (std::size_t k = 0; k < candidates; ++k) {
+    const std::size_t i = options.rows ? std::size_t((*options.rows)[k]) : k;
+    if (options.rows && (i >= n || (k > 0 && i <= std::size_t((*options.rows)[k - 1]))))
+      fail("evaluate: row list entry {} ({}) is not ascending within the {} primitives", k, i, n);
     if (!in_group(p, i, config, grid, t_in, options.group)) continue;
-    temporal[i] = options.compensate ? T(1) : temporal_opacity(p, i, config, grid, t);
-    if (sigmoid(p.opacity_logit[i]) * temporal[i] >= T(options.min_opacity) &&
-        (options.min_opacity > 0 || temporal[i] > T(0)))
+    const T w = options.compensate ? T(1) : temporal_opacity(p, i, config, grid, t);
+    if (sigmoid(p.opacity_logit[i]) * w >= T(options.min_opacity) &&
+        (options.min_opacity > 0 || w > T(0))) {
       selected.push_back(std::int32_t(i));
+      temporal.push_back(w);
+    }
   }
 
   EvaluatedT<T> out;
   const std::size_t m = selected.size();
   out.gaussians = GaussiansT<T>(m, channels);
-  out.temporal.resize(m);
+  out.temporal = std::move(temporal);
   const PinholeT<T> pinhole(camera);
   const std::array<T, 3> eye = eye_of<T>(camera);
   GaussiansT<T>& g = out.gaussians;
@@ -135,8 +134,7 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
     const std::size_t i = selected[row];
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
-    out.temporal[row] = temporal[i];
-    g.opacities[row] = sigmoid(p.opacity_logit[i]) * temporal[i];
+    g.opacities[row] = sigmoid(p.opacity_logit[i]) * out.temporal[row];
     T* x = &g.means[3 * row];
     apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step),
                      mu, v, x);

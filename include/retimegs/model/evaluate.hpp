@@ -9,6 +9,7 @@
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::model {
 
@@ -30,6 +31,9 @@ struct EvaluateOptions {
   // Primitives whose opacity σ·σ_τ falls below this are left out; 1/255 is exact for the
   // renderer, which skips alpha below one 8-bit step anyway. Gradient tests set 0.
   double min_opacity = 1.0 / 255.0;
+  // The ascending rows to consider (nullptr: all rows). The batch is the full scan's, byte for
+  // byte, whenever the list holds every row the full scan selects (TemporalIndex::rows_at).
+  const std::vector<std::int32_t>* rows = nullptr;
 };
 
 template <typename T>
@@ -53,6 +57,15 @@ void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& conf
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
                        const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads);
+
+// The RetimeGS window of primitive i under the model's settings, in T, as evaluate applies it.
+template <typename T>
+RetimeWindow<T> retime_window(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+                              const TimeGrid& grid) {
+  return {p.mu_tau[i],      p.tau_l[i],     p.tau_r[i],
+          T(grid.first),    T(grid.last()), T(grid.to_frames(config.gamma)),
+          T(config.epsilon)};
+}
 
 // Whether primitive i belongs to `group` at time t (always true for kAll).
 template <typename T>

@@ -1,0 +1,39 @@
+#pragma once
+// Which primitives a training step at t_i can touch: the rows whose temporal window reaches t_i,
+// so that a step costs what is visible at its time, not what the model holds (training
+// throughput). Built once per change of the windows (relocation copies them, stretching widens
+// them); the rows of each training frame are listed in ascending order.
+#include <cstdint>
+#include <vector>
+
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/primitives.hpp"
+
+namespace retimegs::model {
+
+class TemporalIndex {
+ public:
+  TemporalIndex() = default;
+  // Retime: frame i lists every row with σ_τ(t_i) >= min_opacity (the evaluate cut: σ ≤ 1, so a
+  // row below it is left out of every plain render at t_i) and every member of the left or right
+  // group at t_i (compensated group renders draw them whatever their σ_τ). The window is
+  // log-concave, hence unimodal in t: each row's frames are found by walking out from its mode,
+  // so building costs O(N + entries), not O(N × frames). σ_τ is computed in T exactly as evaluate
+  // computes it. STGS optimises μ_τ and the temporal scale every step, so every row is active at
+  // every frame.
+  template <typename T>
+  TemporalIndex(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
+                double min_opacity = EvaluateOptions{}.min_opacity);
+
+  // The ascending rows that can take part in any render at training time grid.at(frame).
+  // Throws Error for a frame outside the grid.
+  const std::vector<std::int32_t>& rows_at(int frame) const;
+  int frames() const { return frames_; }
+
+ private:
+  int frames_ = 0;
+  bool every_row_ = false;                       // STGS: one list, all rows, for every frame
+  std::vector<std::vector<std::int32_t>> rows_;  // [frames] (one when every_row_)
+};
+
+}  // namespace retimegs::model
