@@ -1,14 +1,19 @@
 // Training throughput (see bench/README.md): one full training step of the RetimeGS recipe at an
 // interior training frame (triple render with flow features, losses, backward through the
 // rasteriser and the model, regulariser, Adam, noise) at 640x360, on a synthetic model of `total`
-// primitives of which `active` lie in the three frames the step's renders can see (the frame
-// itself and its two neighbours, as triple rendering's groups reach them); the others sit in the
-// remaining frames, invisible at this time. Relocation runs every relocate_every steps in
-// training: its cost, measured on the same model, is added to each step divided by that period.
+// primitives of which `active` belong to the two intervals either side of the step's frame (the
+// left and right groups of its triple render; all of them at half opacity in its all-primitives
+// render); the others belong to the remaining intervals, invisible at this time. Relocation runs
+// every relocate_every steps in training: its cost, measured on the same model, is added to each
+// step divided by that period.
+//
+// The step works on its active set (model::TemporalIndex): evaluation, regulariser, Adam, noise
+// and the clearing of the gradient rows cover the `active` primitives, not the `total`.
 //
 // Counters (milliseconds per step): the stages of train::StageSeconds (losses: image and flow
-// losses with their gradients; other: the rest of the step, noise injection included), and
-// relocation_ms, the amortised relocation.
+// losses with their gradients; other: the rest of the step, noise injection and the clearing of
+// the gradient rows included), relocation_ms, the amortised relocation, and `active`, the rows in
+// the step's active set.
 #include <cmath>
 #include <random>
 #include <vector>
@@ -63,18 +68,20 @@ train::TrainingSet synthetic_set() {
   return set;
 }
 
-// `total` primitives in the cube; `active` of them in frames kStepFrame - 1 .. kStepFrame + 1, the
-// rest spread over the other frames. 5 % are dead (opacity under the relocation threshold).
+// `total` primitives in the cube, each of one interval [t_k, t_{k+1}] as initialisation makes them;
+// `active` of them in the intervals either side of kStepFrame, the rest spread over the others.
+// 5 % are dead (opacity under the relocation threshold).
 model::Primitives synthetic_primitives(std::size_t total, std::size_t active) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<float> unit(-1, 1), colour(0, 1);
-  std::vector<int> far_frames;
-  for (int i = 0; i < kFrames; ++i)
-    if (std::abs(i - kStepFrame) > 1) far_frames.push_back(i);
+  std::vector<int> far_intervals;
+  for (int k = 0; k + 1 < kFrames; ++k)
+    if (k != kStepFrame - 1 && k != kStepFrame) far_intervals.push_back(k);
   model::Primitives p;
   p.resize(total);
   for (std::size_t j = 0; j < total; ++j) {
-    const int frame = j < active ? kStepFrame - 1 + int(j % 3) : far_frames[j % far_frames.size()];
+    const int interval =
+        j < active ? kStepFrame - 1 + int(j % 2) : far_intervals[j % far_intervals.size()];
     for (int a = 0; a < 3; ++a) {
       p.mu[3 * j + a] = unit(rng);
       p.log_scale[3 * j + a] = std::log(0.02f) + 0.5f * unit(rng);
@@ -85,7 +92,7 @@ model::Primitives synthetic_primitives(std::size_t total, std::size_t active) {
     }
     for (int a = 0; a < 4; ++a) p.q0[4 * j + a] = a == 0 ? 1 : 0.2f * unit(rng);
     p.opacity_logit[j] = j % 20 == 0 ? -8.0f : unit(rng);
-    p.mu_tau[j] = float(kFrameStep * frame);
+    p.mu_tau[j] = float(kFrameStep * (interval + 0.5));
     p.tau_l[j] = p.tau_r[j] = float(kFrameStep / 2);
   }
   return p;
@@ -115,6 +122,7 @@ void BM_TrainStep(benchmark::State& state) {
   }
 
   train::StageSeconds sum;
+  double active_rows = 0;
   int camera = 0;
   for (auto _ : state) {
     const train::StepStats s = trainer.step_view(camera, kStepFrame);
@@ -127,6 +135,7 @@ void BM_TrainStep(benchmark::State& state) {
     sum.evaluate_backward += s.seconds.evaluate_backward;
     sum.optimizer += s.seconds.optimizer;
     sum.total += s.seconds.total;
+    active_rows += double(s.active);
   }
   const double ms = 1e3 / double(state.iterations());
   state.counters["evaluate_ms"] = sum.evaluate * ms;
@@ -137,6 +146,7 @@ void BM_TrainStep(benchmark::State& state) {
   state.counters["adam_ms"] = sum.optimizer * ms;
   state.counters["other_ms"] = sum.other() * ms;
   state.counters["relocation_ms"] = relocation * 1e3;
+  state.counters["active"] = active_rows / double(state.iterations());
   state.counters["peak_rss_MB"] = double(peak_rss_bytes()) / 1e6;  // of the process so far
 }
 

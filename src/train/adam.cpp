@@ -59,7 +59,8 @@ Adam::Adam(std::size_t rows, int width, AdamSettings settings, std::vector<float
       m_(rows * width, 0.0f),
       v_(rows * width, 0.0f) {}
 
-void Adam::step(float* params, const float* grads, double lr) {
+void Adam::step(float* params, const float* grads, double lr,
+                const std::vector<std::int32_t>* rows) {
   ++steps_;
   const float b1 = float(settings_.beta1), b2 = float(settings_.beta2);
   const double correction1 = 1.0 - std::pow(settings_.beta1, double(steps_));
@@ -68,13 +69,14 @@ void Adam::step(float* params, const float* grads, double lr) {
   const float step_size = float(lr / correction1);
   const float inv_sqrt_c2 = float(1.0 / std::sqrt(correction2));
   const float eps = float(settings_.epsilon);
-  const std::size_t rows = this->rows();
+  const std::size_t count = rows ? rows->size() : this->rows();
   const int width = width_;
   const float* scale = column_scale_.data();
   float* m = m_.data();
   float* v = v_.data();
 #pragma omp parallel for schedule(static)
-  for (std::size_t r = 0; r < rows; ++r)
+  for (std::size_t j = 0; j < count; ++j) {
+    const std::size_t r = rows ? std::size_t((*rows)[j]) : j;
 #pragma omp simd
     for (int k = 0; k < width; ++k) {
       const std::size_t i = r * width + k;
@@ -83,6 +85,7 @@ void Adam::step(float* params, const float* grads, double lr) {
       v[i] = b2 * v[i] + (1 - b2) * g * g;
       params[i] -= step_size * scale[k] * m[i] / (std::sqrt(v[i]) * inv_sqrt_c2 + eps);
     }
+  }
 }
 
 void Adam::reset_rows(const std::vector<std::int32_t>& rows) {
@@ -116,12 +119,12 @@ Optimizers::Optimizers(const model::Primitives& p, model::Representation represe
   }
 }
 
-void Optimizers::step(model::Primitives& p, const model::PrimitiveGrads& grads, double means_decay,
-                      double decay) {
+void Optimizers::step(model::Primitives& p, const model::PrimitiveGrads& grads,
+                      const std::vector<std::int32_t>& rows, double means_decay, double decay) {
   for (std::size_t k = 0; k < groups_.size(); ++k) {
     const OptimisedField& f = kOptimised[k];
     const double rate = (f.means_decay ? base_rates_[k] * means_decay : base_rates_[k]) * decay;
-    groups_[k].adam.step((p.*f.values).data(), (grads.*f.grads).data(), rate);
+    groups_[k].adam.step((p.*f.values).data(), (grads.*f.grads).data(), rate, &rows);
   }
 }
 

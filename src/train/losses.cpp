@@ -76,10 +76,11 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
   return sum / double(known);
 }
 
-double regularizer(const model::Primitives& p, double opacity_weight, double scale_weight) {
+double regularizer(const model::Primitives& p, const std::vector<std::int32_t>& rows,
+                   double opacity_weight, double scale_weight) {
   const std::size_t n = p.size();
   double reg = 0;
-  for (std::size_t r = 0; r < n; ++r) {
+  for (const std::int32_t r : rows) {
     reg += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
     for (int a = 0; a < 3; ++a)
       reg += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
@@ -87,10 +88,15 @@ double regularizer(const model::Primitives& p, double opacity_weight, double sca
   return reg;
 }
 
-void regularizer_backward(const model::Primitives& p, double opacity_weight, double scale_weight,
+void regularizer_backward(const model::Primitives& p, const std::vector<std::int32_t>& rows,
+                          double opacity_weight, double scale_weight,
                           model::PrimitiveGrads& grads) {
   const std::size_t n = p.size();
-  for (std::size_t r = 0; r < n; ++r) {
+  const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
+  // Rows are distinct: each iteration writes its own gradient slots.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t j = 0; j < count; ++j) {
+    const std::size_t r = std::size_t(rows[j]);
     const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
     grads.v_opacity_logit[r] += float(opacity_weight / double(n) * sigma * (1 - sigma));
     for (int a = 0; a < 3; ++a)

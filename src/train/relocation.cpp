@@ -114,9 +114,11 @@ Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap
   return result;
 }
 
-void inject_noise(model::Primitives& p, double lr_means, std::mt19937_64& rng) {
+void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, double lr_means,
+                  std::mt19937_64& rng) {
   std::normal_distribution<float> normal;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  for (const std::int32_t row : rows) {
+    const std::size_t i = std::size_t(row);
     const Eigen::Vector3f eps(normal(rng), normal(rng), normal(rng));
     const double sigma = opacity_of(p, i);
     const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));

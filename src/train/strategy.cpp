@@ -8,12 +8,14 @@ namespace retimegs::train {
 McmcStrategy::McmcStrategy(const TrainConfig& config, double scene_extent)
     : config_(config), scene_extent_(scene_extent) {}
 
-DensityChanges McmcStrategy::after_step(int it, double lr_means, model::Model& model,
-                                        Optimizers& optimizers, std::mt19937_64& rng) {
+DensityChanges McmcStrategy::after_step(int it, double lr_means,
+                                        const std::vector<std::int32_t>& active,
+                                        model::Model& model, Optimizers& optimizers,
+                                        std::mt19937_64& rng) {
   DensityChanges changes;
   model::Primitives& p = model.primitives;
   const model::Representation rep = model.config.representation;
-  inject_noise(p, lr_means, rng);
+  inject_noise(p, active, lr_means, rng);
   if (it % config_.scaled(config_.relocate_every) == 0 &&
       it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
     const Relocation moved = relocate(p, rep, config_.min_opacity, rng);

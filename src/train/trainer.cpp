@@ -44,12 +44,18 @@ std::string Trainer::initialize() {
   std::string note;
   model_.primitives = train::initialize(set_, options, note);
   make_optimizers();
+  rebuild_index();
   return note;
 }
 
 void Trainer::initialize(model::Primitives primitives) {
   model_.primitives = std::move(primitives);
   make_optimizers();
+  rebuild_index();
+}
+
+void Trainer::rebuild_index() {
+  index_ = model::TemporalIndex(model_.primitives, model_.config, model_.grid);
 }
 
 void Trainer::make_optimizers() {
@@ -81,7 +87,8 @@ std::vector<Trainer::RenderPass> Trainer::render_passes(int i, bool flow) const 
   return {{model::Group::kAll, false, flow}};
 }
 
-void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
+void Trainer::render_pass(const RenderPass& pass, int c, int i,
+                          const std::vector<std::int32_t>& active, double w_flow, StepStats& stats,
                           model::PrimitiveGrads& grads) {
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   const double t = set_.grid.at(i);
@@ -90,6 +97,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i, double w_flow, S
   eo.group = pass.group;
   eo.compensate = pass.compensate;
   eo.flow_features = pass.flow;
+  eo.rows = &active;
   Stopwatch clock;
   const model::Evaluated e =
       model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo);
@@ -144,25 +152,30 @@ StepStats Trainer::step_view(int c, int i) {
   const double w_flow = flow_weight(it);
   const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
   unpack(set_.images[c][i], target_);
+  const std::vector<std::int32_t>& active = index_.rows_at(i);
+  stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
-  for (const RenderPass& pass : passes) render_pass(pass, c, i, w_flow, stats, grads);
+  for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
   stats.renders = int(passes.size());
   Stopwatch clock;
-  const double reg = regularizer(p, config_.opacity_reg, config_.scale_reg);
-  regularizer_backward(p, config_.opacity_reg, config_.scale_reg, grads);
+  const double reg = regularizer(p, active, config_.opacity_reg, config_.scale_reg);
+  regularizer_backward(p, active, config_.opacity_reg, config_.scale_reg, grads);
   stats.loss = stats.image_loss + w_flow * stats.flow_loss + reg;
   stats.flow_weight = w_flow;
 
   // Optimiser step, then relocation, growth, noise and stretching.
   const double decay = lr_factor(it);
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
-  adam_.step(p, grads, means_decay, decay);
+  adam_.step(p, grads, active, means_decay, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
-  const DensityChanges changes = strategy_->after_step(it, stats.lr_means, model_, adam_, rng_);
+  grads.zero_rows(active);
+  const DensityChanges changes =
+      strategy_->after_step(it, stats.lr_means, active, model_, adam_, rng_);
   stats.relocated = changes.relocated, stats.added = changes.added;
   stats.stretched = changes.stretched, stats.pruned = changes.pruned;
+  if (changes.relocated || changes.added || changes.stretched || changes.pruned) rebuild_index();
   stats.primitives = p.size();
   stats.seconds.total = step_clock.lap();
   return stats;
@@ -221,6 +234,7 @@ void Trainer::load_checkpoint(const fs::path& dir) {
     adam.m() = m, adam.v() = v;
     adam.step_count() = state_value<std::int64_t>(state, "adam_steps/" + name, file);
   }
+  rebuild_index();
 }
 
 model::Model train(const io::Scene& scene, const TrainRun& run) {
@@ -279,6 +293,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
                   {"flow_weight", s.flow_weight},
                   {"psnr", s.psnr},
                   {"primitives", s.primitives},
+                  {"active", s.active},
                   {"relocated", s.relocated},
                   {"added", s.added},
                   {"stretched", s.stretched},

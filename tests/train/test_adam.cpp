@@ -1,4 +1,7 @@
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +50,50 @@ TEST(Adam, ResetRowsAndGrowthStartFromZeroState) {
   const float before = p[2];
   adam.step(p, g, 0.01);
   EXPECT_LT(p[2], before);
+}
+
+// Selective steps over 6 rows of width 3: rows 0 and 3 are in every step's set, rows 1 and 4 in
+// every other one, row 5 in none. Rows in every set evolve bit for bit as under dense Adam; a row
+// outside a step's set keeps its parameters and both moments; the step count is the group's.
+TEST(Adam, SelectiveStepsLeaveRowsOutsideTheSetAsTheyAre) {
+  constexpr int kRows = 6, kWidth = 3;
+  Adam dense(kRows, kWidth), selective(kRows, kWidth);
+  std::vector<float> p_dense(kRows * kWidth), p_selective;
+  std::mt19937 rng(3);
+  std::normal_distribution<float> normal;
+  for (float& v : p_dense) v = normal(rng);
+  p_selective = p_dense;
+  for (int step = 0; step < 20; ++step) {
+    std::vector<float> g(kRows * kWidth);
+    for (float& v : g) v = normal(rng);
+    const std::vector<std::int32_t> rows =
+        step % 2 == 0 ? std::vector<std::int32_t>{0, 1, 3, 4} : std::vector<std::int32_t>{0, 3};
+    const std::vector<float> p_before = p_selective, m_before = selective.m(),
+                             v_before = selective.v();
+    dense.step(p_dense.data(), g.data(), 0.01);
+    selective.step(p_selective.data(), g.data(), 0.01, &rows);
+    for (int r = 0; r < kRows; ++r) {
+      const bool in_set = std::find(rows.begin(), rows.end(), r) != rows.end();
+      for (int k = r * kWidth; k < (r + 1) * kWidth; ++k) {
+        if (r == 0 || r == 3) {
+          ASSERT_EQ(p_selective[k], p_dense[k]) << "step " << step << " row " << r;
+          ASSERT_EQ(selective.m()[k], dense.m()[k]) << "step " << step << " row " << r;
+          ASSERT_EQ(selective.v()[k], dense.v()[k]) << "step " << step << " row " << r;
+        }
+        if (!in_set) {
+          ASSERT_EQ(p_selective[k], p_before[k]) << "step " << step << " row " << r;
+          ASSERT_EQ(selective.m()[k], m_before[k]) << "step " << step << " row " << r;
+          ASSERT_EQ(selective.v()[k], v_before[k]) << "step " << step << " row " << r;
+        } else {
+          ASSERT_NE(p_selective[k], p_before[k]) << "step " << step << " row " << r;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(selective.steps(), 20);
+  // Rows 1 and 4 took 10 of the 20 steps: their moments differ from dense Adam's.
+  EXPECT_NE(selective.m()[kWidth], dense.m()[kWidth]);
+  for (int k = 5 * kWidth; k < 6 * kWidth; ++k) EXPECT_EQ(selective.m()[k], 0.0f);
 }
 
 }  // namespace

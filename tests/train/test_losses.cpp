@@ -135,24 +135,27 @@ model::Primitives regularised_primitives() {
   return p;
 }
 
-TEST(Losses, RegularizerIsTheMeanOpacityAndScale) {
+TEST(Losses, RegularizerIsTheMeanOpacityAndScaleSummedOverTheRows) {
   model::Primitives p;
-  p.resize(2);
-  p.opacity_logit = {0.0f, std::log(3.0f)};  // σ = 1/2, 3/4
-  p.log_scale = {0.0f, 0.0f, 0.0f, std::log(2.0f), std::log(2.0f), std::log(5.0f)};
-  EXPECT_NEAR(regularizer(p, 0.1, 0.01), 0.1 * (0.5 + 0.75) / 2 + 0.01 * (3 + 2 + 2 + 5) / 6.0,
-              1e-7);
-  EXPECT_EQ(regularizer(model::Primitives{}, 0.1, 0.01), 0.0);
+  p.resize(3);
+  p.opacity_logit = {0.0f, 5.0f, std::log(3.0f)};  // σ = 1/2, -, 3/4
+  p.log_scale = {0.0f, 0.0f,           0.0f,           1.0f,          1.0f,
+                 1.0f, std::log(2.0f), std::log(2.0f), std::log(5.0f)};
+  EXPECT_NEAR(regularizer(p, {0, 2}, 0.1, 0.01),
+              0.1 * (0.5 + 0.75) / 3 + 0.01 * (3 + 2 + 2 + 5) / 9.0, 1e-7);
+  EXPECT_EQ(regularizer(model::Primitives{}, {}, 0.1, 0.01), 0.0);
 }
 
+// Rows 1 and 4 are not in the set: they get no gradient, and the loss does not depend on them.
 TEST(Losses, RegularizerGradientMatchesCentralDifferences) {
   model::Primitives p = regularised_primitives();
+  const std::vector<std::int32_t> rows = {0, 2, 3, 5};
   constexpr double kOpacity = 0.01, kScale = 0.1;
   model::PrimitiveGrads grads(p.size());
-  regularizer_backward(p, kOpacity, kScale, grads);
+  regularizer_backward(p, rows, kOpacity, kScale, grads);
   // The gradient accumulates, and only opacity and scale have one.
   model::PrimitiveGrads twice = grads;
-  regularizer_backward(p, kOpacity, kScale, twice);
+  regularizer_backward(p, rows, kOpacity, kScale, twice);
   for (std::size_t i = 0; i < p.size(); ++i)
     ASSERT_EQ(twice.v_opacity_logit[i], 2 * grads.v_opacity_logit[i]) << i;
   for (std::size_t i = 0; i < 3 * p.size(); ++i)
@@ -166,9 +169,9 @@ TEST(Losses, RegularizerGradientMatchesCentralDifferences) {
       const float value = values[i];
       const float above = value + 1.0f / 1024, below = value - 1.0f / 1024;
       values[i] = above;
-      const double plus = regularizer(p, kOpacity, kScale);
+      const double plus = regularizer(p, rows, kOpacity, kScale);
       values[i] = below;
-      const double minus = regularizer(p, kOpacity, kScale);
+      const double minus = regularizer(p, rows, kOpacity, kScale);
       values[i] = value;
       const double numeric = (plus - minus) / (double(above) - double(below));
       EXPECT_NEAR(analytic[i], numeric, 1e-5 * std::abs(numeric)) << field << " " << i;
@@ -176,6 +179,10 @@ TEST(Losses, RegularizerGradientMatchesCentralDifferences) {
   };
   check(p.opacity_logit, grads.v_opacity_logit, "opacity_logit");
   check(p.log_scale, grads.v_log_scale, "log_scale");
+  for (const std::size_t r : {1, 4}) {
+    EXPECT_EQ(grads.v_opacity_logit[r], 0.0f) << r;
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(grads.v_log_scale[3 * r + a], 0.0f) << r;
+  }
 }
 
 }  // namespace

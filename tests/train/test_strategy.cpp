@@ -2,6 +2,7 @@
 // moments for every replaced or appended row, stretching at its own schedule, noise every step.
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -65,10 +66,12 @@ TEST(McmcStrategy, RelocatesAndGrowsOnScheduleWithFreshMomentsForReplacedRows) {
     for (auto* g : {&grads.v_mu, &grads.v_velocity, &grads.v_log_scale, &grads.v_q0, &grads.v_q1,
                     &grads.v_sh, &grads.v_opacity_logit})
       std::fill(g->begin(), g->end(), 1.0f);
-    optimizers.step(p, grads, 0, 0);
+    std::vector<std::int32_t> all(p.size());
+    std::iota(all.begin(), all.end(), 0);
+    optimizers.step(p, grads, all, 0, 0);
     const model::Primitives before = p;
     const std::size_t n = p.size();
-    const DensityChanges changes = strategy.after_step(it, 1.6e-4, m, optimizers, rng);
+    const DensityChanges changes = strategy.after_step(it, 1.6e-4, all, m, optimizers, rng);
     for (const auto& [name, adam] : optimizers) ASSERT_EQ(adam.rows(), p.size()) << name;
     EXPECT_EQ(changes.stretched, 0u) << it;
     if (it != 15 && it != 20 && it != 25) {
@@ -125,7 +128,7 @@ TEST(McmcStrategy, StretchesOnItsScheduleAndNotForStgsOrTheAblation) {
       const model::Model fresh = stretch_model();
       m.primitives.tau_l = fresh.primitives.tau_l, m.primitives.tau_r = fresh.primitives.tau_r;
       m.primitives.opacity_logit = fresh.primitives.opacity_logit;
-      const DensityChanges changes = strategy.after_step(it, 1.6e-4, m, optimizers, rng);
+      const DensityChanges changes = strategy.after_step(it, 1.6e-4, {0, 1}, m, optimizers, rng);
       const bool due = variant == 0 && it % 7 == 0 && it < c.iters;
       EXPECT_EQ(changes.stretched, due ? 2u : 0u) << "variant " << variant << " iteration " << it;
       EXPECT_EQ(m.primitives.tau_l[1] > 1, due) << "variant " << variant << " iteration " << it;

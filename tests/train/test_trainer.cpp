@@ -11,6 +11,7 @@
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/eval/render_model.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/model/temporal_index.hpp"
 #include "retimegs/train/trainer.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
@@ -30,7 +31,7 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
   const model::Model model = train(scene, run);
   EXPECT_TRUE(fs::exists(dir / "run" / "model.rgs"));
   EXPECT_TRUE(fs::exists(dir / "run" / "config.json"));
-  EXPECT_TRUE(fs::exists(dir / "run" / "log.jsonl"));
+  EXPECT_NE(test::read_text(dir / "run" / "log.jsonl").find("\"active\":"), std::string::npos);
 
   eval::EvalOptions options;
   options.frames = {1, 3};
@@ -78,6 +79,52 @@ TEST(Trainer, StepViewStagesAndExplicitPrimitives) {
   }
   test::expect_error([&] { given.step_view(int(set.cameras.size()), 0); }, {"no view"});
   test::expect_error([&] { given.step_view(0, -1); }, {"no view"});
+}
+
+// A step changes only the rows of its active set, the temporal index's rows at its frame (the
+// first step neither relocates nor stretches); the STGS baseline's set is every row.
+TEST(Trainer, AStepChangesOnlyItsActiveRows) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);
+  for (const bool stgs : {false, true}) {
+    TrainConfig config;
+    config.iters = 40;
+    config.cap = 1500;
+    config.stgs_baseline = stgs;
+    Trainer trainer(set, config);
+    trainer.initialize();
+    const model::Primitives before = trainer.model().primitives;
+    const model::TemporalIndex index(before, trainer.model().config, trainer.model().grid);
+    const std::vector<std::int32_t>& rows = index.rows_at(0);
+    const StepStats s = trainer.step_view(1, 0);
+    EXPECT_EQ(s.active, rows.size());
+    if (stgs) {
+      EXPECT_EQ(s.active, before.size());
+      continue;
+    }
+    EXPECT_GT(s.active, 0u);
+    EXPECT_LT(s.active, before.size());
+    const model::Primitives& after = trainer.model().primitives;
+    ASSERT_EQ(after.size(), before.size());
+    std::size_t changed = 0;
+    for (std::size_t r = 0; r < before.size(); ++r) {
+      const bool active = std::binary_search(rows.begin(), rows.end(), std::int32_t(r));
+      bool same = true;
+      for (int f = 0; f < model::Primitives::kFieldCount; ++f) {
+        const auto& a = *before.fields()[f].values;
+        const auto& b = *after.fields()[f].values;
+        const int width = before.fields()[f].width;
+        same = same && std::equal(a.begin() + r * width, a.begin() + (r + 1) * width,
+                                  b.begin() + r * width);
+      }
+      if (!active) {
+        ASSERT_TRUE(same) << "row " << r << " is not active at frame 0";
+      }
+      changed += !same;
+    }
+    EXPECT_EQ(changed, s.active) << "every active row moves (Adam's first step moves every row)";
+  }
 }
 
 TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {

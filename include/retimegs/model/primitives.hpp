@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -115,20 +116,32 @@ struct PrimitiveGradsT {
 
   PrimitiveGradsT() = default;
   explicit PrimitiveGradsT(std::size_t n) { resize(n); }
-  // n zeroed rows. A buffer reused across training steps keeps its allocation (no page faults on
-  // fresh memory every step) and is zeroed on all threads.
+  // Keeps the first n rows as they are; added rows are zero.
   void resize(std::size_t n) {
-    const std::pair<std::vector<T>*, int> fields[] = {
-        {&v_mu, 3}, {&v_velocity, 9}, {&v_log_scale, 3}, {&v_q0, 4}, {&v_q1, 4},
-        {&v_sh, PrimitivesT<T>::kShWidth}, {&v_opacity_logit, 1}, {&v_mu_tau, 1},
-        {&v_temporal_log_scale, 1}};
-    for (const auto& [values, width] : fields) {
-      values->resize(n * width);
-      T* data = values->data();
-      const std::ptrdiff_t size = std::ptrdiff_t(values->size());
+    for (const auto& [values, width] : fields()) values->resize(n * width, T(0));
+  }
+  // Zeroes the given rows (distinct), on all threads: a buffer reused across training steps is
+  // cleared where the step wrote, not in full.
+  void zero_rows(const std::vector<std::int32_t>& rows) {
+    const auto all = fields();
+    const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
 #pragma omp parallel for schedule(static)
-      for (std::ptrdiff_t k = 0; k < size; ++k) data[k] = T(0);
-    }
+    for (std::ptrdiff_t j = 0; j < count; ++j)
+      for (const auto& [values, width] : all)
+        std::fill_n(values->data() + std::size_t(rows[j]) * width, width, T(0));
+  }
+
+ private:
+  std::array<std::pair<std::vector<T>*, int>, 9> fields() {
+    return {{{&v_mu, 3},
+             {&v_velocity, 9},
+             {&v_log_scale, 3},
+             {&v_q0, 4},
+             {&v_q1, 4},
+             {&v_sh, PrimitivesT<T>::kShWidth},
+             {&v_opacity_logit, 1},
+             {&v_mu_tau, 1},
+             {&v_temporal_log_scale, 1}}};
   }
 };
 using PrimitiveGrads = PrimitiveGradsT<float>;

@@ -3,6 +3,12 @@
 // computes it (bias-corrected moments, ε added to the corrected square root). Rows can be reset
 // (MCMC relocation) and appended (growth) with zero state. Optimizers holds one per optimised
 // field of the primitives.
+//
+// Selective steps (gsplat's SelectiveAdam, Taming-3DGS): a step may update only a given set of
+// rows, those the step could draw (model::TemporalIndex); the other rows keep their parameters
+// and both moments as they are, rather than decaying their moments and moving on momentum alone
+// while they are invisible. The bias correction uses the group's step count, which every step
+// advances, as gsplat does. A row updated at every step evolves exactly as under dense Adam.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -26,8 +32,10 @@ class Adam {
   Adam(std::size_t rows, int width, AdamSettings settings = {},
        std::vector<float> column_scale = {});
 
-  // params -= lr · s_col · m̂ / (sqrt(v̂) + ε) over all rows; params and grads are [rows, width].
-  void step(float* params, const float* grads, double lr);
+  // params -= lr · s_col · m̂ / (sqrt(v̂) + ε) over the ascending `rows` (nullptr: all rows);
+  // params and grads are [rows(), width].
+  void step(float* params, const float* grads, double lr,
+            const std::vector<std::int32_t>* rows = nullptr);
   // Zeroes the moments of the given rows (their parameters were replaced).
   void reset_rows(const std::vector<std::int32_t>& rows);
   // Grows (zero state) or shrinks to `rows` rows.
@@ -67,10 +75,10 @@ class Optimizers {
   Optimizers(const model::Primitives& primitives, model::Representation representation,
              const TrainConfig& config, double scene_extent, double frame_step);
 
-  // One Adam step of every field at its base rate × decay, and × means_decay too for means and
-  // velocities.
-  void step(model::Primitives& primitives, const model::PrimitiveGrads& grads, double means_decay,
-            double decay);
+  // One Adam step of every field over the ascending `rows` (the step's active set) at its base
+  // rate × decay, and × means_decay too for means and velocities.
+  void step(model::Primitives& primitives, const model::PrimitiveGrads& grads,
+            const std::vector<std::int32_t>& rows, double means_decay, double decay);
   // The means' rate of a step with these factors.
   double means_rate(double means_decay, double decay) const;
   // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows.

@@ -3,6 +3,9 @@
 // and the per-pixel L1 flow loss that skips unknown flow pixels; each returns its value and adds
 // weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first). On
 // the primitives: the 3DGS-MCMC regulariser, as a forward / backward pair.
+#include <cstdint>
+#include <vector>
+
 #include "retimegs/core/image.hpp"
 #include "retimegs/model/primitives.hpp"
 
@@ -20,12 +23,16 @@ double image_loss(const Image& render, const Image& target, double ssim_lambda, 
 double flow_loss(const Image& render, int channel, const Flow& target, double weight,
                  Image& v_render);
 
-// opacity_weight · mean σ + scale_weight · mean exp(s) over the N primitives (and their 3 axes
-// for the scale): faint primitives drift towards death, where relocation reuses them, and splats
-// stay small. 0 when there is no primitive.
-double regularizer(const model::Primitives& primitives, double opacity_weight, double scale_weight);
-// Adds d regularizer / d opacity_logit and d regularizer / d log_scale into `grads`.
-void regularizer_backward(const model::Primitives& primitives, double opacity_weight,
+// The 3DGS-MCMC regulariser opacity_weight · mean σ + scale_weight · mean exp(s) over the N
+// primitives (and their 3 axes for the scale), summed over the ascending `rows` only: faint
+// primitives drift towards death, where relocation reuses them, and splats stay small. A training
+// step passes the rows visible at its time, so a primitive is regularised at the steps whose image
+// loss sees it, with the gradient the mean over all N gives it. 0 when there is no row.
+double regularizer(const model::Primitives& primitives, const std::vector<std::int32_t>& rows,
+                   double opacity_weight, double scale_weight);
+// Adds d regularizer / d opacity_logit and d regularizer / d log_scale of `rows` into `grads`.
+void regularizer_backward(const model::Primitives& primitives,
+                          const std::vector<std::int32_t>& rows, double opacity_weight,
                           double scale_weight, model::PrimitiveGrads& grads);
 
 }  // namespace retimegs::train

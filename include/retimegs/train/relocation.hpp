@@ -32,7 +32,10 @@ Relocation relocate(model::Primitives& primitives, model::Representation represe
 Relocation grow(model::Primitives& primitives, model::Representation representation,
                 std::size_t cap, double growth, double min_opacity, std::mt19937_64& rng);
 
-// 3DGS-MCMC noise: μ += Σ ε · sigmoid(-100 (σ - 0.005)) · lr_means · 5e5, Σ = R diag(e^s)² Rᵀ.
-void inject_noise(model::Primitives& primitives, double lr_means, std::mt19937_64& rng);
+// 3DGS-MCMC noise: μ += Σ ε · sigmoid(-100 (σ - 0.005)) · lr_means · 5e5, Σ = R diag(e^s)² Rᵀ,
+// on the ascending `rows` only (three normal draws each, in row order): a training step perturbs
+// the primitives visible at its time, those its image loss and Adam step see.
+void inject_noise(model::Primitives& primitives, const std::vector<std::int32_t>& rows,
+                  double lr_means, std::mt19937_64& rng);
 
 }  // namespace retimegs::train

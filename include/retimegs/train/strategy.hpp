@@ -3,7 +3,9 @@
 // step computes gradients and calls the optimiser; when to relocate, grow, add noise or stretch,
 // and what that does to the optimiser's state, lives in one place with its own tests.
 #include <cstddef>
+#include <cstdint>
 #include <random>
+#include <vector>
 
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/train/adam.hpp"
@@ -20,13 +22,16 @@ class DensityStrategy {
  public:
   virtual ~DensityStrategy() = default;
   // Runs after the optimiser step of `iteration` (counted from 1), whose means' learning rate was
-  // `lr_means`. Keeps `optimizers` sized to the primitives.
-  virtual DensityChanges after_step(int iteration, double lr_means, model::Model& model,
+  // `lr_means` and whose active set (model::TemporalIndex) was the ascending `active` rows. Keeps
+  // `optimizers` sized to the primitives.
+  virtual DensityChanges after_step(int iteration, double lr_means,
+                                    const std::vector<std::int32_t>& active, model::Model& model,
                                     Optimizers& optimizers, std::mt19937_64& rng) = 0;
 };
 
 // The MCMC schedule of RetimeGS (DESIGN.md §2, §7), milestones in TrainConfig::scaled units:
-//   every step: noise on faint primitives (inject_noise), scaled by the means' learning rate;
+//   every step: noise on the step's faint active primitives (inject_noise), scaled by the means'
+//     learning rate;
 //   every relocate_every steps strictly between relocate_start and relocate_stop: relocation of
 //     the dead primitives, then growth towards the cap; every row whose parameters were replaced
 //     or appended restarts with zero Adam moments, like a fresh parameter;
@@ -38,8 +43,9 @@ class McmcStrategy final : public DensityStrategy {
  public:
   McmcStrategy(const TrainConfig& config, double scene_extent);
 
-  DensityChanges after_step(int iteration, double lr_means, model::Model& model,
-                            Optimizers& optimizers, std::mt19937_64& rng) override;
+  DensityChanges after_step(int iteration, double lr_means, const std::vector<std::int32_t>& active,
+                            model::Model& model, Optimizers& optimizers,
+                            std::mt19937_64& rng) override;
 
  private:
   TrainConfig config_;

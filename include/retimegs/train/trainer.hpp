@@ -3,6 +3,12 @@
 // interior training frames with flow supervision of each group, L1 + SSIM and regularisers, Adam
 // per parameter group, SH degree schedule; MCMC relocation and growth, noise and dynamic
 // stretching in the density strategy; checkpoints that resume bit-identically.
+//
+// A step at training frame i works on its active set, model::TemporalIndex::rows_at(i): the
+// rows its renders can draw. Evaluation, the regulariser, Adam (selective), noise and the
+// clearing of the gradient buffer cover those rows only, so a step costs what is visible at its
+// time. The index is rebuilt whenever the windows may have changed: at the start, after loading
+// a checkpoint and after every strategy call that changed the primitives.
 #include <filesystem>
 #include <memory>
 #include <random>
@@ -11,6 +17,7 @@
 
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/model/temporal_index.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -41,6 +48,7 @@ struct StepStats {
   double psnr = 0;  // of the all-primitives render (core/psnr.hpp: +infinity on a perfect match)
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
+  std::size_t active = 0;  // rows in the step's active set (model::TemporalIndex)
   StageSeconds seconds;
 };
 
@@ -59,7 +67,6 @@ class Trainer {
 
   int iteration() const { return iteration_; }
   const model::Model& model() const { return model_; }
-  model::Model& model() { return model_; }
 
   // A checkpoint folder (written atomically): model.rgs, state.json, adam/<field>_{m,v}.npy.
   void save_checkpoint(const std::filesystem::path& dir) const;
@@ -76,19 +83,25 @@ class Trainer {
   double flow_weight(int it) const;
   double lr_factor(int it) const;
   void make_optimizers();
+  // The temporal index of the current primitives.
+  void rebuild_index();
   // Triple at interior frames (frame index i), one render at the ends and for STGS.
   std::vector<RenderPass> render_passes(int i, bool flow) const;
   // Renders view (camera index c, frame index i), adds its losses against target_ to `stats` (PSNR
   // of the all-primitives render) and their gradient to `grads`.
-  void render_pass(const RenderPass& pass, int c, int i, double w_flow, StepStats& stats,
-                   model::PrimitiveGrads& grads);
+  // Evaluates only the ascending `active` rows.
+  void render_pass(const RenderPass& pass, int c, int i, const std::vector<std::int32_t>& active,
+                   double w_flow, StepStats& stats, model::PrimitiveGrads& grads);
 
   const TrainingSet& set_;
   TrainConfig config_;
   model::Model model_;
   Optimizers adam_;
-  model::PrimitiveGrads grads_;  // the step's gradient, reused across steps
-  Image target_;                 // the step's view, unpacked (reused across steps)
+  model::TemporalIndex index_;
+  // The step's gradient, reused across steps: all zero between steps (a step clears the rows it
+  // wrote, its active set; grown rows start zero).
+  model::PrimitiveGrads grads_;
+  Image target_;  // the step's view, unpacked (reused across steps)
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
