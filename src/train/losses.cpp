@@ -13,28 +13,31 @@ namespace {
 constexpr std::ptrdiff_t kParallelPixels = 1 << 14;
 }  // namespace
 
-Image rgb_of(const Image& render) {
+const Image& rgb_of(const Image& render, Image& buffer) {
   if (render.channels == 3) return render;
-  Image rgb(render.width, render.height, 3);
+  buffer.width = render.width, buffer.height = render.height, buffer.channels = 3;
+  buffer.data.resize(3 * render.pixels());
   const std::ptrdiff_t pixels = std::ptrdiff_t(render.pixels());
 #pragma omp parallel for schedule(static) if (pixels >= kParallelPixels)
   for (std::ptrdiff_t p = 0; p < pixels; ++p)
-    for (int c = 0; c < 3; ++c) rgb.data[3 * p + c] = render.data[render.channels * p + c];
-  return rgb;
+    for (int c = 0; c < 3; ++c) buffer.data[3 * p + c] = render.data[render.channels * p + c];
+  return buffer;
 }
 
-double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
+double image_loss(const Image& rgb, const Image& target, double ssim_lambda, double weight,
                   Image& v_render) {
-  if (render.width != target.width || render.height != target.height || target.channels != 3)
-    fail("image loss: render {}x{} vs target {}x{}x{}", render.width, render.height, target.width,
-         target.height, target.channels);
-  const Image rgb = rgb_of(render);
+  if (rgb.channels != 3 || rgb.width != target.width || rgb.height != target.height ||
+      target.channels != 3 || v_render.width != rgb.width || v_render.height != rgb.height ||
+      v_render.channels < 3)
+    fail("image loss: render {}x{}x{} vs target {}x{}x{}, gradient {}x{}x{}", rgb.width, rgb.height,
+         rgb.channels, target.width, target.height, target.channels, v_render.width,
+         v_render.height, v_render.channels);
   const std::size_t n = rgb.data.size();
   Image v_ssim;
   const double s = ssim_backward(rgb, target, -ssim_lambda * weight, v_ssim);
   const float l1_grad = float((1 - ssim_lambda) * weight / double(n));
-  const int channels = render.channels;
-  const std::ptrdiff_t pixels = std::ptrdiff_t(render.pixels());
+  const int channels = v_render.channels;
+  const std::ptrdiff_t pixels = std::ptrdiff_t(rgb.pixels());
   double l1 = 0;
 #pragma omp parallel for schedule(static) reduction(+ : l1) if (pixels >= kParallelPixels)
   for (std::ptrdiff_t p = 0; p < pixels; ++p)

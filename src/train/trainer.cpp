@@ -24,6 +24,20 @@ namespace retimegs::train {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
+namespace {
+
+// Makes `image` a zero image of the given shape, keeping its allocation; zeroed on all threads.
+void zero_image(Image& image, int width, int height, int channels) {
+  image.width = width, image.height = height, image.channels = channels;
+  image.data.resize(std::size_t(width) * height * channels);
+  float* data = image.data.data();
+  const std::ptrdiff_t size = std::ptrdiff_t(image.data.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < size; ++k) data[k] = 0;
+}
+
+}  // namespace
+
 Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
     : set_(set),
       config_(config),
@@ -108,8 +122,10 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   const render::RenderOutput out =
       render::rasterize_forward(e.gaussians, camera, background.data(), render_options);
   stats.seconds.render_forward += clock.lap();
-  Image v_image(camera.width, camera.height, channels);
-  stats.image_loss += image_loss(out.blend.image, target, config_.ssim_lambda, 1.0, v_image);
+  Image& v_image = v_image_;
+  zero_image(v_image, camera.width, camera.height, channels);
+  const Image& rgb = rgb_of(out.blend.image, rgb_);
+  stats.image_loss += image_loss(rgb, target, config_.ssim_lambda, 1.0, v_image);
   if (pass.flow) {
     if (const auto& f = set_.forward[c][i])
       stats.flow_loss +=
@@ -118,7 +134,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
       stats.flow_loss +=
           flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
   }
-  if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb_of(out.blend.image), target);
+  if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb, target);
   stats.seconds.losses += clock.lap();
   const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
                                                       render_options, out, v_image.data.data());

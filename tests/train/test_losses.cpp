@@ -55,10 +55,12 @@ TEST(Losses, ImageLossGradientMatchesCentralDifferences) {
   const Image target = make_target(render, rng);
   constexpr double kLambda = 0.2, kWeight = 0.7;
   Image v_render(render.width, render.height, render.channels);
-  const double loss = image_loss(render, target, kLambda, kWeight, v_render);
+  Image buffer;
+  const double loss = image_loss(rgb_of(render, buffer), target, kLambda, kWeight, v_render);
   // The gradient accumulates; the flow channels take none.
   Image twice = v_render;
-  EXPECT_EQ(image_loss(render, target, kLambda, kWeight, twice), loss);
+  EXPECT_EQ(image_loss(rgb_of(render, buffer), target, kLambda, kWeight, twice), loss);
+  EXPECT_EQ(&rgb_of(target, buffer), &target) << "an RGB image is its own RGB";
   for (std::size_t i = 0; i < render.data.size(); ++i) {
     ASSERT_EQ(twice.data[i], 2 * v_render.data[i]) << i;
     if (int(i % render.channels) >= 3) {
@@ -70,9 +72,10 @@ TEST(Losses, ImageLossGradientMatchesCentralDifferences) {
   std::uniform_int_distribution<int> channel(0, 2);
   for (int trial = 0; trial < 60; ++trial) {
     const std::size_t i = render.channels * pixel(rng) + channel(rng);
-    const double numeric = kWeight * central_difference(render.data[i], [&] {
-                             return image_loss(render, target, kLambda, kWeight, unused);
-                           });
+    const double numeric =
+        kWeight * central_difference(render.data[i], [&] {
+          return image_loss(rgb_of(render, buffer), target, kLambda, kWeight, unused);
+        });
     EXPECT_NEAR(v_render.data[i], numeric, 1e-4 * std::abs(numeric) + 1e-9) << "value " << i;
   }
 }

@@ -11,11 +11,13 @@
 
 namespace retimegs::train {
 
-// The render's RGB, its first 3 channels, as an image of its own.
-Image rgb_of(const Image& render);
+// The render's RGB, its first 3 channels, as an image of its own: `render` itself when it has 3
+// channels, else a copy written into `buffer` (its allocation reused across calls).
+const Image& rgb_of(const Image& render, Image& buffer);
 
-// RGB = the render's first 3 channels against target [H, W, 3].
-double image_loss(const Image& render, const Image& target, double ssim_lambda, double weight,
+// The render's RGB `rgb` [H, W, 3] (rgb_of) against target [H, W, 3]; the gradient goes into the
+// first 3 channels of v_render.
+double image_loss(const Image& rgb, const Image& target, double ssim_lambda, double weight,
                   Image& v_render);
 
 // Mean over known pixels of |u - u*| + |v - v*|, the render's flow in channels

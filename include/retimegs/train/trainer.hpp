@@ -101,7 +101,9 @@ class Trainer {
   // The step's gradient, reused across steps: all zero between steps (a step clears the rows it
   // wrote, its active set; grown rows start zero).
   model::PrimitiveGrads grads_;
-  Image target_;  // the step's view, unpacked (reused across steps)
+  // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
+  // gradient with respect to the render.
+  Image target_, rgb_, v_image_;
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
