@@ -1,11 +1,16 @@
 #!/usr/bin/env bash
 # A real capture end to end: the CMU Panoptic "basketball" clip of ../shared/data (31 cameras x
 # 17 frames, 640x360). Import -> prepare (DIS flow, COLMAP points) -> train on the even frames of
-# the 27 training cameras (full recipe and the STGS baseline) -> score the odd frames on the
-# training cameras (masked) and on the 4 held-out test cameras (novel views, no masks: whole
-# image), next to cross-fade and nearest. Writes bench/results/panoptic.md and
-# bench/results/panoptic_sheet_{train,test}.png (ground truth | ours | cross-fade at held-out
-# frame 7).
+# the 27 training cameras (full recipe and the STGS baseline) -> score, next to the flow,
+# cross-fade and nearest baselines:
+#   - the odd frames on the training cameras, inside the masks and on the whole image;
+#   - the models' fit on their training frames (the even frames, training cameras, masked);
+#   - the odd frames on the 4 held-out test cameras (novel views, no masks: whole image);
+#   - temporal stability of the 8x slow motion on training cameras 5 and 18 (static pixels:
+#     outside the dilated masks), in 8-bit levels;
+# with each model's primitive count, peak RSS (from the `train` log) and training time.
+# Writes bench/results/panoptic.md and bench/results/panoptic_sheet_{train,test}.png (ground
+# truth | ours | flow | cross-fade at held-out frame 7).
 #
 #   bash bench/panoptic.sh                 # ITERS=3000 CAP=30000 POINTS=colmap
 set -euo pipefail
@@ -17,64 +22,96 @@ data=${DATA:-$root/../shared/data/panoptic-basketball}
 work=${WORK:-$root/bench/results/panoptic}
 bin="$root/build/apps/retimegs"
 [ -x "$bin" ] || "$root/scripts/setup.sh"
+source "$root/bench/eval_json.sh"
 mkdir -p "$work"
 scene="$work/scene"
 test_cams=0,10,15,30
 train_cams=$(seq -s, 1 29 | tr , '\n' | grep -vxE '10|15' | paste -sd,)
+stability_cams=5,18
 [ -f "$scene/scene.json" ] || "$bin" import panoptic --in "$data" --out "$scene"
+num_frames=$(grep -o '"num_frames": *[0-9]*' "$scene/scene.json" | grep -o '[0-9]*$')
+train_frames=$(seq -s, 0 2 $((num_frames - 1)))
 start=$(date +%s)
 "$bin" prepare --scene "$scene" --points "$points"
 echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
 
-for v in full stgs; do
+models=(full stgs)
+methods=(full stgs flow crossfade nearest)
+for v in "${models[@]}"; do
   run="$work/$v"
   if [ ! -f "$run/model.rgs" ]; then
     flags=()
     [ "$v" = stgs ] && flags=(--baseline stgs)
     start=$(date +%s)
-    "$bin" train --scene "$scene" --out "$run" --iters "$iters" --cap "$cap" "${flags[@]}"
+    mkdir -p "$run"
+    "$bin" train --scene "$scene" --out "$run" --iters "$iters" --cap "$cap" "${flags[@]}" 2>&1 |
+      tee "$run/train.log"
     echo $(( $(date +%s) - start )) > "$run/train_seconds"
   fi
 done
-for v in full stgs crossfade nearest; do
+for v in "${methods[@]}"; do
   case "$v" in
     full|stgs) source=(--model "$work/$v/model.rgs") ;;
     *) source=(--baseline "$v") ;;
   esac
-  for split in train test; do
-    cams=$train_cams
-    [ "$split" = test ] && cams=$test_cams
-    renders=()  # --save-renders replaces its folder: one per method and split
-    [ "$v" = full ] || [ "$v" = crossfade ] && renders=(--save-renders "$work/renders/$v-$split")
-    [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" --frames odd \
-      --cameras "$cams" "${renders[@]}" --out "$work/${v}_$split.json"
+  for split in train test fit stability; do
+    flags=(--frames odd)
+    case "$split" in
+      train) flags+=(--cameras "$train_cams") ;;
+      test) flags+=(--cameras "$test_cams") ;;
+      fit) flags=(--frames "$train_frames" --cameras "$train_cams") ;;
+      stability) flags+=(--cameras "$stability_cams" --stability) ;;
+    esac
+    # A baseline returns the training frames themselves: no fit to measure.
+    [ "$split" = fit ] && [ "$v" != full ] && [ "$v" != stgs ] && continue
+    # --save-renders replaces its folder: one per method and split.
+    case "$v-$split" in
+      full-train|full-test|flow-train|flow-test|crossfade-train|crossfade-test)
+        flags+=(--save-renders "$work/renders/$v-$split") ;;
+    esac
+    [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" "${flags[@]}" \
+      --out "$work/${v}_$split.json"
   done
 done
 for split in train test; do
   cams=5,18
   [ "$split" = test ] && cams=0,30
   "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 \
-    --renders "$work/renders/full-$split,$work/renders/crossfade-$split" \
+    --renders "$work/renders/full-$split,$work/renders/flow-$split,$work/renders/crossfade-$split" \
     --out "$root/bench/results/panoptic_sheet_$split.png"
 done
 
-metric() { grep -o "^  \"$2\": [^,]*" "$1" | head -1 | sed 's/.*: //'; }
+# cell FILE KEY SECTION DIGITS: one formatted figure, "–" when the file does not exist.
+cell() {
+  if [ -f "$1" ]; then fmt_metric "$(metric "$1" "$2" "$3")" "$4"; else echo "–"; fi
+}
 {
   echo "# CMU Panoptic basketball: train even frames, score odd frames"
   echo
-  echo "$iters iterations, cap $cap, points: $points; 27 training cameras x 9 frames at 640x360."
-  echo "Training cameras: masked metrics (PSNR in the masks, SSIM on their boxes, LPIPS on"
-  echo "black-masked images). Test cameras (0, 10, 15, 30; never trained on; no masks): whole image."
+  echo "$iters iterations, cap $cap, points: $points; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
+  echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
+  echo "boxes, LPIPS on black-masked images), then the whole image. Fit: masked PSNR on the training"
+  echo "frames themselves. Test cameras (0, 10, 15, 30; never trained on; no masks): whole image."
+  echo "Stability: largest mean absolute change between consecutive frames of the 8x slow motion over"
+  echo "static pixels (outside the dilated masks) of cameras $stability_cams, in 8-bit levels."
+  echo "Peak RSS and primitives from the train log."
   echo
-  echo "| method | train cams PSNR | SSIM | LPIPS | test cams PSNR | SSIM | LPIPS | train time (s) |"
-  echo "|---|---|---|---|---|---|---|---|"
-  for v in full stgs crossfade nearest; do
-    seconds=0
+  echo "| method | train cams PSNR | SSIM | LPIPS | whole PSNR | whole SSIM | whole LPIPS | fit PSNR | test cams PSNR | SSIM | LPIPS | stability | primitives | peak RSS (MB) | train time (s) |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+  for v in "${methods[@]}"; do
+    seconds=– primitives=– rss=–
     [ -f "$work/$v/train_seconds" ] && seconds=$(cat "$work/$v/train_seconds")
-    printf '| %s | %.2f | %.4f | %.4f | %.2f | %.4f | %.4f | %s |\n' "$v" \
-      "$(metric "$work/${v}_train.json" psnr)" "$(metric "$work/${v}_train.json" ssim)" \
-      "$(metric "$work/${v}_train.json" lpips)" "$(metric "$work/${v}_test.json" psnr)" \
-      "$(metric "$work/${v}_test.json" ssim)" "$(metric "$work/${v}_test.json" lpips)" "$seconds"
+    if [ -f "$work/$v/train.log" ]; then
+      primitives=$(grep -o '([0-9]* primitives); peak memory' "$work/$v/train.log" | tail -1 |
+        grep -o '[0-9]*' | head -1)
+      rss=$(grep -o 'peak memory [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*')
+    fi
+    t="$work/${v}_train.json" s="$work/${v}_test.json"
+    echo "| $v | $(cell "$t" psnr "" 2) | $(cell "$t" ssim "" 4) | $(cell "$t" lpips "" 4) |" \
+      "$(cell "$t" psnr whole 2) | $(cell "$t" ssim whole 4) | $(cell "$t" lpips whole 4) |" \
+      "$(cell "$work/${v}_fit.json" psnr "" 2) | $(cell "$s" psnr "" 2) | $(cell "$s" ssim "" 4) |" \
+      "$(cell "$s" lpips "" 4) | $(cell "$work/${v}_stability.json" max stability 2) |" \
+      "${primitives:-–} | ${rss:-–} | $seconds |"
   done
 } > "$root/bench/results/panoptic.md"
 cat "$root/bench/results/panoptic.md"

@@ -1,5 +1,6 @@
 // Bar chart of the quality benchmark: reads the CSV of bench/quality.sh (preset, variant, psnr,
-// ssim, lpips, train_seconds) and draws PSNR per variant, one group of bars per preset.
+// ssim, lpips, then the whole-image figures, stability and train_seconds) and draws the masked PSNR
+// per variant, one group of bars per preset.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -1,6 +1,6 @@
-// retimegs eval (--model MODEL | --baseline crossfade|nearest) --scene SCENE [--frames
-// odd|all|LIST]
-//               [--cameras LIST] [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
+// retimegs eval (--model MODEL | --baseline crossfade|nearest|flow) --scene SCENE
+//               [--frames odd|all|LIST] [--cameras LIST] [--train-frames even|all] [--stability]
+//               [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
 #include <filesystem>
 #include <memory>
 
@@ -22,27 +22,35 @@ void add_eval_command(CLI::App& app) {
     std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out,
                                         train_frames = "even";
     int threads = 0;
+    bool stability = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "eval",
       "Render held-out frames and score them against the ground truth (PSNR, SSIM, "
-      "LPIPS; inside the masks when the scene has them) as JSON.");
+      "LPIPS; inside the masks when the scene has them, and on the whole image) as JSON.");
   auto* model = cmd->add_option("--model", args->model, "model (.rgs, or a static .ply)");
   auto* baseline = cmd->add_option("--baseline", args->baseline,
-                                   "score a trivial in-betweening instead: crossfade (blend of the "
-                                   "neighbouring training frames) or nearest (copy of the closer)")
-                       ->check(CLI::IsMember({"crossfade", "nearest"}));
+                                   "score a 2D in-betweening of the neighbouring training frames "
+                                   "instead: crossfade (blend), nearest (copy of the closer) or "
+                                   "flow (interpolation along their optical flow, occlusion-aware; "
+                                   "the scene's flow files, else estimated with DIS)")
+                       ->check(CLI::IsMember({"crossfade", "nearest", "flow"}));
   model->excludes(baseline);
   cmd->add_option("--scene", args->scene, "scene folder")->required();
   cmd->add_option("--frames", args->frames, "odd, all, or a list like 1,3,5")
       ->capture_default_str();
   cmd->add_option("--cameras", args->cameras,
                   "camera names, comma-separated (default: every camera)");
-  cmd->add_option("--train-frames", args->train_frames,
-                  "the training frames the baselines blend: even or all")
+  cmd->add_option(
+         "--train-frames", args->train_frames,
+         "the training frames the baselines blend and --stability runs through: even or all")
       ->check(CLI::IsMember({"even", "all"}))
       ->capture_default_str();
+  cmd->add_flag("--stability", args->stability,
+                "also measure temporal stability: the largest mean absolute change, in 8-bit "
+                "levels, between consecutive frames of an 8x slow-motion render through the "
+                "training frames, over pixels static in the ground truth");
   cmd->add_option("--lpips-weights", args->lpips,
                   "LPIPS-squeeze weights folder (default: ../shared/data/metrics/lpips_squeeze/"
                   "weights when present; otherwise lpips is null)");
@@ -68,23 +76,35 @@ void add_eval_command(CLI::App& app) {
       options.lpips_weights = fs::path(RETIMEGS_DEFAULT_LPIPS_WEIGHTS);
     }
     if (!args->save.empty()) options.save_renders = fs::path(args->save);
+    const std::vector<int> train_frames =
+        io::training_views(scene, io::parse_frame_selection(args->train_frames, "--train-frames"))
+            .frames;
+    if (args->stability) options.stability_frames = train_frames;
 
     eval::FrameRenderer renderer;
     if (!args->baseline.empty()) {
-      const io::FrameSelection train =
-          io::parse_frame_selection(args->train_frames, "--train-frames");
-      renderer = eval::baseline_renderer(
-          scene, io::training_views(scene, train).frames,
-          args->baseline == "crossfade" ? eval::Baseline::kCrossfade : eval::Baseline::kNearest);
+      renderer = eval::baseline_renderer(scene, train_frames,
+                                         eval::parse_baseline(args->baseline, "--baseline"));
     } else {
       renderer = eval::model_renderer(scene, eval::load_model(args->model));
     }
     const eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     eval::write_json(result, args->out);
     if (!result.note.empty()) spdlog::info("{}", result.note);
+    const auto lpips_text = [](const std::optional<double>& v) {
+      return v ? fmt::format("{:.4f}", *v) : std::string("null");
+    };
     spdlog::info("psnr {:.3f}  ssim {:.4f}  lpips {}  ({} views{}) -> {}", result.psnr, result.ssim,
-                 result.lpips ? fmt::format("{:.4f}", *result.lpips) : "null",
-                 result.per_view.size(), result.masked ? ", masked" : "", args->out);
+                 lpips_text(result.lpips), result.per_view.size(), result.masked ? ", masked" : "",
+                 args->out);
+    if (result.masked)
+      spdlog::info("whole image: psnr {:.3f}  ssim {:.4f}  lpips {}", result.whole.psnr,
+                   result.whole.ssim, lpips_text(result.whole.lpips));
+    if (result.stability)
+      spdlog::info(
+          "stability: largest change {} levels (mean over cameras {})",
+          result.stability->max ? fmt::format("{:.3f}", *result.stability->max) : "null",
+          result.stability->mean ? fmt::format("{:.3f}", *result.stability->mean) : "null");
   });
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
@@ -9,6 +10,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
+#include "retimegs/eval/flow_interpolate.hpp"
 #include "retimegs/eval/lpips.hpp"
 #include "retimegs/eval/metrics.hpp"
 #include "retimegs/io/image_io.hpp"
@@ -54,45 +56,87 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
     v.frame = k;
     v.masked = mask.has_value();
     result.masked &= v.masked;
-    const Image* m = mask ? &*mask : nullptr;
-    v.psnr = psnr(image, truth, m);
-    v.ssim = ssim_in_box(image, truth, m);
-    if (lpips)
-      v.lpips = mask ? lpips->distance(apply_mask(image, *mask), apply_mask(truth, *mask))
-                     : lpips->distance(image, truth);
+    v.whole.psnr = psnr(image, truth);
+    v.whole.ssim = ssim_in_box(image, truth);
+    if (lpips) v.whole.lpips = lpips->distance(image, truth);
+    if (mask) {
+      v.psnr = psnr(image, truth, &*mask);
+      v.ssim = ssim_in_box(image, truth, &*mask);
+      if (lpips) v.lpips = lpips->distance(apply_mask(image, *mask), apply_mask(truth, *mask));
+    } else {
+      v.psnr = v.whole.psnr, v.ssim = v.whole.ssim, v.lpips = v.whole.lpips;
+    }
     if (renders)
       io::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
     progress.tick();
   }
   progress.finish();
   if (renders) renders->commit();
-  double psnr_sum = 0, ssim_sum = 0, lpips_sum = 0;
+  Scores masked_sum, whole_sum;
   for (const ViewScore& v : result.per_view) {
-    psnr_sum += v.psnr, ssim_sum += v.ssim;
-    if (v.lpips) lpips_sum += *v.lpips;
+    masked_sum.psnr += v.psnr, masked_sum.ssim += v.ssim;
+    whole_sum.psnr += v.whole.psnr, whole_sum.ssim += v.whole.ssim;
+    if (lpips) {
+      masked_sum.lpips = masked_sum.lpips.value_or(0) + *v.lpips;
+      whole_sum.lpips = whole_sum.lpips.value_or(0) + *v.whole.lpips;
+    }
   }
   const double n = double(result.per_view.size());
-  result.psnr = psnr_sum / n, result.ssim = ssim_sum / n;
-  if (lpips) result.lpips = lpips_sum / n;
+  result.psnr = masked_sum.psnr / n, result.ssim = masked_sum.ssim / n;
+  if (lpips) result.lpips = *masked_sum.lpips / n;
+  result.whole = {whole_sum.psnr / n, whole_sum.ssim / n, std::nullopt};
+  if (lpips) result.whole.lpips = *whole_sum.lpips / n;
+  if (!options.stability_frames.empty())
+    result.stability = temporal_stability(scene, render, options.cameras, options.stability_frames,
+                                          /*steps=*/8, options.progress);
   return result;
 }
 
+namespace {
+
+using json = nlohmann::json;
+
+json optional_json(const std::optional<double>& value) {
+  return value ? json(*value) : json(nullptr);
+}
+
+json scores_json(const Scores& s) {
+  return {{"psnr", s.psnr}, {"ssim", s.ssim}, {"lpips", optional_json(s.lpips)}};
+}
+
+json stability_json(const Stability& s) {
+  json cameras = json::array();
+  for (const CameraStability& c : s.per_camera)
+    cameras.push_back({{"camera", c.camera},
+                       {"max_change", optional_json(c.max_change)},
+                       {"static_fraction", c.static_fraction},
+                       {"masked", c.masked}});
+  return {{"steps", s.steps},
+          {"max", optional_json(s.max)},
+          {"mean", optional_json(s.mean)},
+          {"per_camera", cameras}};
+}
+
+}  // namespace
+
 std::string to_json(const EvalResult& r) {
-  using json = nlohmann::json;
   json views = json::array();
   for (const ViewScore& v : r.per_view)
     views.push_back({{"camera", v.camera},
                      {"frame", v.frame},
                      {"psnr", v.psnr},
                      {"ssim", v.ssim},
-                     {"lpips", v.lpips ? json(*v.lpips) : json(nullptr)},
-                     {"masked", v.masked}});
+                     {"lpips", optional_json(v.lpips)},
+                     {"masked", v.masked},
+                     {"whole", scores_json(v.whole)}});
   json j = {{"psnr", r.psnr},
             {"ssim", r.ssim},
-            {"lpips", r.lpips ? json(*r.lpips) : json(nullptr)},
+            {"lpips", optional_json(r.lpips)},
             {"masked", r.masked},
+            {"whole", scores_json(r.whole)},
             {"frames", r.frames},
             {"per_view", views}};
+  if (r.stability) j["stability"] = stability_json(*r.stability);
   if (!r.note.empty()) j["note"] = r.note;
   return j.dump(2);
 }
@@ -101,23 +145,53 @@ void write_json(const EvalResult& result, const fs::path& path) {
   write_text_file(path, to_json(result) + "\n");
 }
 
+namespace {
+
+// The training pair a renderer last blended: consecutive times of a slow-motion render and the
+// views of one camera share it.
+struct PairCache {
+  int camera = -1, a = -1, b = -1;
+  Image image_a, image_b;
+  std::optional<prepare::FlowPair> flows;
+};
+
+}  // namespace
+
 FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,
                                 Baseline baseline) {
   std::sort(train_frames.begin(), train_frames.end());
   if (train_frames.empty()) fail("baseline: no training frames");
-  return [&scene, train_frames, baseline](int camera, int frame) {
-    const auto hi = std::lower_bound(train_frames.begin(), train_frames.end(), frame);
+  auto cache = std::make_shared<PairCache>();
+  return [&scene, train_frames, baseline, cache](int camera, double time) {
+    const auto hi = std::lower_bound(train_frames.begin(), train_frames.end(), time);
     if (hi == train_frames.end()) return io::load_image(scene, camera, train_frames.back());
-    if (*hi == frame || hi == train_frames.begin()) return io::load_image(scene, camera, *hi);
+    if (*hi == time || hi == train_frames.begin()) return io::load_image(scene, camera, *hi);
     const int a = *(hi - 1), b = *hi;
-    const double s = double(frame - a) / double(b - a);
+    const double s = (time - a) / double(b - a);
     if (baseline == Baseline::kNearest) return io::load_image(scene, camera, s <= 0.5 ? a : b);
-    Image ia = io::load_image(scene, camera, a);
-    const Image ib = io::load_image(scene, camera, b);
-    for (std::size_t i = 0; i < ia.data.size(); ++i)
-      ia.data[i] = float((1 - s) * ia.data[i] + s * ib.data[i]);
-    return ia;
+    PairCache& c = *cache;
+    if (c.camera != camera || c.a != a || c.b != b) {
+      c.image_a = io::load_image(scene, camera, a);
+      c.image_b = io::load_image(scene, camera, b);
+      c.flows.reset();
+      c.camera = camera, c.a = a, c.b = b;
+    }
+    if (baseline == Baseline::kFlow) {
+      if (!c.flows) c.flows = flow_pair(scene, camera, a, b, c.image_a, c.image_b);
+      return interpolate_flow(c.image_a, c.image_b, *c.flows, s);
+    }
+    Image out(c.image_a.width, c.image_a.height, c.image_a.channels);
+    for (std::size_t i = 0; i < out.data.size(); ++i)
+      out.data[i] = float((1 - s) * c.image_a.data[i] + s * c.image_b.data[i]);
+    return out;
   };
+}
+
+Baseline parse_baseline(const std::string& name, const std::string& flag) {
+  if (name == "crossfade") return Baseline::kCrossfade;
+  if (name == "nearest") return Baseline::kNearest;
+  if (name == "flow") return Baseline::kFlow;
+  fail("{}: '{}' is not crossfade, nearest or flow", flag, name);
 }
 
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag) {

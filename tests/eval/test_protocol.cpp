@@ -58,6 +58,10 @@ TEST(Protocol, BaselinesOnALinearRamp) {
   const EvalResult crossfade =
       evaluate_views(scene, baseline_renderer(scene, {0, 2, 4}, Baseline::kCrossfade), options);
   EXPECT_GT(crossfade.psnr, 45.0);
+  // So is the flow baseline (flat images: zero flow), at in-between and training times alike.
+  const FrameRenderer flow = baseline_renderer(scene, {0, 2, 4}, Baseline::kFlow);
+  EXPECT_GT(evaluate_views(scene, flow, options).psnr, 45.0);
+  EXPECT_EQ(flow(1, 2.0).data, io::load_image(scene, 1, 2).data);
   const auto j = nlohmann::json::parse(to_json(nearest));
   for (const char* key : {"psnr", "ssim", "lpips", "masked", "frames", "per_view"})
     EXPECT_TRUE(j.contains(key)) << key;
@@ -65,6 +69,44 @@ TEST(Protocol, BaselinesOnALinearRamp) {
   EXPECT_EQ(j["frames"], nlohmann::json({1, 3}));
   EXPECT_EQ(j["per_view"][1]["camera"], "c0");
   EXPECT_EQ(j["per_view"][1]["frame"], 3);
+}
+
+// Off by 0.01 inside camera 0's mask (left half) and 0.1 outside: 40 dB masked, and over the
+// whole image 10 log10(1 / ((0.01^2 + 0.1^2) / 2)) = 22.97 dB. Camera 1 has no mask, so its two
+// figures agree.
+TEST(Protocol, MaskedAndWholeImageSideBySide) {
+  test::TempDir dir;
+  const io::Scene scene = ramp_scene(dir / "s");
+  EvalOptions options;
+  options.frames = {1, 3};
+  options.cameras = {0, 1};
+  options.progress = false;
+  const FrameRenderer off = [&scene](int camera, double time) {
+    Image image = io::load_image(scene, camera, int(time));
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x)
+        for (int c = 0; c < 3; ++c) image.at(y, x, c) += x < 16 ? 0.01f : 0.1f;
+    return image;
+  };
+  const EvalResult r = evaluate_views(scene, off, options);
+  const ViewScore& masked = r.per_view[0];
+  EXPECT_TRUE(masked.masked);
+  EXPECT_NEAR(masked.psnr, 40.0, 0.01);
+  EXPECT_NEAR(masked.whole.psnr, 22.97, 0.01);
+  EXPECT_GT(masked.ssim, masked.whole.ssim);
+  const ViewScore& plain = r.per_view[2];
+  EXPECT_FALSE(plain.masked);
+  EXPECT_EQ(plain.psnr, plain.whole.psnr);
+  EXPECT_EQ(plain.ssim, plain.whole.ssim);
+  EXPECT_NEAR(r.whole.psnr, 22.97, 0.01);
+  EXPECT_NEAR(r.psnr, (40.0 + 22.97) / 2, 0.01);
+  const auto j = nlohmann::json::parse(to_json(r));
+  for (const char* key : {"psnr", "ssim", "lpips"}) {
+    EXPECT_TRUE(j["whole"].contains(key)) << key;
+    EXPECT_TRUE(j["per_view"][0]["whole"].contains(key)) << key;
+  }
+  EXPECT_NEAR(j["whole"]["psnr"].get<double>(), r.whole.psnr, 1e-9);
+  EXPECT_FALSE(j.contains("stability"));
 }
 
 TEST(Protocol, SavesRendersAndParsesFrameLists) {

@@ -2,7 +2,8 @@
 // The held-out evaluation protocol (DESIGN.md §5): render every listed camera at every listed
 // frame, compare with the ground truth — PSNR inside the mask, SSIM on the mask's bounding box,
 // LPIPS-squeeze on both images with the background outside the mask set to black (whole images
-// when the scene has no masks) — and average over views.
+// when the scene has no masks), and the same three on the whole image — and average over views.
+// Optionally also the temporal stability of an 8x slow-motion render.
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -14,48 +15,102 @@
 
 namespace retimegs::eval {
 
-// Produces the image of scene camera `camera` at scene frame `frame`.
-using FrameRenderer = std::function<Image(int camera, int frame)>;
+// Produces the image of scene camera `camera` at time `time` in scene frame units (frame k is
+// time k; in-between times are fractional).
+using FrameRenderer = std::function<Image(int camera, double time)>;
 
 struct EvalOptions {
   std::vector<int> frames;                             // scene frames
   std::vector<int> cameras;                            // scene camera indices
   std::optional<std::filesystem::path> lpips_weights;  // none: lpips = null
   std::optional<std::filesystem::path> save_renders;   // DIR/<camera>/<frame:05d>.png
+  // Non-empty: also measure temporal_stability() of `cameras` through these training frames.
+  std::vector<int> stability_frames;
   bool progress = true;
+};
+
+struct Scores {
+  double psnr = 0, ssim = 0;
+  std::optional<double> lpips;
 };
 
 struct ViewScore {
   std::string camera;
   int frame = 0;
-  double psnr = 0, ssim = 0;
+  double psnr = 0, ssim = 0;  // inside the mask when `masked`
   std::optional<double> lpips;
   bool masked = false;
+  Scores whole;  // the whole image (the same as above when not masked)
+};
+
+// Temporal stability (DESIGN.md §5) of one camera: the largest mean absolute change between
+// consecutive frames of the slow-motion render over its static pixels, in 8-bit levels.
+struct CameraStability {
+  std::string camera;
+  std::optional<double> max_change;  // none when the camera has no static pixel
+  double static_fraction = 0;        // of the image's pixels
+  bool masked = false;               // static pixels from masks (else from pixel values)
+};
+
+struct Stability {
+  int steps = 0;  // renders per training interval
+  std::vector<CameraStability> per_camera;
+  std::optional<double> max, mean;  // over the cameras that have static pixels
 };
 
 struct EvalResult {
   double psnr = 0, ssim = 0;
   std::optional<double> lpips;
   bool masked = false;  // every view was scored inside a mask
+  Scores whole;
   std::vector<int> frames;
   std::vector<ViewScore> per_view;
+  std::optional<Stability> stability;
   std::string note;  // e.g. why lpips is null
 };
 
 EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options);
 
-// The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "frames", "per_view"}.
+// The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "whole": {"psnr",
+// "ssim", "lpips"}, "frames", "per_view" (each with its own "whole")}, and "stability": {"steps",
+// "max", "mean", "per_camera": [{"camera", "max_change", "static_fraction", "masked"}]} when
+// measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.
 void write_json(const EvalResult& result, const std::filesystem::path& path);
 
-// Trivial in-betweening baselines over the training frames `train_frames` (sorted): crossfade
-// blends the two neighbouring training frames by time, nearest copies the closer one (the earlier
-// on a tie). Frames outside the training range copy the end frame.
-enum class Baseline { kCrossfade, kNearest };
+// The pixels of `camera` that are static in the ground truth. With a mask at every frame: outside
+// the union over all frames of the masks dilated by stability_dilation_radius() (a mask's soft
+// edge, motion blur and shadows stay out). Otherwise: pixels whose value in no channel varies by
+// more than one 8-bit level over all frames.
+struct StaticPixels {
+  std::vector<unsigned char> is_static;  // [H, W] 1 = static
+  bool from_masks = false;
+};
+StaticPixels static_pixels(const io::Scene& scene, int camera);
+// 2 % of the image's larger side, at least one pixel: 13 px at 640x360, 6 px at 256x192.
+int stability_dilation_radius(int width, int height);
+
+// For each camera: render times a + k (b - a) / steps, k = 0 .. steps - 1, for each consecutive
+// pair (a, b) of `train_frames` (sorted), then the last training frame, and take the largest mean
+// absolute change (over the static pixels and channels, x 255) between consecutive renders. The
+// ground truth would score 0; a model whose static world pulses at the training frames does not.
+Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render,
+                             const std::vector<int>& cameras, std::vector<int> train_frames,
+                             int steps = 8, bool progress = true);
+
+// In-betweening baselines over the training frames `train_frames` (sorted), at any time between
+// them: crossfade blends the two neighbouring training frames by time, nearest copies the closer
+// one (the earlier on a tie), flow interpolates them along the optical flow between them
+// (flow_interpolate.hpp: the scene's flow files, or estimated). Times outside the training range
+// copy the end frame; a training frame is returned as it is. The renderer keeps the last pair's
+// images and flows, so it is not safe to call from several threads.
+enum class Baseline { kCrossfade, kNearest, kFlow };
 FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,
                                 Baseline baseline);
+// "crossfade" | "nearest" | "flow"; throws Error naming `flag` and the value otherwise.
+Baseline parse_baseline(const std::string& name, const std::string& flag);
 
 // "odd", "all", or a comma-separated list; throws Error naming `flag` on bad input.
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag);

@@ -1,0 +1,120 @@
+// Temporal stability of a slow-motion render over the pixels static in the ground truth
+// (protocol.hpp, DESIGN.md §5).
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/progress.hpp"
+#include "retimegs/eval/protocol.hpp"
+
+namespace retimegs::eval {
+namespace {
+
+// One 8-bit level; the tolerance absorbs float rounding of k / 255.
+constexpr float kOneLevel = 1.0f / 255.0f + 1e-6f;
+
+}  // namespace
+
+int stability_dilation_radius(int width, int height) {
+  return std::max(1, int(std::lround(0.02 * std::max(width, height))));
+}
+
+StaticPixels static_pixels(const io::Scene& scene, int camera) {
+  const Camera& cam = scene.cameras[camera];
+  const std::size_t n = std::size_t(cam.width) * cam.height;
+  StaticPixels result;
+  cv::Mat moving(cam.height, cam.width, CV_8U, cv::Scalar(0));
+  bool all_masks = true;
+  for (int k = 0; k < scene.num_frames && all_masks; ++k) {
+    const std::optional<Image> mask = io::load_mask(scene, camera, k);
+    if (!mask) {
+      all_masks = false;
+      break;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      if (is_foreground(*mask, i)) moving.data[i] = 1;
+  }
+  if (all_masks) {
+    const int r = stability_dilation_radius(cam.width, cam.height);
+    cv::dilate(moving, moving,
+               cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+    result.from_masks = true;
+    result.is_static.resize(n);
+    for (std::size_t i = 0; i < n; ++i) result.is_static[i] = moving.data[i] ? 0 : 1;
+    return result;
+  }
+  Image lo = io::load_image(scene, camera, 0), hi = lo;
+  for (int k = 1; k < scene.num_frames; ++k) {
+    const Image image = io::load_image(scene, camera, k);
+    for (std::size_t i = 0; i < image.data.size(); ++i) {
+      lo.data[i] = std::min(lo.data[i], image.data[i]);
+      hi.data[i] = std::max(hi.data[i], image.data[i]);
+    }
+  }
+  result.is_static.assign(n, 1);
+  const int channels = lo.channels;
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < channels; ++c)
+      if (hi.data[i * channels + c] - lo.data[i * channels + c] > kOneLevel)
+        result.is_static[i] = 0;
+  return result;
+}
+
+Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render,
+                             const std::vector<int>& cameras, std::vector<int> train_frames,
+                             int steps, bool progress) {
+  std::sort(train_frames.begin(), train_frames.end());
+  if (train_frames.size() < 2) fail("stability: needs at least two training frames");
+  if (steps < 1) fail("stability: steps must be positive, got {}", steps);
+  std::vector<double> times;
+  for (std::size_t i = 0; i + 1 < train_frames.size(); ++i)
+    for (int k = 0; k < steps; ++k)
+      times.push_back(train_frames[i] +
+                      double(k) * (train_frames[i + 1] - train_frames[i]) / steps);
+  times.push_back(train_frames.back());
+
+  Stability result;
+  result.steps = steps;
+  Progress bar("stability", cameras.size() * (times.size() - 1), progress);
+  double sum = 0;
+  int counted = 0;
+  for (int c : cameras) {
+    const StaticPixels still = static_pixels(scene, c);
+    CameraStability s;
+    s.camera = scene.cameras[c].name;
+    s.masked = still.from_masks;
+    const std::size_t n = still.is_static.size();
+    const std::size_t count = std::count(still.is_static.begin(), still.is_static.end(), 1);
+    s.static_fraction = double(count) / double(n);
+    if (count > 0) {
+      Image previous = render(c, times[0]);
+      double largest = 0;
+      for (std::size_t j = 1; j < times.size(); ++j) {
+        Image current = render(c, times[j]);
+        const int channels = current.channels;
+        double change = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          if (!still.is_static[i]) continue;
+          for (int ch = 0; ch < channels; ++ch)
+            change += std::abs(double(current.data[i * channels + ch]) -
+                               double(previous.data[i * channels + ch]));
+        }
+        largest = std::max(largest, 255.0 * change / (double(count) * channels));
+        previous = std::move(current);
+        bar.tick();
+      }
+      s.max_change = largest;
+      result.max = std::max(result.max.value_or(0), largest);
+      sum += largest, ++counted;
+    }
+    result.per_camera.push_back(s);
+  }
+  bar.finish();
+  if (counted > 0) result.mean = sum / counted;
+  return result;
+}
+
+}  // namespace retimegs::eval
