@@ -1,5 +1,6 @@
-// retimegs train --scene SCENE --out RUN [--train-frames even|all] [--iters N] [--config FILE]
-//                [--ablate LIST] [--baseline stgs] [--cap N] [--seed S] [--threads T] [--resume]
+// retimegs train --scene SCENE --out RUN [--train-frames even|all] [--preset fast|default|quality]
+//                [--iters N] [--cap N] [--config FILE] [--ablate LIST] [--baseline stgs]
+//                [--seed S] [--threads T] [--resume]
 #include <fstream>
 #include <memory>
 #include <optional>
@@ -16,7 +17,7 @@ namespace retimegs::app {
 
 void add_train_command(CLI::App& app) {
   struct Args {
-    std::string scene, out, frames = "even", config, ablate, baseline;
+    std::string scene, out, frames = "even", preset = "default", config, ablate, baseline;
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
@@ -34,13 +35,17 @@ void add_train_command(CLI::App& app) {
                   "even: train on frames 0, 2, 4, ... (odd frames held out); all: every frame")
       ->check(CLI::IsMember({"even", "all"}))
       ->capture_default_str();
-  cmd->add_option("--iters", args->iters, "iterations (default 20000; milestones scale with it)");
+  cmd->add_option("--preset", args->preset,
+                  "budget preset: " + train::describe_presets() +
+                      "; --config, --iters and --cap override it")
+      ->capture_default_str();
+  cmd->add_option("--iters", args->iters, "iterations (milestones scale with it)");
   cmd->add_option("--config", args->config, "JSON file overriding any hyper-parameter");
   cmd->add_option("--ablate", args->ablate,
                   "comma-separated: no-flow-init, no-flow-loss, no-triple, no-stretch, linear");
   cmd->add_option("--baseline", args->baseline, "stgs: the SpacetimeGaussians representation")
       ->check(CLI::IsMember({"stgs"}));
-  cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap, default 50000)");
+  cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap)");
   cmd->add_option("--seed", args->seed, "random seed (default 0)");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
@@ -52,6 +57,7 @@ void add_train_command(CLI::App& app) {
     run.resume = args->resume;
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     train::TrainConfig& config = run.config;
+    config = train::with_preset(config, args->preset, "--preset");
     if (!args->config.empty()) {
       std::ifstream in(args->config);
       if (!in) fail("{}: cannot open config file", args->config);

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
@@ -47,6 +48,42 @@ Ablations parse_ablations(const std::string& list, Ablations ablate, const std::
     ablate.*(hit->second) = true;
   }
   return ablate;
+}
+
+namespace {
+
+struct Preset {
+  std::string_view name;
+  int iters;
+  std::size_t cap;
+};
+
+const std::vector<Preset>& presets() {
+  static const std::vector<Preset> table = {
+      {"fast", 5000, 100000},
+      {"default", TrainConfig{}.iters, TrainConfig{}.cap},
+      {"quality", 30000, 600000},
+  };
+  return table;
+}
+
+}  // namespace
+
+std::string describe_presets() {
+  std::string text;
+  for (const Preset& p : presets())
+    text += fmt::format("{}{} ({} iterations, cap {})", text.empty() ? "" : ", ", p.name, p.iters,
+                        p.cap);
+  return text;
+}
+
+TrainConfig with_preset(TrainConfig config, const std::string& name, const std::string& flag) {
+  for (const Preset& p : presets())
+    if (p.name == name) {
+      config.iters = p.iters, config.cap = p.cap;
+      return config;
+    }
+  fail("{}: unknown preset '{}'; known: {}", flag, name, describe_presets());
 }
 
 int TrainConfig::scaled(int iteration) const {

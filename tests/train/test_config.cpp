@@ -33,5 +33,24 @@ TEST(ParseAblations, RefusesEmptyItemsAndUnknownNames) {
             "no-stretch, linear)");
 }
 
+TEST(Presets, SetIterationsAndBudgetOnlyAndDefaultIsTheConfigsOwn) {
+  TrainConfig base;
+  base.ssim_lambda = 0.3;
+  const TrainConfig fast = with_preset(base, "fast", "--preset");
+  const TrainConfig quality = with_preset(base, "quality", "--preset");
+  EXPECT_LT(fast.iters, base.iters);
+  EXPECT_LT(fast.cap, base.cap);
+  EXPECT_GT(quality.iters, base.iters);
+  EXPECT_GT(quality.cap, base.cap);
+  EXPECT_EQ(fast.ssim_lambda, 0.3);  // nothing else changes
+  const TrainConfig standard = with_preset(fast, "default", "--preset");
+  EXPECT_EQ(standard.iters, 20000);  // the paper's schedule
+  EXPECT_EQ(standard.iters, TrainConfig{}.iters);
+  EXPECT_EQ(standard.cap, TrainConfig{}.cap);
+  EXPECT_EQ(test::message_of([] { with_preset({}, "slow", "--preset"); }),
+            "--preset: unknown preset 'slow'; known: " + describe_presets());
+  EXPECT_NE(describe_presets().find("quality (30000 iterations"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace retimegs::train

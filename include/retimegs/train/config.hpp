@@ -56,7 +56,7 @@ struct TrainConfig {
   double gamma = 0.005;  // normalised clip time
 
   // MCMC.
-  std::size_t cap = 50000;  // primitive budget
+  std::size_t cap = 300000;  // primitive budget
   double min_opacity = 0.01, growth = 1.05;
   double init_opacity = 0.1;
 
@@ -70,6 +70,13 @@ struct TrainConfig {
   int scaled(int iteration) const;
   model::ModelConfig model_config() const;
 };
+
+// Budget presets of `train --preset`: iterations and primitive budget, fast to quality.
+// `default` is TrainConfig's own iters and cap (the paper's 20 000 steps). Returns `config` with
+// the preset's values; throws Error naming `flag` on an unknown name.
+TrainConfig with_preset(TrainConfig config, const std::string& name, const std::string& flag);
+// "fast (5000 iterations, cap 100000), default (...), ...", for help texts and errors.
+std::string describe_presets();
 
 // JSON text with every field; parse applies the keys present in `json_text` on top of `config`
 // and throws Error naming an unknown key or a wrongly typed value.
