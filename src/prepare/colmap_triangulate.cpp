@@ -118,6 +118,10 @@ fs::path find_colmap(const ColmapOptions& options) {
   return exe;
 }
 
+bool colmap_available(const ColmapOptions& options) {
+  return !find_executable(options.executable).empty();
+}
+
 io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const fs::path& work_dir,
                                        const ColmapOptions& options) {
   const fs::path exe = find_colmap(options);

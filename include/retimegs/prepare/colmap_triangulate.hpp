@@ -24,6 +24,8 @@ struct ColmapOptions {
 
 // The COLMAP executable of options (PATH lookup); throws Error when it is not installed.
 std::filesystem::path find_colmap(const ColmapOptions& options);
+// Whether find_colmap() finds it.
+bool colmap_available(const ColmapOptions& options);
 
 // `prepare --points colmap`: triangulates a point cloud of scene frame `frame` from the images of
 // the training cameras with their known poses and intrinsics. Writes into work_dir (created if
