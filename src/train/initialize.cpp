@@ -369,7 +369,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       }
     }
     std::string merged;
-    if (options.use_flow && !stgs) {
+    if (options.use_flow && options.static_once && !stgs) {
       const StretchSettings settings{options.stretch_distance * set.scene_extent,
                                      options.stretch_color,
                                      options.stretch_speed * set.scene_extent};

@@ -37,6 +37,7 @@ Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
 std::string Trainer::initialize() {
   InitOptions options;
   options.use_flow = !config_.ablate.no_flow_init;
+  options.static_once = !config_.ablate.no_static_init;
   options.representation = model_.config.representation;
   options.max_primitives = config_.cap;
   options.initial_opacity = config_.init_opacity;
