@@ -144,8 +144,9 @@ namespace {
 struct Seeds {
   std::vector<float> xyz, velocity, rgb, mu_tau, half_window;
   // The flow-aware path's seeds: the training interval (slot of its first frame), the point
-  // (frame slot, index in that frame's cloud) each comes from, and whether any flow measured its
-  // motion (a point no flow sees has velocity zero for want of evidence, not for being static).
+  // (frame slot, index in that frame's cloud) each comes from, and whether the flows of two or
+  // more views measured its motion (one view is blind to motion along its viewing direction, and
+  // a point no flow sees has velocity zero for want of evidence, not for standing still).
   std::vector<int> interval, frame;
   std::vector<std::uint32_t> point;
   std::vector<char> measured;
@@ -198,9 +199,10 @@ class Chains {
 // Static content once (paper §3.3.3's stretching criterion, applied to the seeds): at every inner
 // training frame t_b the seeds of the interval ending there are matched with those of the interval
 // starting there, and those with these (train/stretch.hpp's match_at_frame, positions at t_b).
-// Matched pairs join one chain, closest pairs first (seeds whose motion no flow measured take no
+// Matched pairs join one chain, closest pairs first (seeds whose motion is not measured take no
 // part), and each chain of two or more seeds becomes one primitive: window the union of its
-// (adjacent) intervals, velocity zero, position and colour the seeds' means. A static point thus
+// (adjacent) intervals, velocity zero, position the mean of where its points were seen, colour
+// their mean. A static point thus
 // starts as one primitive over all the frames it is seen at, instead of one copy per interval that
 // meet (and are drawn differently) at every training frame; a moving point's seeds fail the speed
 // test and stay per interval. Returns how many seeds were merged into how many primitives.
