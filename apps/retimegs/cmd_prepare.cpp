@@ -46,11 +46,11 @@ void add_prepare_command(CLI::App& app) {
                   "DIR/<camera>/<from:05d>_<to:05d>.flo instead of estimating")
       ->excludes(flow);
   cmd->add_option("--points", args->points,
-                  "per-frame points: hull (visual hull of the masks; the default when every "
-                  "training view has a mask), random (last resort; the default otherwise), "
-                  "ply DIR (import DIR/<frame:05d>.ply), colmap (COLMAP triangulation with the "
-                  "known poses); "
-                  "a comma list concatenates them, e.g. hull,colmap")
+                  "per-frame points: hull (visual hull of the masks), colmap (COLMAP "
+                  "triangulation with the known poses), random (last resort), ply DIR (import "
+                  "DIR/<frame:05d>.ply); a comma list concatenates them. Default: hull,colmap "
+                  "when every training view has a mask, else colmap; random stands in for "
+                  "colmap when COLMAP is not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
@@ -91,6 +91,7 @@ void add_prepare_command(CLI::App& app) {
     const io::Scene scene = io::read_scene(args->scene);
     const prepare::PrepareReport r = prepare::prepare_scene(scene, options);
 
+    if (!r.points_note.empty()) spdlog::warn("points: {}", r.points_note);
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)
                                 : fmt::format("imported from {}", args->flow_dir);

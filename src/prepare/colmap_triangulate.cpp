@@ -118,6 +118,10 @@ fs::path find_colmap(const ColmapOptions& options) {
   return exe;
 }
 
+bool colmap_available(const ColmapOptions& options) {
+  return !find_executable(options.executable).empty();
+}
+
 io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const fs::path& work_dir,
                                        const ColmapOptions& options) {
   const fs::path exe = find_colmap(options);
@@ -188,12 +192,15 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
                 "--SiftExtraction.max_image_size",
                 std::to_string(options.max_image_size),
                 "--SiftExtraction.max_num_features",
-                std::to_string(options.max_num_features)},
+                std::to_string(options.max_num_features),
+                "--SiftExtraction.peak_threshold",
+                number(options.peak_threshold)},
                logs, options.verbose);
   }
   run_colmap(exe, "exhaustive_matcher",
              {"--database_path", database.string(), "--SiftMatching.use_gpu", "0",
-              "--SiftMatching.num_threads", threads},
+              "--SiftMatching.num_threads", threads, "--SiftMatching.guided_matching",
+              options.guided_matching ? "1" : "0"},
              logs, options.verbose);
   // --clear_points 1 makes COLMAP renumber the known images by name to the database's ids.
   run_colmap(exe, "point_triangulator",

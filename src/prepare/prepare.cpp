@@ -134,6 +134,20 @@ bool has_every_mask(const io::Scene& scene, const std::vector<int>& cameras,
 
 }  // namespace
 
+std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
+                                         std::string& note) {
+  note.clear();
+  std::vector<PointsSource> sources;
+  if (every_view_has_mask) sources.push_back(PointsSource::kHull);
+  sources.push_back(colmap_found ? PointsSource::kColmap : PointsSource::kRandom);
+  if (!colmap_found)
+    note = fmt::format(
+        "COLMAP not found: random points stand in for the {}scene (install the Debian package "
+        "colmap, as scripts/setup.sh does, for triangulated points)",
+        every_view_has_mask ? "background of the " : "");
+  return sources;
+}
+
 PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
   PrepareReport report;
   const io::TrainingViews views = io::training_views(scene, options.frames);
@@ -159,9 +173,9 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
       ++report.points_kept;
 
   std::vector<PointsSource> sources = options.points;
-  if (sources.empty())
-    sources = {has_every_mask(scene, cameras, frames) ? PointsSource::kHull
-                                                      : PointsSource::kRandom};
+  if (sources.empty() && !point_frames.empty())
+    sources = default_points(has_every_mask(scene, cameras, frames),
+                             colmap_available(options.colmap), report.points_note);
 
   // Check every input before writing anything.
   report.flows_imported = !options.flow_dir.empty();

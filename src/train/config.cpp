@@ -15,7 +15,7 @@
 namespace retimegs::train {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(Ablations, no_flow_init, no_flow_loss, no_triple,
-                                                no_stretch, linear)
+                                                no_stretch, linear, no_static_init)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every, max_sh_degree,
     lr_decay_start, lr_decay_final, flow_decay_until, relocate_every, relocate_start, relocate_stop,
@@ -38,13 +38,16 @@ Ablations parse_ablations(const std::string& list, Ablations ablate, const std::
       {"no-flow-loss", &Ablations::no_flow_loss},
       {"no-triple", &Ablations::no_triple},
       {"no-stretch", &Ablations::no_stretch},
-      {"linear", &Ablations::linear}};
+      {"linear", &Ablations::linear},
+      {"no-static-init", &Ablations::no_static_init}};
   for (const std::string& name : names) {
     const auto* hit = std::find_if(std::begin(known), std::end(known),
                                    [&](const auto& k) { return k.first == name; });
     if (hit == std::end(known))
-      fail("{}: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear)",
-           flag, name);
+      fail(
+          "{}: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear, "
+          "no-static-init)",
+          flag, name);
     ablate.*(hit->second) = true;
   }
   return ablate;

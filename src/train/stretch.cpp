@@ -23,6 +23,28 @@ double max_speed(const model::Primitives& p, std::size_t i) {
 
 }  // namespace
 
+std::vector<std::int32_t> match_at_frame(const StretchSide& ending, const StretchSide& starting,
+                                         const StretchSettings& settings) {
+  const std::size_t n = ending.speed.size();
+  std::vector<std::int32_t> partner(n, -1);
+  if (starting.speed.empty()) return partner;
+  const PointIndex index(starting.xyz);
+  for (std::size_t a = 0; a < n; ++a) {
+    if (ending.speed[a] > settings.max_speed) continue;
+    float d2;
+    std::uint32_t c;
+    if (index.knn(&ending.xyz[3 * a], 1, &c, &d2) < 1 ||
+        d2 > settings.max_distance * settings.max_distance)
+      continue;
+    if (starting.speed[c] > settings.max_speed) continue;
+    double color = 0;
+    for (int ch = 0; ch < 3; ++ch)
+      color = std::max(color, std::abs(ending.color[3 * a + ch] - starting.color[3 * c + ch]));
+    if (color <= settings.max_color) partner[a] = std::int32_t(c);
+  }
+  return partner;
+}
+
 StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
                       const model::TimeGrid& grid, const StretchSettings& settings,
                       std::mt19937_64& rng) {
@@ -46,29 +68,25 @@ StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
       if (std::abs(lo[i] - tb) < tolerance) starting.push_back(std::int32_t(i));
     }
     if (ending.empty() || starting.empty()) continue;
-    auto position = [&](std::int32_t i, float out[3]) {
-      model::apply_trajectory(model::trajectory_at(config.representation, config.trajectory,
-                                                   p.mu_tau[i], float(tb), step),
-                              &p.mu[3 * i], &p.velocity[9 * i], out);
+    auto side = [&](const std::vector<std::int32_t>& items) {
+      StretchSide out;
+      out.xyz.resize(3 * items.size());
+      for (std::size_t k = 0; k < items.size(); ++k) {
+        const std::int32_t i = items[k];
+        model::apply_trajectory(model::trajectory_at(config.representation, config.trajectory,
+                                                     p.mu_tau[i], float(tb), step),
+                                &p.mu[3 * i], &p.velocity[9 * i], &out.xyz[3 * k]);
+        for (int ch = 0; ch < 3; ++ch)
+          out.color.push_back(model::kShC0 * double(p.sh[model::Primitives::kShWidth * i + ch]));
+        out.speed.push_back(max_speed(p, i));
+      }
+      return out;
     };
-    std::vector<float> start_xyz(3 * starting.size());
-    for (std::size_t k = 0; k < starting.size(); ++k) position(starting[k], &start_xyz[3 * k]);
-    const PointIndex index(start_xyz);
-    for (const std::int32_t a : ending) {
-      if (max_speed(p, a) > settings.max_speed) continue;
-      float x[3], d2;
-      std::uint32_t k;
-      position(a, x);
-      if (index.knn(x, 1, &k, &d2) < 1 || d2 > settings.max_distance * settings.max_distance)
-        continue;
-      const std::int32_t c = starting[k];
-      if (max_speed(p, c) > settings.max_speed) continue;
-      const float* dc_a = &p.sh[model::Primitives::kShWidth * a];
-      const float* dc_c = &p.sh[model::Primitives::kShWidth * c];
-      double color = 0;
-      for (int ch = 0; ch < 3; ++ch)
-        color = std::max(color, model::kShC0 * std::abs(double(dc_a[ch]) - dc_c[ch]));
-      if (color > settings.max_color) continue;
+    const std::vector<std::int32_t> partner =
+        match_at_frame(side(ending), side(starting), settings);
+    for (std::size_t k = 0; k < ending.size(); ++k) {
+      if (partner[k] < 0) continue;
+      const std::int32_t a = ending[k], c = starting[partner[k]];
       // Union of the two supports for both (μ_τ stays).
       const double from = std::min(lo[a], lo[c]), to = std::max(hi[a], hi[c]);
       for (const std::int32_t i : {a, c}) {

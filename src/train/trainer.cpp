@@ -51,10 +51,14 @@ Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
 std::string Trainer::initialize() {
   InitOptions options;
   options.use_flow = !config_.ablate.no_flow_init;
+  options.static_once = !config_.ablate.no_static_init;
   options.representation = model_.config.representation;
   options.max_primitives = config_.cap;
   options.initial_opacity = config_.init_opacity;
   options.seed = config_.seed;
+  options.stretch_distance = config_.stretch_distance;
+  options.stretch_color = config_.stretch_color;
+  options.stretch_speed = config_.stretch_speed;
   std::string note;
   model_.primitives = train::initialize(set_, options, note);
   make_optimizers();

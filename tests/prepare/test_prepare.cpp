@@ -33,10 +33,13 @@ io::Scene bare_scene(const fs::path& root, const fs::path& exact, int frames = 5
   return io::read_scene(root);
 }
 
+// Without COLMAP (whether or not this machine has it): the default points are then hull + random
+// or random, fast and deterministic on these tiny scenes.
 PrepareOptions quiet() {
   PrepareOptions o;
   o.progress = false;
   o.hull.resolution = 48;
+  o.colmap.executable = "/nonexistent/colmap";
   return o;
 }
 
@@ -74,7 +77,8 @@ TEST(Prepare, WritesExactlyThePairsTrainingReadsForEvenFrames) {
             (std::set<std::string>{"00000.ply", "00002.ply", "00004.ply"}));
   EXPECT_EQ(r.flows_written, 12u);
   EXPECT_EQ(r.flows_kept, 0u);
-  EXPECT_EQ(r.points_source, "hull");  // the synthetic scene has masks
+  EXPECT_EQ(r.points_source, "hull,random");  // the synthetic scene has masks; "no COLMAP"
+  EXPECT_NE(r.points_note.find("COLMAP not found"), std::string::npos) << r.points_note;
   ASSERT_EQ(r.points_written.size(), 3u);
   for (const auto& [frame, n] : r.points_written) EXPECT_GT(n, 100u) << frame;
 
@@ -192,6 +196,22 @@ TEST(Prepare, DefaultsToRandomPointsWithoutMasksAndHullNeedsThem) {
   EXPECT_TRUE(files_under(scene.root / "flow").empty());
   o.points = {};
   EXPECT_EQ(prepare_scene(scene, o).points_source, "random");
+}
+
+// The default covers the whole scene: the hull's foreground plus COLMAP's background with masks,
+// COLMAP alone without; random stands in for a missing COLMAP, with a note saying so.
+TEST(Prepare, DefaultPointsCoverForegroundAndBackground) {
+  using enum PointsSource;
+  std::string note = "stale";
+  EXPECT_EQ(default_points(true, true, note), (std::vector<PointsSource>{kHull, kColmap}));
+  EXPECT_TRUE(note.empty());
+  EXPECT_EQ(default_points(false, true, note), (std::vector<PointsSource>{kColmap}));
+  EXPECT_TRUE(note.empty());
+  EXPECT_EQ(default_points(true, false, note), (std::vector<PointsSource>{kHull, kRandom}));
+  EXPECT_NE(note.find("COLMAP not found"), std::string::npos) << note;
+  EXPECT_NE(note.find("background"), std::string::npos) << note;
+  EXPECT_EQ(default_points(false, false, note), (std::vector<PointsSource>{kRandom}));
+  EXPECT_NE(note.find("COLMAP not found"), std::string::npos) << note;
 }
 
 TEST(Prepare, SeveralPointSourcesAreConcatenated) {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/neighbors.hpp"
 #include "synth_scene.hpp"
@@ -52,13 +53,101 @@ TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   std::string note;
   const model::Primitives p = initialize(set, {}, note);
   EXPECT_NE(note.find("with flow-based motion"), std::string::npos) << note;
-  // Two intervals, each seeded from both of its frames; windows of one interval each.
+  EXPECT_NE(note.find("static content once"), std::string::npos) << note;
+  // Two intervals, each seeded from both of its frames: windows of one interval, or both
+  // intervals for static content (merged, unmoving).
   ASSERT_GT(p.size(), 1000u);
+  std::size_t merged = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
+    ASSERT_EQ(p.velocity[9 * i], p.velocity[9 * i + 3]);  // v1 = v2 = v3 at initialisation
+    ASSERT_EQ(p.tau_l[i], p.tau_r[i]);
+    if (p.mu_tau[i] == 2.0f) {
+      ASSERT_EQ(p.tau_l[i], 2.0f);
+      ASSERT_EQ(p.velocity[9 * i], 0.0f);
+      ++merged;
+      continue;
+    }
     ASSERT_TRUE(p.mu_tau[i] == 1.0f || p.mu_tau[i] == 3.0f) << p.mu_tau[i];
     ASSERT_EQ(p.tau_l[i], 1.0f);
-    ASSERT_EQ(p.velocity[9 * i], p.velocity[9 * i + 3]);  // v1 = v2 = v3 at initialisation
   }
+  EXPECT_GT(merged, 100u);
+}
+
+// Static content once, with points known to be static or moving: frame 0's ground points repeated
+// unmoved at every frame become one primitive each, spanning the clip (its window open at both
+// ends); the moving objects' own points at each frame keep one primitive per interval.
+TEST(Initialize, StaticPointsSpanTheClipMovingPointsStayPerInterval) {
+  test::TempDir dir;
+  minimal_scene(dir / "scene", 6, 128, 96);
+  TrainingSet set = load_training_set(io::read_scene(dir / "scene"), io::FrameSelection::kAll);
+  ASSERT_EQ(set.frames.size(), 5u);  // frames 0..4: four intervals of one frame
+  auto select = [](const io::PointCloud& cloud, auto keep) {
+    io::PointCloud out;
+    for (std::size_t k = 0; k < cloud.size(); ++k) {
+      const Eigen::Vector3d x(cloud.xyz[3 * k], cloud.xyz[3 * k + 1], cloud.xyz[3 * k + 2]);
+      if (!keep(x)) continue;
+      out.xyz.insert(out.xyz.end(), &cloud.xyz[3 * k], &cloud.xyz[3 * k + 3]);
+      out.rgb.insert(out.rgb.end(), &cloud.rgb[3 * k], &cloud.rgb[3 * k + 3]);
+    }
+    return out;
+  };
+  auto on_stage = [](const Eigen::Vector3d& x) { return x.y() == 0 && x.norm() < 4; };
+  auto on_object = [](const Eigen::Vector3d& x) { return x.y() < -0.01 && x.norm() < 8; };
+  const io::PointCloud ground = select(*set.points[0], on_stage);
+  std::size_t object_points = 0;
+  for (auto& cloud : set.points) {
+    io::PointCloud objects = select(*cloud, on_object);
+    object_points += objects.size();
+    cloud = ground;
+    cloud->xyz.insert(cloud->xyz.end(), objects.xyz.begin(), objects.xyz.end());
+    cloud->rgb.insert(cloud->rgb.end(), objects.rgb.begin(), objects.rgb.end());
+  }
+  ASSERT_GT(ground.size(), 1000u);
+  ASSERT_GT(object_points, 1000u);
+
+  // The ground points whose motion the flows of two or more views measure at every frame (the
+  // others' velocity is not evidence of standing still, and they are not merged).
+  std::vector<char> measured(ground.size(), 1);
+  for (int slot = 0; slot < 5; ++slot) {
+    const std::vector<PointMotion> motion = estimate_point_motion(set, slot);
+    for (std::size_t k = 0; k < ground.size(); ++k)
+      measured[k] &= std::max(motion[k].forward_views, motion[k].backward_views) >= 2;
+  }
+
+  std::string note;
+  const model::Primitives p = initialize(set, {}, note);
+  EXPECT_NE(note.find("static content once"), std::string::npos) << note;
+  const PointIndex index(ground.xyz);
+  std::vector<int> at_point(ground.size(), 0), spanning(ground.size(), 0);
+  std::size_t sphere = 0, sphere_per_interval = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector3d x(p.mu[3 * i], p.mu[3 * i + 1], p.mu[3 * i + 2]);
+    if (on_object(x)) {
+      // The orbiting sphere (path radius 1.2), clear of the box spinning at the origin.
+      if (std::hypot(x.x(), x.z()) < 0.8) continue;
+      ++sphere;
+      sphere_per_interval += p.tau_l[i] == 0.5f && p.tau_r[i] == 0.5f;
+
+      continue;
+    }
+    std::uint32_t k;
+    float d2;
+    if (index.knn(p.mu.data() + 3 * i, 1, &k, &d2) < 1 || d2 > 1e-10f) continue;
+    const model::RetimeWindow<double> window{p.mu_tau[i], p.tau_l[i], p.tau_r[i], 0, 4, 0.02, 1e-3};
+    ++at_point[k];
+    spanning[k] += window.open_left() && window.open_right() && p.velocity[9 * i] == 0;
+  }
+  std::size_t static_points = 0, once = 0;
+  for (std::size_t k = 0; k < ground.size(); ++k) {
+    if (!measured[k]) continue;
+    ++static_points;
+    once += at_point[k] == 1 && spanning[k] == 1;
+  }
+  ASSERT_GT(static_points, 1000u);
+  // A few sit next to the sphere's silhouette in some view, where the flow carries its motion.
+  EXPECT_GT(once, 0.95 * static_points) << once << " of " << static_points;
+  ASSERT_GT(sphere, 1000u);
+  EXPECT_EQ(sphere_per_interval, sphere);
 }
 
 TEST(Initialize, RandomFallbackWithoutPointsIsStated) {

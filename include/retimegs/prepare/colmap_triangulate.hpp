@@ -14,6 +14,12 @@ struct ColmapOptions {
   std::string executable = "colmap";  // looked up on PATH unless it contains a '/'
   int max_image_size = 3200;          // --SiftExtraction.max_image_size
   int max_num_features = 8192;        // --SiftExtraction.max_num_features
+  // --SiftExtraction.peak_threshold: below COLMAP's 0.0067, the faint texture of walls, floor
+  // and dome (the background the hull leaves empty) gives features too, not only the people.
+  double peak_threshold = 0.002;
+  // --SiftMatching.guided_matching: once a pair's geometry is verified, match again along it,
+  // recovering matches of repeated or faint texture that the ratio test alone rejects.
+  bool guided_matching = true;
   int threads = -1;                   // COLMAP's num_threads (-1 = all cores)
   double max_reprojection_error = 4;  // --Mapper.filter_max_reproj_error, pixels
   // Points seen by fewer cameras are dropped: a two-view point only has to agree with one
@@ -24,6 +30,8 @@ struct ColmapOptions {
 
 // The COLMAP executable of options (PATH lookup); throws Error when it is not installed.
 std::filesystem::path find_colmap(const ColmapOptions& options);
+// Whether find_colmap() finds it.
+bool colmap_available(const ColmapOptions& options);
 
 // `prepare --points colmap`: triangulates a point cloud of scene frame `frame` from the images of
 // the training cameras with their known poses and intrinsics. Writes into work_dir (created if

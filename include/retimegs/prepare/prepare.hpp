@@ -33,8 +33,7 @@ struct PrepareOptions {
   // validation (readable .flo, the camera's image size); no consistency check is applied.
   std::filesystem::path flow_dir;
   // Sources whose clouds are concatenated per frame (e.g. hull + colmap: the dense foreground of
-  // the masks and COLMAP's static background). Empty: kHull when every training camera has a mask
-  // at every training frame, else kRandom.
+  // the masks and COLMAP's static background). Empty: default_points().
   std::vector<PointsSource> points;
   std::filesystem::path points_dir;  // for kPly
   ColmapOptions colmap;              // kColmap; it works in a temporary folder, removed afterwards
@@ -49,12 +48,21 @@ struct PrepareOptions {
 
 constexpr std::size_t kMinRandomPointsPerFrame = 1000;
 
+// The points of the whole scene when --points is not given: the visual hull for the foreground
+// when every training camera has a mask at every training frame, plus COLMAP for the background
+// (walls, floor, dome: a whole-image loss needs points there, or it trains them to fog); COLMAP
+// alone without masks. When COLMAP is not found, random points stand in for it (hull + random,
+// or random alone) and `note` says so (else it is cleared).
+std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
+                                         std::string& note);
+
 struct PrepareReport {
   std::size_t flows_written = 0, flows_kept = 0;  // files
   bool flows_imported = false;
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
   std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
                                 // nothing to do)
+  std::string points_note;      // why the default points are what they are, when not as planned
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double flow_seconds = 0, points_seconds = 0;

@@ -13,12 +13,13 @@ struct Ablations {
   bool no_flow_loss = false;  // flow weight 0
   bool no_triple = false;     // only the all-primitives render at each frame
   bool no_stretch = false;
-  bool linear = false;  // x(t) = μ + (t - μ_τ) v2
+  bool linear = false;          // x(t) = μ + (t - μ_τ) v2
+  bool no_static_init = false;  // every seed keeps its own interval at initialisation
 };
 
 // Sets the ablations named in `list` (comma-separated: no-flow-init, no-flow-loss, no-triple,
-// no-stretch, linear; empty: none) on top of `ablate`. Throws Error naming `flag` on an empty
-// item or an unknown name.
+// no-stretch, linear, no-static-init; empty: none) on top of `ablate`. Throws Error naming `flag`
+// on an empty item or an unknown name.
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag);
 
 struct TrainConfig {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
 
 namespace retimegs::train {
@@ -16,6 +17,13 @@ struct InitOptions {
   std::size_t max_primitives = 100000;  // subsampled (deterministically) above this
   double initial_opacity = 0.1;
   std::uint64_t seed = 0;
+  // Static content once (flow-aware path only; false: the no-static-init ablation): the
+  // stretching criterion's thresholds, applied to the seeds of adjacent intervals; distance and
+  // speed x scene extent (TrainConfig's meaning).
+  bool static_once = true;
+  double stretch_distance = TrainConfig{}.stretch_distance;
+  double stretch_color = TrainConfig{}.stretch_color;
+  double stretch_speed = TrainConfig{}.stretch_speed;
 };
 
 // 3-D forward / backward displacement of point X (frame slot i) from the flows of every camera
