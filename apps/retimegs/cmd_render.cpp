@@ -32,9 +32,13 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--model", args->model, "model file (.rgs or .ply)")->required();
   cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")
       ->required();
-  auto* camera = cmd->add_option("--camera", args->camera, "camera name in the scene");
-  auto* path_option = cmd->add_option(
-      "--path", args->path, "cameras CAM,CAM,... to move through (bullet time with --time)");
+  auto* camera = cmd->add_option("--camera", args->camera,
+                                 "camera name in the scene (a training camera renders through its "
+                                 "learned colour map, any other with the model's colours)");
+  auto* path_option =
+      cmd->add_option("--path", args->path,
+                      "cameras CAM,CAM,... to move through (bullet time with --time), with the "
+                      "model's colours");
   camera->excludes(path_option);
   auto* time = cmd->add_option("--time", args->time, "one time, in scene frame units");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");

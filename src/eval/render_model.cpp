@@ -12,10 +12,15 @@
 namespace retimegs::eval {
 
 Image render_model(const model::Model& model, const Camera& camera, double t,
-                   const float* background, const render::RenderOptions& options) {
+                   const float* background, const render::RenderOptions& options, Colors colors) {
   const model::Evaluated evaluated =
       model::evaluate(model.primitives, model.config, model.grid, t, camera, {});
-  return render::rasterize_forward(evaluated.gaussians, camera, background, options).blend.image;
+  Image image =
+      render::rasterize_forward(evaluated.gaussians, camera, background, options).blend.image;
+  if (colors == Colors::kCamera)
+    if (const model::CameraColor* color = model::find_camera_color(model, camera.name))
+      model::apply_camera_color(image, *color, image);
+  return image;
 }
 
 Image render_splats(const Splats& splats, const Camera& camera, const float* background,
@@ -31,10 +36,10 @@ LoadedModel load_model(const std::filesystem::path& path) {
 }
 
 Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
-                    const float* background, const render::RenderOptions& options) {
+                    const float* background, const render::RenderOptions& options, Colors colors) {
   if (const auto* splats = std::get_if<Splats>(&model))
     return render_splats(*splats, camera, background, options);
-  return render_model(std::get<model::Model>(model), camera, t, background, options);
+  return render_model(std::get<model::Model>(model), camera, t, background, options, colors);
 }
 
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
@@ -42,9 +47,11 @@ void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    io::FrameWriter& writer) {
   const int frames = int(times.size());
   Progress progress("render", frames, frames > 1);
+  const Colors colors = path.size() == 1 ? Colors::kCamera : Colors::kModel;
   for (int f = 0; f < frames; ++f) {
     const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
-    writer.write(render_loaded(model, camera_along_path(path, s), times[f], background));
+    writer.write(
+        render_loaded(model, camera_along_path(path, s), times[f], background, {}, colors));
     progress.tick();
   }
   progress.finish();
@@ -55,7 +62,7 @@ FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model) {
   auto owned = std::make_shared<const LoadedModel>(std::move(model));
   return [&scene, owned](int camera, int frame) {
     const float black[3] = {0, 0, 0};
-    return render_loaded(*owned, scene.cameras[camera], double(frame), black);
+    return render_loaded(*owned, scene.cameras[camera], double(frame), black, {}, Colors::kCamera);
   };
 }
 

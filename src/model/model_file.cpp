@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -45,7 +46,35 @@ const char* name_of(TrajectoryKind k) {
   return k == TrajectoryKind::kLinear ? "linear" : "catmull-rom";
 }
 
+// The camera_colors entry of a header; throws Error naming `file` and the camera of a malformed or
+// non-finite one.
+std::map<std::string, CameraColor> camera_colors_from(const json& header, const std::string& file) {
+  std::map<std::string, CameraColor> colors;
+  if (!header.contains("camera_colors")) return colors;
+  const json& table = header.at("camera_colors");
+  if (!table.is_object()) fail("{}: 'camera_colors' is not an object", file);
+  for (const auto& [camera, entry] : table.items()) {
+    CameraColor& color = colors[camera];
+    for (auto [key, values] : {std::pair{"m", &color.m}, std::pair{"c", &color.c}}) {
+      const json* v = entry.is_object() && entry.contains(key) ? &entry.at(key) : nullptr;
+      if (!v || !v->is_array() || v->size() != 3)
+        fail("{}: camera colour of '{}' lacks '{}' as 3 numbers", file, camera, key);
+      for (int k = 0; k < 3; ++k) {
+        if (!(*v)[k].is_number() || !std::isfinite((*v)[k].get<double>()))
+          fail("{}: camera colour '{}' of '{}' is not finite: {}", file, key, camera, v->dump());
+        (*values)[k] = (*v)[k].get<float>();
+      }
+    }
+  }
+  return colors;
+}
+
 }  // namespace
+
+const CameraColor* find_camera_color(const Model& model, const std::string& camera) {
+  const auto it = model.camera_colors.find(camera);
+  return it == model.camera_colors.end() ? nullptr : &it->second;
+}
 
 void write_model(const fs::path& path, const Model& model) {
   check_primitives(model.primitives, path.string());
@@ -67,7 +96,7 @@ void write_model(const fs::path& path, const Model& model) {
   } catch (const json::exception& e) {
     fail("{}: training config is not valid JSON: {}", path.string(), e.what());
   }
-  const json header = {
+  json header = {
       {"count", n},
       {"time_grid",
        {{"first", model.grid.first}, {"step", model.grid.step}, {"count", model.grid.count}}},
@@ -79,6 +108,12 @@ void write_model(const fs::path& path, const Model& model) {
         {"sh_degree", model.config.sh_degree}}},
       {"fields", fields},
       {"training_config", training}};
+  for (const auto& [camera, color] : model.camera_colors) {
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(color.m[k]) || !std::isfinite(color.c[k]))
+        fail("{}: camera colour of '{}' is not finite", path.string(), camera);
+    header["camera_colors"][camera] = {{"m", color.m}, {"c", color.c}};
+  }
   const std::string header_text = header.dump();
 
   std::string bytes(kMagic, sizeof kMagic);
@@ -136,6 +171,7 @@ Model read_model(const fs::path& path) {
     model.config.epsilon = m.at("epsilon").get<double>();
     model.config.sh_degree = m.at("sh_degree").get<int>();
     model.training_config = header.value("training_config", json::object()).dump();
+    model.camera_colors = camera_colors_from(header, file);
   } catch (const json::exception& e) {
     fail("{}: malformed model header: {}", file, e.what());
   }

@@ -15,14 +15,14 @@
 namespace retimegs::train {
 
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(Ablations, no_flow_init, no_flow_loss, no_triple,
-                                                no_stretch, linear, no_static_init)
+                                                no_stretch, linear, no_static_init, no_camera_color)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every, max_sh_degree,
     lr_decay_start, lr_decay_final, flow_decay_until, relocate_every, relocate_start, relocate_stop,
     stretch_every, lr_means, lr_means_final, lr_velocity, lr_scales, lr_quats, lr_quat_rate,
     lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center, lr_temporal_scale, ssim_lambda,
     flow_weight_start, flow_weight_end, opacity_reg, scale_reg, gamma, cap, min_opacity, growth,
-    init_opacity, stretch_distance, stretch_color, stretch_speed, checkpoint_every)
+    init_opacity, stretch_distance, stretch_color, stretch_speed, checkpoint_every, lr_camera_color)
 
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag) {
   if (list.empty()) return ablate;
@@ -39,14 +39,15 @@ Ablations parse_ablations(const std::string& list, Ablations ablate, const std::
       {"no-triple", &Ablations::no_triple},
       {"no-stretch", &Ablations::no_stretch},
       {"linear", &Ablations::linear},
-      {"no-static-init", &Ablations::no_static_init}};
+      {"no-static-init", &Ablations::no_static_init},
+      {"no-camera-color", &Ablations::no_camera_color}};
   for (const std::string& name : names) {
     const auto* hit = std::find_if(std::begin(known), std::end(known),
                                    [&](const auto& k) { return k.first == name; });
     if (hit == std::end(known))
       fail(
           "{}: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear, "
-          "no-static-init)",
+          "no-static-init, no-camera-color)",
           flag, name);
     ablate.*(hit->second) = true;
   }

@@ -1,5 +1,6 @@
 #include "retimegs/train/trainer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -15,6 +16,7 @@
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/npy.hpp"
+#include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/initialize.hpp"
@@ -36,6 +38,8 @@ void zero_image(Image& image, int width, int height, int channels) {
   for (std::ptrdiff_t k = 0; k < size; ++k) data[k] = 0;
 }
 
+constexpr int kColorWidth = 6;  // a camera colour's parameters: m[3], then c[3]
+
 }  // namespace
 
 Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
@@ -46,6 +50,41 @@ Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
   model_.grid = set.grid;
   model_.config = config.model_config();
   model_.training_config = to_json(config);
+  if (camera_color()) {
+    const std::size_t cameras = set.cameras.size();
+    colors_.assign(cameras * kColorWidth, 0.0f);  // the identity: gain 1, offset 0
+    color_grads_.assign(cameras * kColorWidth, 0.0f);
+    color_adam_ = Adam(cameras, kColorWidth);
+    for (const int camera : set.cameras) model_.camera_colors[set.scene.cameras[camera].name] = {};
+  }
+}
+
+model::CameraColor Trainer::color_of(int c) const {
+  model::CameraColor color;
+  const float* p = &colors_[std::size_t(c) * kColorWidth];
+  std::copy_n(p, 3, color.m.begin());
+  std::copy_n(p + 3, 3, color.c.begin());
+  return color;
+}
+
+void Trainer::step_camera_color(int c, double decay) {
+  const std::vector<std::int32_t> row = {c};
+  color_adam_.step(colors_.data(), color_grads_.data(), config_.lr_camera_color * decay, &row);
+  std::fill_n(&color_grads_[std::size_t(c) * kColorWidth], kColorWidth, 0.0f);
+  // Gauge: a common gain and offset can move between the model's colours and every camera's
+  // correction without changing a training render, so nothing in the loss pins it. The rule keeps
+  // the mean of m and of c over the training cameras at zero (subtracted after every step): the
+  // model's colours are then those of the average camera (geometric mean gain, mean offset), which
+  // is what a camera without a correction (a test camera, a path) is rendered with.
+  const std::size_t cameras = set_.cameras.size();
+  for (int k = 0; k < kColorWidth; ++k) {
+    double mean = 0;
+    for (std::size_t j = 0; j < cameras; ++j) mean += colors_[j * kColorWidth + k];
+    mean /= double(cameras);
+    for (std::size_t j = 0; j < cameras; ++j) colors_[j * kColorWidth + k] -= float(mean);
+  }
+  for (std::size_t j = 0; j < cameras; ++j)
+    model_.camera_colors[set_.scene.cameras[set_.cameras[j]].name] = color_of(int(j));
 }
 
 std::string Trainer::initialize() {
@@ -129,7 +168,21 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   Image& v_image = v_image_;
   zero_image(v_image, camera.width, camera.height, channels);
   const Image& rgb = rgb_of(out.blend.image, rgb_);
-  stats.image_loss += image_loss(rgb, target, config_.ssim_lambda, 1.0, v_image);
+  // What the camera would have recorded: the render through the camera's colour correction.
+  const Image* seen = &rgb;
+  model::CameraColor color;
+  if (camera_color()) {
+    color = color_of(c);
+    model::apply_camera_color(rgb, color, corrected_);
+    seen = &corrected_;
+  }
+  stats.image_loss += image_loss(*seen, target, config_.ssim_lambda, 1.0, v_image);
+  if (camera_color()) {
+    model::CameraColor v_color;
+    model::apply_camera_color_backward(rgb, color, v_image, v_color);
+    float* g = &color_grads_[std::size_t(c) * kColorWidth];
+    for (int k = 0; k < 3; ++k) g[k] += v_color.m[k], g[3 + k] += v_color.c[k];
+  }
   if (pass.flow) {
     if (const auto& f = set_.forward[c][i])
       stats.flow_loss +=
@@ -138,7 +191,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
       stats.flow_loss +=
           flow_loss(out.blend.image, model::kBackwardFlowChannel, *f, w_flow, v_image);
   }
-  if (pass.group == model::Group::kAll) stats.psnr = psnr(rgb, target);
+  if (pass.group == model::Group::kAll) stats.psnr = psnr(*seen, target);
   stats.seconds.losses += clock.lap();
   const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
                                                       render_options, out, v_image.data.data());
@@ -188,6 +241,7 @@ StepStats Trainer::step_view(int c, int i) {
   const double decay = lr_factor(it);
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
   adam_.step(p, grads, active, means_decay, decay);
+  if (camera_color()) step_camera_color(c, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
   grads.zero_rows(active);
@@ -201,6 +255,21 @@ StepStats Trainer::step_view(int c, int i) {
   return stats;
 }
 
+namespace {
+
+constexpr const char* kColorAdam = "camera_color";  // the camera colours' Adam in a checkpoint
+
+// Writes `adam`'s moments to dir/adam/<name>_{m,v}.npy and its step count to state.
+void save_adam(const fs::path& dir, const std::string& name, const Adam& adam, json& state) {
+  state["adam_steps"][name] = adam.steps();
+  const std::size_t rows = adam.rows();
+  const std::size_t width = rows ? adam.m().size() / rows : 0;
+  io::write_npy(dir / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
+  io::write_npy(dir / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
+}
+
+}  // namespace
+
 void Trainer::save_checkpoint(const fs::path& dir) const {
   AtomicDirectory out(dir, /*replace=*/true);
   model::write_model(out.temp_path() / "model.rgs", model_);
@@ -208,13 +277,8 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
   rng << rng_;
   json state = {
       {"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
-  for (const auto& [name, adam] : adam_) {
-    state["adam_steps"][name] = adam.steps();
-    const std::size_t rows = adam.rows();
-    const std::size_t width = rows ? adam.m().size() / rows : 0;
-    io::write_npy(out.temp_path() / "adam" / (name + "_m.npy"), {rows, width}, adam.m());
-    io::write_npy(out.temp_path() / "adam" / (name + "_v.npy"), {rows, width}, adam.v());
-  }
+  for (const auto& [name, adam] : adam_) save_adam(out.temp_path(), name, adam, state);
+  if (camera_color()) save_adam(out.temp_path(), kColorAdam, color_adam_, state);
   write_text_file(out.temp_path() / "state.json", state.dump(2) + "\n");
   out.commit();
 }
@@ -235,6 +299,18 @@ T state_value(const json& state, const std::string& key, const fs::path& file) {
   }
 }
 
+// Reads what save_adam wrote into `adam`, which has the expected shape; throws Error naming the
+// folder or the state file when it does not match.
+void load_adam(const fs::path& dir, const std::string& name, const json& state,
+               const fs::path& file, Adam& adam) {
+  const auto m = io::read_npy(dir / "adam" / (name + "_m.npy")).to_float();
+  const auto v = io::read_npy(dir / "adam" / (name + "_v.npy")).to_float();
+  if (m.size() != adam.m().size() || v.size() != adam.v().size())
+    fail("{}: optimizer state of '{}' does not match the model", dir.string(), name);
+  adam.m() = m, adam.v() = v;
+  adam.step_count() = state_value<std::int64_t>(state, "adam_steps/" + name, file);
+}
+
 }  // namespace
 
 void Trainer::load_checkpoint(const fs::path& dir) {
@@ -246,13 +322,18 @@ void Trainer::load_checkpoint(const fs::path& dir) {
     fail("{}: checkpoint state 'rng' is not a generator state", file.string());
   model_.config.sh_degree = state_value<int>(state, "sh_degree", file);
   make_optimizers();
-  for (auto& [name, adam] : adam_) {
-    const auto m = io::read_npy(dir / "adam" / (name + "_m.npy")).to_float();
-    const auto v = io::read_npy(dir / "adam" / (name + "_v.npy")).to_float();
-    if (m.size() != adam.m().size() || v.size() != adam.v().size())
-      fail("{}: optimizer state of '{}' does not match the model", dir.string(), name);
-    adam.m() = m, adam.v() = v;
-    adam.step_count() = state_value<std::int64_t>(state, "adam_steps/" + name, file);
+  for (auto& [name, adam] : adam_) load_adam(dir, name, state, file, adam);
+  if (camera_color()) {
+    for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
+      const std::string& name = set_.scene.cameras[set_.cameras[j]].name;
+      const model::CameraColor* color = model::find_camera_color(model_, name);
+      if (!color)
+        fail("{}: the checkpoint's model has no colour correction of training camera '{}'",
+             dir.string(), name);
+      std::copy(color->m.begin(), color->m.end(), &colors_[j * kColorWidth]);
+      std::copy(color->c.begin(), color->c.end(), &colors_[j * kColorWidth + 3]);
+    }
+    load_adam(dir, kColorAdam, state, file, color_adam_);
   }
   rebuild_index();
 }

@@ -1,7 +1,10 @@
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <random>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -91,6 +94,80 @@ TEST(ModelFile, TruncatedOrCorruptedFilesAreRefused) {
   test::write_text(dir / "version.rgs", version);
   expect_refused(dir / "version.rgs", "version 9");
   expect_refused(dir / "missing.rgs", "cannot open");
+}
+
+// The bytes of a model file `bytes` with its JSON header replaced by edit(header), the checksum
+// recomputed (FNV-1a 64 over every preceding byte, as the format defines it).
+template <typename Edit>
+std::string with_header(const std::string& bytes, const Edit& edit) {
+  std::uint32_t size = 0;
+  std::memcpy(&size, bytes.data() + 12, 4);
+  nlohmann::json header = nlohmann::json::parse(bytes.substr(16, size));
+  edit(header);
+  const std::string text = header.dump();
+  const std::uint32_t new_size = std::uint32_t(text.size());
+  std::string out = bytes.substr(0, 12);
+  out.append(reinterpret_cast<const char*>(&new_size), 4);
+  out += text;
+  out += bytes.substr(16 + size, bytes.size() - 16 - size - 8);
+  std::uint64_t hash = 0xcbf29ce484222325ull;
+  for (const char ch : out) hash = (hash ^ static_cast<unsigned char>(ch)) * 0x100000001b3ull;
+  out.append(reinterpret_cast<const char*>(&hash), 8);
+  return out;
+}
+
+TEST(ModelFile, CameraColorsRoundTripByCameraName) {
+  test::TempDir dir;
+  Model m = random_model(5, 5);
+  m.camera_colors["cam00"] = {{0.1f, -0.25f, 1e-7f}, {0.03f, 0.0f, -0.3333333f}};
+  m.camera_colors["17"] = {{-0.5f, 0.5f, 0.2f}, {0.01f, 0.02f, 0.03f}};
+  write_model(dir / "m.rgs", m);
+  const Model r = read_model(dir / "m.rgs");
+  ASSERT_EQ(r.camera_colors.size(), 2u);
+  for (const auto& [camera, color] : m.camera_colors) {
+    const CameraColor* read = find_camera_color(r, camera);
+    ASSERT_NE(read, nullptr) << camera;
+    EXPECT_EQ(read->m, color.m) << camera;
+    EXPECT_EQ(read->c, color.c) << camera;
+  }
+  EXPECT_EQ(find_camera_color(r, "cam01"), nullptr);
+}
+
+// A model without corrections is written as earlier builds wrote every model (no
+// "camera_colors" key), and such a file loads with none.
+TEST(ModelFile, FilesWithoutCameraColorsLoadWithNone) {
+  test::TempDir dir;
+  Model m = random_model(6, 6);
+  m.camera_colors["cam00"].m = {0.1f, 0.2f, 0.3f};
+  write_model(dir / "with.rgs", m);
+  test::write_text(dir / "old.rgs", with_header(test::read_text(dir / "with.rgs"),
+                                                [](auto& h) { h.erase("camera_colors"); }));
+  const Model old = read_model(dir / "old.rgs");
+  EXPECT_TRUE(old.camera_colors.empty());
+  EXPECT_EQ(old.primitives.mu, m.primitives.mu);
+  m.camera_colors.clear();
+  write_model(dir / "none.rgs", m);
+  EXPECT_EQ(test::read_text(dir / "none.rgs"), test::read_text(dir / "old.rgs"));
+}
+
+TEST(ModelFile, MalformedCameraColorsAreRefused) {
+  test::TempDir dir;
+  Model m = random_model(3, 7);
+  m.camera_colors["cam03"] = {};
+  write_model(dir / "m.rgs", m);
+  const std::string bytes = test::read_text(dir / "m.rgs");
+  test::write_text(dir / "short.rgs", with_header(bytes, [](auto& h) {
+                     h["camera_colors"]["cam03"]["m"] = {0.0, 1.0};
+                   }));
+  expect_refused(dir / "short.rgs", "camera colour of 'cam03' lacks 'm'");
+  test::write_text(dir / "null.rgs", with_header(bytes, [](auto& h) {
+                     h["camera_colors"]["cam03"]["c"][1] = nullptr;
+                   }));
+  expect_refused(dir / "null.rgs", "camera colour 'c' of 'cam03' is not finite");
+  m.camera_colors["cam03"].c[2] = std::numeric_limits<float>::infinity();
+  test::expect_error([&] { write_model(dir / "inf.rgs", m); },
+                     {"inf.rgs", "camera colour of 'cam03' is not finite"});
+  EXPECT_FALSE(fs::exists(dir / "inf.rgs"));
 }
 
 TEST(ModelFile, NonFiniteParametersAreNotWritten) {

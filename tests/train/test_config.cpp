@@ -18,10 +18,12 @@ TEST(ParseAblations, SetsTheNamedAblationsOnTopOfTheGivenOnes) {
   EXPECT_FALSE(a.no_triple);
   EXPECT_FALSE(a.no_static_init);
   EXPECT_TRUE(parse_ablations("no-static-init", {}, "--ablate").no_static_init);
+  EXPECT_FALSE(a.no_camera_color);
+  EXPECT_TRUE(parse_ablations("no-camera-color", {}, "--ablate").no_camera_color);
 
   const Ablations none = parse_ablations("", {}, "--ablate");
   EXPECT_FALSE(none.no_flow_init || none.no_flow_loss || none.no_triple || none.no_stretch ||
-               none.linear || none.no_static_init);
+               none.linear || none.no_static_init || none.no_camera_color);
 }
 
 TEST(ParseAblations, RefusesEmptyItemsAndUnknownNames) {
@@ -32,7 +34,7 @@ TEST(ParseAblations, RefusesEmptyItemsAndUnknownNames) {
             "--ablate: empty item in 'bogus,,linear'");
   EXPECT_EQ(test::message_of([] { parse_ablations("no_triple", {}, "--ablate"); }),
             "--ablate: unknown ablation 'no_triple' (no-flow-init, no-flow-loss, no-triple, "
-            "no-stretch, linear, no-static-init)");
+            "no-stretch, linear, no-static-init, no-camera-color)");
 }
 
 TEST(Presets, SetIterationsAndBudgetOnlyAndDefaultIsTheConfigsOwn) {

@@ -16,9 +16,17 @@
 
 namespace retimegs::eval {
 
+// The colours of a render. kModel: the model's own, those of the average training camera (no
+// correction; test cameras, camera paths, export). kCamera: as the scene camera of that name
+// recorded them, through its stored correction (model::Model::camera_colors) when it is a
+// training camera, the model's own otherwise. The correction applies to the whole image,
+// background included, as training compared it.
+enum class Colors { kModel, kCamera };
+
 // background: 3 values (RGB).
 Image render_model(const model::Model& model, const Camera& camera, double t,
-                   const float* background, const render::RenderOptions& options = {});
+                   const float* background, const render::RenderOptions& options = {},
+                   Colors colors = Colors::kModel);
 
 Image render_splats(const Splats& splats, const Camera& camera, const float* background,
                     const render::RenderOptions& options = {});
@@ -28,18 +36,22 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
 using LoadedModel = std::variant<model::Model, Splats>;
 LoadedModel load_model(const std::filesystem::path& path);
 
-// render_model or render_splats, whichever `model` holds (static splats ignore t).
+// render_model or render_splats, whichever `model` holds (static splats ignore t and colors).
 Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
-                    const float* background, const render::RenderOptions& options = {});
+                    const float* background, const render::RenderOptions& options = {},
+                    Colors colors = Colors::kModel);
 
 // The frames of `retimegs render`: frame f at times[f], seen from the camera at s = f / (F - 1)
 // along `path` (camera_along_path; one camera stays put), written to `writer`, which is then
-// finished. A progress bar is shown when there is more than one frame.
+// finished. One camera renders with its colours (Colors::kCamera), a path with the model's (its
+// cameras between the named ones have none). A progress bar is shown when there is more than one
+// frame.
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    const std::vector<double>& times, const float* background,
                    io::FrameWriter& writer);
 
-// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `frame` on black.
+// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `frame` on black,
+// with that camera's colours (Colors::kCamera).
 // `scene` must outlive the returned renderer; the model is owned by it.
 FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model);
 

@@ -6,14 +6,18 @@
 //   u32           header length H
 //   H bytes       JSON header: primitive count, time grid, model config, field table
 //                 ([{name, width, dtype "<f4", offset, bytes}], offsets from the data start),
-//                 and the training config (free-form JSON, for provenance)
+//                 the training config (free-form JSON, for provenance) and, when training
+//                 learned them, "camera_colors": {camera name: {"m": [3], "c": [3]}} (files
+//                 without the key, as earlier builds wrote them, load with none)
 //   ...           the fields' raw float32 arrays, row-major, in table order
 //   u64           FNV-1a 64 checksum of every preceding byte
 //
 // Written atomically; a truncated or corrupted file is refused, never half-loaded.
 #include <filesystem>
+#include <map>
 #include <string>
 
+#include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::model {
@@ -23,12 +27,19 @@ struct Model {
   TimeGrid grid;
   ModelConfig config;
   std::string training_config = "{}";  // JSON text, stored verbatim
+  // Per training camera, by name: the colour correction learned for its images (empty when
+  // training learned none). Other cameras render the model's colours.
+  std::map<std::string, CameraColor> camera_colors;
 };
+
+// The stored correction of the camera named `camera`, or nullptr when the model has none for it.
+const CameraColor* find_camera_color(const Model& model, const std::string& camera);
 
 void write_model(const std::filesystem::path& path, const Model& model);
 
 // Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,
-// truncated data, checksum mismatch, non-finite values, an unknown field).
+// truncated data, checksum mismatch, non-finite values, an unknown field, a malformed camera
+// colour).
 Model read_model(const std::filesystem::path& path);
 
 }  // namespace retimegs::model

@@ -15,11 +15,13 @@ struct Ablations {
   bool no_stretch = false;
   bool linear = false;          // x(t) = μ + (t - μ_τ) v2
   bool no_static_init = false;  // every seed keeps its own interval at initialisation
+  // No per-camera colour correction (model::CameraColor): every camera sees the model's colours.
+  bool no_camera_color = false;
 };
 
 // Sets the ablations named in `list` (comma-separated: no-flow-init, no-flow-loss, no-triple,
-// no-stretch, linear, no-static-init; empty: none) on top of `ablate`. Throws Error naming `flag`
-// on an empty item or an unknown name.
+// no-stretch, linear, no-static-init, no-camera-color; empty: none) on top of `ablate`. Throws
+// Error naming `flag` on an empty item or an unknown name.
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag);
 
 struct TrainConfig {
@@ -47,6 +49,7 @@ struct TrainConfig {
   double lr_scales = 5e-3, lr_quats = 1e-3, lr_quat_rate = 1e-3, lr_opacities = 5e-2;
   double lr_sh0 = 2.5e-3, lr_sh_rest_factor = 1.0 / 20;
   double lr_temporal_center = 1e-4, lr_temporal_scale = 3e-2;  // STGS only
+  double lr_camera_color = 1e-3;  // per-camera colour m and c (Dynamic 3D Gaussians' rate)
 
   // Losses and regularisers.
   double ssim_lambda = 0.2;

@@ -9,6 +9,10 @@
 // clearing of the gradient buffer cover those rows only, so a step costs what is visible at its
 // time. The index is rebuilt whenever the windows may have changed: at the start, after loading
 // a checkpoint and after every strategy call that changed the primitives.
+//
+// Per-camera colour (model::CameraColor, unless ablated): every render pass of a step compares
+// exp(m_c) ⊙ RGB + c_c of its camera c with the target; Adam updates (m_c, c_c) at every step of
+// camera c. The model stores them by camera name.
 #include <filesystem>
 #include <memory>
 #include <random>
@@ -45,7 +49,9 @@ struct StepStats {
   int camera = 0, frame = 0;  // scene indices of this step's view
   int renders = 0;
   double loss = 0, image_loss = 0, flow_loss = 0;
-  double psnr = 0;  // of the all-primitives render (core/psnr.hpp: +infinity on a perfect match)
+  // Of the all-primitives render, through the camera's colour correction (core/psnr.hpp: +infinity
+  // on a perfect match).
+  double psnr = 0;
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
   std::size_t active = 0;  // rows in the step's active set (model::TemporalIndex)
@@ -68,7 +74,8 @@ class Trainer {
   int iteration() const { return iteration_; }
   const model::Model& model() const { return model_; }
 
-  // A checkpoint folder (written atomically): model.rgs, state.json, adam/<field>_{m,v}.npy.
+  // A checkpoint folder (written atomically): model.rgs (with the camera colours), state.json,
+  // adam/<field>_{m,v}.npy and adam/camera_color_{m,v}.npy.
   void save_checkpoint(const std::filesystem::path& dir) const;
   void load_checkpoint(const std::filesystem::path& dir);
 
@@ -85,6 +92,12 @@ class Trainer {
   void make_optimizers();
   // The temporal index of the current primitives.
   void rebuild_index();
+  bool camera_color() const { return !config_.ablate.no_camera_color; }
+  // The colour correction of training camera slot c.
+  model::CameraColor color_of(int c) const;
+  // Adam step of camera slot c's correction on the step's gradient color_grads_, then the gauge
+  // rule; writes every correction into the model.
+  void step_camera_color(int c, double decay);
   // Triple at interior frames (frame index i), one render at the ends and for STGS.
   std::vector<RenderPass> render_passes(int i, bool flow) const;
   // Renders view (camera index c, frame index i), adds its losses against target_ to `stats` (PSNR
@@ -104,6 +117,11 @@ class Trainer {
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
+  // Per-camera colour: parameters [cameras, 6] (m then c, training camera slots), their Adam, the
+  // step's gradient [cameras, 6] (zero between steps) and the corrected render (reused).
+  std::vector<float> colors_, color_grads_;
+  Adam color_adam_;
+  Image corrected_;
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
