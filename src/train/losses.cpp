@@ -24,8 +24,10 @@ const Image& rgb_of(const Image& render, Image& buffer) {
   return buffer;
 }
 
-double image_loss(const Image& rgb, const Image& target, double ssim_lambda, double weight,
-                  Image& v_render) {
+double image_loss(const Image& rgb, const SsimTarget& ssim_target, double ssim_lambda,
+                  double weight, Image& v_render) {
+  if (!ssim_target.image) fail("image loss: the target was not prepared");
+  const Image& target = *ssim_target.image;
   if (rgb.channels != 3 || rgb.width != target.width || rgb.height != target.height ||
       target.channels != 3 || v_render.width != rgb.width || v_render.height != rgb.height ||
       v_render.channels < 3)
@@ -33,8 +35,6 @@ double image_loss(const Image& rgb, const Image& target, double ssim_lambda, dou
          rgb.channels, target.width, target.height, target.channels, v_render.width,
          v_render.height, v_render.channels);
   const std::size_t n = rgb.data.size();
-  Image v_ssim;
-  const double s = ssim_backward(rgb, target, -ssim_lambda * weight, v_ssim);
   const float l1_grad = float((1 - ssim_lambda) * weight / double(n));
   const int channels = v_render.channels;
   const std::ptrdiff_t pixels = std::ptrdiff_t(rgb.pixels());
@@ -45,12 +45,10 @@ double image_loss(const Image& rgb, const Image& target, double ssim_lambda, dou
       const std::size_t i = 3 * p + c;
       const float diff = rgb.data[i] - target.data[i];
       l1 += std::abs(diff);
-      v_render.data[channels * p + c] += (diff > 0   ? l1_grad
-                                          : diff < 0 ? -l1_grad
-                                                     : 0.0f) +
-                                         v_ssim.data[i];
+      v_render.data[channels * p + c] += diff > 0 ? l1_grad : diff < 0 ? -l1_grad : 0.0f;
     }
   l1 /= double(n);
+  const double s = ssim_backward_add(rgb, ssim_target, -ssim_lambda * weight, v_render);
   return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
 }
 

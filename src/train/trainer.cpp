@@ -125,7 +125,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   Image& v_image = v_image_;
   zero_image(v_image, camera.width, camera.height, channels);
   const Image& rgb = rgb_of(out.blend.image, rgb_);
-  stats.image_loss += image_loss(rgb, target, config_.ssim_lambda, 1.0, v_image);
+  stats.image_loss += image_loss(rgb, ssim_target_, config_.ssim_lambda, 1.0, v_image);
   if (pass.flow) {
     if (const auto& f = set_.forward[c][i])
       stats.flow_loss +=
@@ -168,6 +168,7 @@ StepStats Trainer::step_view(int c, int i) {
   const double w_flow = flow_weight(it);
   const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
   unpack(set_.images[c][i], target_);
+  ssim_target_.assign(target_);
   const std::vector<std::int32_t>& active = index_.rows_at(i);
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "retimegs/core/ssim.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
@@ -104,6 +105,7 @@ class Trainer {
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
+  SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
