@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/train/losses.hpp"
 
@@ -153,6 +154,33 @@ TEST(Losses, RegularizerIsTheMeanOpacityAndScaleSummedOverTheRows) {
   EXPECT_NEAR(regularizer(p, {0, 2}, 0.1, 0.01),
               0.1 * (0.5 + 0.75) / 3 + 0.01 * (3 + 2 + 2 + 5) / 9.0, 1e-7);
   EXPECT_EQ(regularizer(model::Primitives{}, {}, 0.1, 0.01), 0.0);
+}
+
+// Over many rows the sum runs on all threads, split the same way for any thread count.
+TEST(Losses, RegularizerIsTheSameForAnyThreadCount) {
+  model::Primitives p;
+  p.resize(20000);
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(-3, 3);
+  for (float& v : p.opacity_logit) v = u(rng);
+  for (float& v : p.log_scale) v = u(rng);
+  std::vector<std::int32_t> rows;
+  for (std::int32_t r = 0; r < 20000; r += 2) rows.push_back(r);
+  double serial = 0;
+  for (const std::int32_t r : rows) {
+    serial += 0.01 / 20000 / (1 + std::exp(-double(p.opacity_logit[r])));
+    for (int a = 0; a < 3; ++a) serial += 0.1 / 60000 * std::exp(double(p.log_scale[3 * r + a]));
+  }
+  const int threads_before = max_threads();
+  std::vector<double> values;
+  for (const int threads : {1, 2, 3}) {
+    set_threads(threads);
+    values.push_back(regularizer(p, rows, 0.01, 0.1));
+  }
+  set_threads(threads_before);
+  EXPECT_NEAR(values[0], serial, 1e-12 * serial);
+  EXPECT_EQ(values[1], values[0]);
+  EXPECT_EQ(values[2], values[0]);
 }
 
 // Rows 1 and 4 are not in the set: they get no gradient, and the loss does not depend on them.
