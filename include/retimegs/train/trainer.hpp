@@ -9,6 +9,7 @@
 // clearing of the gradient buffer cover those rows only, so a step costs what is visible at its
 // time. The index is rebuilt whenever the windows may have changed: at the start, after loading
 // a checkpoint and after every strategy call that changed the primitives.
+#include <array>
 #include <filesystem>
 #include <memory>
 #include <random>
@@ -19,6 +20,7 @@
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
+#include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -106,6 +108,12 @@ class Trainer {
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
   SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
+  // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
+  // (indexed by model::Group; a group's batch size changes little from step to step), the render
+  // with its saved state and the gradient with respect to the batch.
+  std::array<model::Evaluated, 3> evaluated_;
+  render::RenderOutput render_;
+  GaussianGrads v_gaussians_;
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
