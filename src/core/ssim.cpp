@@ -266,8 +266,16 @@ double ssim_separable(const Image& a, const SsimTarget& target, Image* map, doub
       }
       const int out_c = v_add->channels;
       float* out = v_add->data.data() + std::size_t(r3) * a.width * out_c;
-      for (int x = 0; x < a.width; ++x)
-        for (int ch = 0; ch < c; ++ch) out[x * out_c + ch] += float(grad[x * c + ch]);
+      if (out_c == c) {
+#pragma omp simd
+        for (std::size_t j = 0; j < n; ++j) out[j] += float(grad[j]);
+      } else if (c == 3) {  // an RGB render's gradient among its flow channels
+        for (int x = 0; x < a.width; ++x)
+          for (int ch = 0; ch < 3; ++ch) out[x * out_c + ch] += float(grad[x * 3 + ch]);
+      } else {
+        for (int x = 0; x < a.width; ++x)
+          for (int ch = 0; ch < c; ++ch) out[x * out_c + ch] += float(grad[x * c + ch]);
+      }
     }
   });
   double total = 0;  // summed in row order: the same value for any thread count
