@@ -169,10 +169,10 @@ TEST(RenderReuse, ReusedOutputsMatchFreshOnes) {
     EXPECT_EQ(out.bins.gaussian_from_isect, fresh.bins.gaussian_from_isect) << n;
     EXPECT_EQ(out.projected.radii, fresh.projected.radii) << n;
     EXPECT_EQ(grads.channels, fresh_grads.channels) << n;
-    for (const auto field : {&GaussianGrads::v_means, &GaussianGrads::v_log_scales,
-                             &GaussianGrads::v_quats, &GaussianGrads::v_opacities,
-                             &GaussianGrads::v_features, &GaussianGrads::v_means2d,
-                             &GaussianGrads::v_conics})
+    for (const auto field :
+         {&GaussianGrads::v_means, &GaussianGrads::v_log_scales, &GaussianGrads::v_quats,
+          &GaussianGrads::v_opacities, &GaussianGrads::v_features, &GaussianGrads::v_means2d,
+          &GaussianGrads::v_conics})
       EXPECT_EQ(grads.*field, fresh_grads.*field) << n;
   }
 }
