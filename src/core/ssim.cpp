@@ -19,7 +19,8 @@ constexpr int kTaps = 2 * kRadius + 1;
 constexpr double kSigma = 1.5;       // Wang et al. 2004, 3DGS
 constexpr double kC1 = 0.01 * 0.01;  // (K1·L)², K1 = 0.01, data range L = 1
 constexpr double kC2 = 0.03 * 0.03;  // (K2·L)², K2 = 0.03
-constexpr int kMoments = 5;          // μ_a, μ_b, E[a²], E[b²], E[ab]
+constexpr int kMoments = 3;          // of the render per window: μ_a, E[a²], E[ab]
+constexpr int kTargetMoments = 2;    // of the target (SsimTarget): μ_b, E[b²]
 constexpr int kCoefficients = 3;     // dS/dμ_a, dS/dE[a²], dS/dE[ab]
 // Below this many values (~128×128) waking the threads costs more than the passes.
 constexpr std::size_t kParallelMin = std::size_t(1) << 14;
@@ -99,13 +100,13 @@ inline void correlate_y(const double* ring, std::size_t n, int y, double* out) {
   }
 }
 
-// One row of the SSIM map from the moments [5, n] (μ_a, μ_b, E[a²], E[b²], E[ab]): its sum, the
-// map row with kWithMap, and with kBackward the coefficients scale · dS/d(μ_a, E[a²], E[ab]).
+// One row of the SSIM map from the render's moments [3, n] (μ_a, E[a²], E[ab]) and the target's
+// mu_b [n], e_bb [n]: its sum, the map row with kWithMap, and with kBackward the coefficients
+// scale · dS/d(μ_a, E[a²], E[ab]).
 template <bool kWithMap, bool kBackward>
-double ssim_row(const double* moments, std::size_t n, double scale, float* map_row,
-                std::array<double*, kCoefficients> coefficients) {
-  const double* mu_a = moments;
-  const double *mu_b = mu_a + n, *e_aa = mu_b + n, *e_bb = e_aa + n, *e_ab = e_bb + n;
+double ssim_row(const double* moments, const double* mu_b, const double* e_bb, std::size_t n,
+                double scale, float* map_row, std::array<double*, kCoefficients> coefficients) {
+  const double *mu_a = moments, *e_aa = mu_a + n, *e_ab = e_aa + n;
   double sum = 0;
 #pragma omp simd reduction(+ : sum)
   for (std::size_t j = 0; j < n; ++j) {
@@ -121,35 +122,78 @@ double ssim_row(const double* moments, std::size_t n, double scale, float* map_r
   return sum;
 }
 
-// The separable fast path. Each thread owns a band of output rows and streams the image through
-// it, top to bottom, so that its working set is a few rings of 11 rows (cache resident):
-//   pass 1  row r1: the moment rows a, b, a², b², ab correlated along x → ring `along_x`;
-//   pass 2  row r2 = r1 − r: along y → moments → map row, and (backward) the coefficient row
-//           scale · dS/d(μ_a, E[a²], E[ab]) → ring `coefficient`;
+// Each thread owns a band of rows [begin, end) of the image (height rows; none when it is small).
+template <typename F>
+void for_each_band(int height, std::size_t n, F&& band) {
+#pragma omp parallel if (std::size_t(height) * n >= kParallelMin)
+  {
+    const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
+    band(int(std::int64_t(height) * thread / threads),
+         int(std::int64_t(height) * (thread + 1) / threads));
+  }
+}
+
+// The target's window moments μ_b, E[b²] [H, W·C] each, streamed as ssim_separable's pass 1 and 2
+// stream the render's (the same operations in the same order, so the same values).
+void target_moments(const Image& b, double* mu, double* e_sq) {
+  const int height = b.height, c = b.channels;
+  const std::size_t n = std::size_t(b.width) * c;
+  const std::size_t padded_n = n + 2 * std::size_t(kRadius) * c;
+  for_each_band(height, n, [&](int begin, int end) {
+    std::vector<double> src(kTargetMoments * padded_n, 0.0);  // [2, W·C + 2r·C] zero-padded
+    std::vector<double> along_x(kTargetMoments * kTaps * n);  // [2, 11, W·C] ring of pass 1
+    double* out[kTargetMoments] = {mu, e_sq};
+    for (int r1 = begin - kRadius; r1 < end + kRadius; ++r1) {
+      const std::size_t s1 = slot(r1) * n;
+      if (r1 < 0 || r1 >= height) {
+        for (int m = 0; m < kTargetMoments; ++m)
+          std::fill_n(&along_x[(m * kTaps) * n + s1], n, 0.0);
+      } else {
+        const float* row_b = b.data.data() + r1 * n;
+        double* s = src.data() + kRadius * c;
+        for (std::size_t j = 0; j < n; ++j) {
+          const double vb = row_b[j];
+          s[j] = vb;
+          s[padded_n + j] = vb * vb;
+        }
+        for (int m = 0; m < kTargetMoments; ++m)
+          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kTaps) * n + s1]);
+      }
+      const int r2 = r1 - kRadius;
+      if (r2 < begin) continue;
+      for (int m = 0; m < kTargetMoments; ++m)
+        correlate_y(&along_x[m * kTaps * n], n, r2, out[m] + r2 * n);
+    }
+  });
+}
+
+// The separable fast path against a prepared target. Each thread owns a band of output rows and
+// streams the render through it, top to bottom, so that its working set is a few rings of 11 rows
+// (cache resident):
+//   pass 1  row r1: the moment rows a, a², ab correlated along x → ring `along_x`;
+//   pass 2  row r2 = r1 − r: along y → moments (with the target's μ_b, E[b²]) → map row, and
+//           (backward) the coefficient row scale · dS/d(μ_a, E[a²], E[ab]) → ring `coefficient`;
 //   backward row r3 = r2 − r: the transpose, along y then x, and the chain rule through a, a², ab:
-//           v_a(q) = Σ_p w(p − q)·(c_μ(p) + 2·a(q)·c_aa(p) + b(q)·c_ab(p)).
+//           v_a(q) = Σ_p w(p − q)·(c_μ(p) + 2·a(q)·c_aa(p) + b(q)·c_ab(p)), added into v_add.
 // A band recomputes the r (forward) or 2r (backward) rows of pass 1 beyond its edges; rows
 // outside the image are zero (the zero padding).
-double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim, Image* v_a) {
+double ssim_separable(const Image& a, const SsimTarget& target, Image* map, double v_ssim,
+                      Image* v_add) {
+  const Image& b = *target.image;
   const int height = a.height, c = a.channels;
   const std::size_t n = std::size_t(a.width) * c;                 // values in one row
   const std::size_t padded_n = n + 2 * std::size_t(kRadius) * c;  // with r zero pixels each side
   const double scale = v_ssim / (double(height) * double(n));     // d mean / d S(p) · upstream
-  const bool backward = v_a != nullptr;
+  const bool backward = v_add != nullptr;
   const int halo = backward ? 2 * kRadius : kRadius;  // rows of pass 1 beyond a band's edges
   if (map) *map = Image(a.width, height, c);
-  if (v_a) *v_a = Image(a.width, height, c);
   const auto inside = [height](int row) { return row >= 0 && row < height; };
 
   std::vector<double> row_sums(height);  // [H] of the map, summed in row order below
-#pragma omp parallel if (std::size_t(height) * n >= kParallelMin)
-  {
-    const int threads = omp_get_num_threads(), thread = omp_get_thread_num();
-    const int begin = int(std::int64_t(height) * thread / threads);
-    const int end = int(std::int64_t(height) * (thread + 1) / threads);
-    std::vector<double> src(kMoments * padded_n, 0.0);  // [5, W·C + 2r·C] zero-padded rows
-    std::vector<double> along_x(kMoments * kTaps * n);  // [5, 11, W·C] ring of pass 1
-    std::vector<double> moments(kMoments * n);          // [5, W·C] one row of pass 2
+  for_each_band(height, n, [&](int begin, int end) {
+    std::vector<double> src(kMoments * padded_n, 0.0);  // [3, W·C + 2r·C] zero-padded rows
+    std::vector<double> along_x(kMoments * kTaps * n);  // [3, 11, W·C] ring of pass 1
+    std::vector<double> moments(kMoments * n);          // [3, W·C] one row of pass 2
     std::vector<double> coefficient(backward ? kCoefficients * kTaps * n : 0);  // [3, 11, W·C]
 
     for (int r1 = begin - halo; r1 < end + halo; ++r1) {
@@ -163,10 +207,8 @@ double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim,
         for (std::size_t j = 0; j < n; ++j) {
           const double va = row_a[j], vb = row_b[j];
           s[j] = va;
-          s[padded_n + j] = vb;
-          s[2 * padded_n + j] = va * va;
-          s[3 * padded_n + j] = vb * vb;
-          s[4 * padded_n + j] = va * vb;
+          s[padded_n + j] = va * va;
+          s[2 * padded_n + j] = va * vb;
         }
         for (int m = 0; m < kMoments; ++m)
           correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kTaps) * n + s1]);
@@ -186,14 +228,18 @@ double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim,
       } else {
         for (int m = 0; m < kMoments; ++m)
           correlate_y(&along_x[m * kTaps * n], n, r2, &moments[m * n]);
+        const double* mu_b = target.mu.data() + r2 * n;
+        const double* e_bb = target.e_sq.data() + r2 * n;
         const bool own = r2 >= begin && r2 < end;  // halo rows belong to the neighbour band
         double sum;
         if (backward)
-          sum = ssim_row<false, true>(moments.data(), n, scale, nullptr, coefficient_row);
+          sum =
+              ssim_row<false, true>(moments.data(), mu_b, e_bb, n, scale, nullptr, coefficient_row);
         else if (map)
-          sum = ssim_row<true, false>(moments.data(), n, scale, map->data.data() + r2 * n, {});
+          sum = ssim_row<true, false>(moments.data(), mu_b, e_bb, n, scale,
+                                      map->data.data() + r2 * n, {});
         else
-          sum = ssim_row<false, false>(moments.data(), n, scale, nullptr, {});
+          sum = ssim_row<false, false>(moments.data(), mu_b, e_bb, n, scale, nullptr, {});
         if (own) row_sums[r2] = sum;
       }
 
@@ -205,7 +251,7 @@ double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim,
       const double *c_aa = c_mu + padded_n, *c_ab = c_aa + padded_n;
       const float* row_a = a.data.data() + r3 * n;
       const float* row_b = b.data.data() + r3 * n;
-      float* out = v_a->data.data() + r3 * n;
+      double* grad = moments.data();  // [W·C]: the moment row is not read again for this r1
       const Window w = window();
 #pragma omp simd
       for (std::size_t j = 0; j < n; ++j) {
@@ -216,19 +262,32 @@ double ssim_separable(const Image& a, const Image& b, Image* map, double v_ssim,
           g_aa += w[k] * c_aa[at];
           g_ab += w[k] * c_ab[at];
         }
-        out[j] = float(g_mu + 2.0 * row_a[j] * g_aa + double(row_b[j]) * g_ab);
+        grad[j] = g_mu + 2.0 * row_a[j] * g_aa + double(row_b[j]) * g_ab;
+      }
+      const int out_c = v_add->channels;
+      float* out = v_add->data.data() + std::size_t(r3) * a.width * out_c;
+      if (out_c == c) {
+#pragma omp simd
+        for (std::size_t j = 0; j < n; ++j) out[j] += float(grad[j]);
+      } else if (c == 3) {  // an RGB render's gradient among its flow channels
+        for (int x = 0; x < a.width; ++x)
+          for (int ch = 0; ch < 3; ++ch) out[x * out_c + ch] += float(grad[x * 3 + ch]);
+      } else {
+        for (int x = 0; x < a.width; ++x)
+          for (int ch = 0; ch < c; ++ch) out[x * out_c + ch] += float(grad[x * c + ch]);
       }
     }
-  }
+  });
   double total = 0;  // summed in row order: the same value for any thread count
   for (const double s : row_sums) total += s;
   return total / (double(height) * double(n));
 }
 
-// The moments of the window centred on (y, x) in channel ch, zero outside the image.
-std::array<double, kMoments> window_moments(const Image& a, const Image& b, int y, int x, int ch) {
+// The moments μ_a, μ_b, E[a²], E[b²], E[ab] of the window centred on (y, x) in channel ch, zero
+// outside the image.
+std::array<double, 5> window_moments(const Image& a, const Image& b, int y, int x, int ch) {
   const Window& w = window();
-  std::array<double, kMoments> m{};
+  std::array<double, 5> m{};
   for (int dy = -kRadius; dy <= kRadius; ++dy) {
     for (int dx = -kRadius; dx <= kRadius; ++dx) {
       const int yy = y + dy, xx = x + dx;
@@ -252,14 +311,37 @@ LocalSsim reference_local(const Image& a, const Image& b, int y, int x, int ch) 
 
 }  // namespace
 
+void SsimTarget::assign(const Image& b) {
+  if (b.empty()) fail("ssim target: image is empty");
+  image = &b;
+  mu.resize(b.data.size());
+  e_sq.resize(b.data.size());
+  target_moments(b, mu.data(), e_sq.data());
+}
+
 double ssim(const Image& a, const Image& b, Image* map) {
   check_same_size(a, b, "ssim");
-  return ssim_separable(a, b, map, 0.0, nullptr);
+  SsimTarget target;
+  target.assign(b);
+  return ssim_separable(a, target, map, 0.0, nullptr);
 }
 
 double ssim_backward(const Image& a, const Image& b, double v_ssim, Image& v_a) {
   check_same_size(a, b, "ssim_backward");
-  return ssim_separable(a, b, nullptr, v_ssim, &v_a);
+  SsimTarget target;
+  target.assign(b);
+  v_a = Image(a.width, a.height, a.channels);
+  return ssim_separable(a, target, nullptr, v_ssim, &v_a);
+}
+
+double ssim_backward_add(const Image& a, const SsimTarget& b, double v_ssim, Image& v_out) {
+  if (!b.image || b.mu.size() != b.image->data.size())
+    fail("ssim_backward_add: the target was not prepared (SsimTarget::assign)");
+  check_same_size(a, *b.image, "ssim_backward_add");
+  if (v_out.width != a.width || v_out.height != a.height || v_out.channels < a.channels)
+    fail("ssim_backward_add: gradient {}x{}x{} cannot hold a {}x{}x{} image's", v_out.width,
+         v_out.height, v_out.channels, a.width, a.height, a.channels);
+  return ssim_separable(a, b, nullptr, v_ssim, &v_out);
 }
 
 double ssim_reference(const Image& a, const Image& b, Image* map) {

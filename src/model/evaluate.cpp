@@ -1,7 +1,10 @@
 #include "retimegs/model/evaluate.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+
+#include <omp.h>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/pinhole.hpp"
@@ -12,6 +15,9 @@
 namespace retimegs::model {
 
 namespace {
+
+// Below this many candidate rows the selection runs on one thread (waking the others costs more).
+constexpr std::size_t kParallelCandidates = 4096;
 
 constexpr double kFlowNearZ =
     1e-2;  // camera z floor for projecting control points (render near plane)
@@ -89,9 +95,19 @@ bool in_group(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
 
 template <typename T>
 EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
-                       double t_in, const Camera& camera, const EvaluateOptions& options) {
+                       double t, const Camera& camera, const EvaluateOptions& options) {
+  EvaluatedT<T> out;
+  evaluate(p, config, grid, t, camera, options, out);
+  return out;
+}
+
+template <typename T>
+void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid, double t_in,
+              const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out) {
   if (!std::isfinite(t_in)) fail("evaluate: time {} is not finite", t_in);
   if (options.group != Group::kAll) {
+    if (config.representation == Representation::kStgs)
+      fail("group renders are not defined for the STGS baseline");
     const int index = grid_index(grid, t_in);
     if (index < 0 || (options.group == Group::kLeft && index == 0) ||
         (options.group == Group::kRight && index == grid.count - 1))
@@ -103,29 +119,54 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
   const std::size_t n = p.size();
   const int channels = 3 + (options.flow_features ? kFlowChannels : 0);
 
-  // Select the rows in primitive order (deterministic), then fill them in parallel.
-  const std::size_t candidates = options.rows ? options.rows->size() : n;
-  std::vector<std::int32_t> selected;
-  std::vector<T> temporal;  // [selected]
-  selected.reserve(candidates);
-  temporal.reserve(candidates);
-  for (std::size_t k = 0; k < candidates; ++k) {
-    const std::size_t i = options.rows ? std::size_t((*options.rows)[k]) : k;
-    if (options.rows && (i >= n || (k > 0 && i <= std::size_t((*options.rows)[k - 1]))))
-      fail("evaluate: row list entry {} ({}) is not ascending within the {} primitives", k, i, n);
-    if (!in_group(p, i, config, grid, t_in, options.group)) continue;
-    const T w = options.compensate ? T(1) : temporal_opacity(p, i, config, grid, t);
-    if (sigmoid(p.opacity_logit[i]) * w >= T(options.min_opacity) &&
-        (options.min_opacity > 0 || w > T(0))) {
-      selected.push_back(std::int32_t(i));
-      temporal.push_back(w);
+  // Select the rows in primitive order: each chunk of the candidates compacts its selected rows to
+  // its own start, then the chunks are concatenated in order, so the batch is the serial scan's
+  // for any thread count. The rows are then filled in parallel.
+  const std::vector<std::int32_t>* rows = options.rows;
+  const std::size_t candidates = rows ? rows->size() : n;
+  std::vector<std::int32_t>& selected = out.primitive_from_gaussian;
+  std::vector<T>& temporal = out.temporal;  // [selected]
+  selected.resize(candidates);
+  temporal.resize(candidates);
+  const int chunks = omp_get_max_threads();
+  std::vector<std::size_t> kept(chunks, 0);  // [chunks] rows selected in each chunk
+  std::size_t unordered = candidates;        // the first row list entry out of order, if any
+#pragma omp parallel for schedule(static, 1) \
+    reduction(min                            \
+              : unordered) if (candidates >= kParallelCandidates)
+  for (int chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = candidates * chunk / chunks, end = candidates * (chunk + 1) / chunks;
+    std::size_t to = begin;
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::size_t i = rows ? std::size_t((*rows)[k]) : k;
+      if (rows && (i >= n || (k > 0 && i <= std::size_t((*rows)[k - 1])))) {
+        unordered = k;
+        break;
+      }
+      if (!in_group(p, i, config, grid, t_in, options.group)) continue;
+      const T w = options.compensate ? T(1) : temporal_opacity(p, i, config, grid, t);
+      if (sigmoid(p.opacity_logit[i]) * w >= T(options.min_opacity) &&
+          (options.min_opacity > 0 || w > T(0))) {
+        selected[to] = std::int32_t(i);
+        temporal[to++] = w;
+      }
     }
+    kept[chunk] = to - begin;
   }
+  if (unordered < candidates)
+    fail("evaluate: row list entry {} ({}) is not ascending within the {} primitives", unordered,
+         (*rows)[unordered], n);
+  std::size_t m = 0;
+  for (int chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = candidates * chunk / chunks;
+    std::copy_n(selected.begin() + begin, kept[chunk], selected.begin() + m);
+    std::copy_n(temporal.begin() + begin, kept[chunk], temporal.begin() + m);
+    m += kept[chunk];
+  }
+  selected.resize(m);
+  temporal.resize(m);
 
-  EvaluatedT<T> out;
-  const std::size_t m = selected.size();
-  out.gaussians = GaussiansT<T>(m, channels);
-  out.temporal = std::move(temporal);
+  out.gaussians.resize(m, channels);
   const PinholeT<T> pinhole(camera);
   const std::array<T, 3> eye = eye_of<T>(camera);
   GaussiansT<T>& g = out.gaussians;
@@ -134,7 +175,7 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
     const std::size_t i = selected[row];
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
-    g.opacities[row] = sigmoid(p.opacity_logit[i]) * out.temporal[row];
+    g.opacities[row] = sigmoid(p.opacity_logit[i]) * temporal[row];
     T* x = &g.means[3 * row];
     apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step),
                      mu, v, x);
@@ -159,8 +200,6 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
       backward[0] = uv_k[0] - uv_b[0], backward[1] = uv_k[1] - uv_b[1];
     }
   }
-  out.primitive_from_gaussian = std::move(selected);
-  return out;
 }
 
 template <typename T>
@@ -241,6 +280,8 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
                             const TimeGrid&, double, Group);                                     \
   template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&);             \
+  template void evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,  \
+                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&);              \
   template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&,              \
                                      const EvaluatedT<T>&, const GaussianGradsT<T>&,             \

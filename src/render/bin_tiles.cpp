@@ -201,6 +201,12 @@ UninitVector<DepthItem> depth_items(const Projected& p, const float* opacities, 
 TileBins bin_tiles(const Projected& projected, const float* opacities, int width, int height,
                    const RenderOptions& options) {
   TileBins bins;
+  bin_tiles(projected, opacities, width, height, options, bins);
+  return bins;
+}
+
+void bin_tiles(const Projected& projected, const float* opacities, int width, int height,
+               const RenderOptions& options, TileBins& bins) {
   bins.tiles_x = tile_count(width);
   bins.tiles_y = tile_count(height);
   const int num_tiles = bins.num_tiles();
@@ -269,7 +275,6 @@ TileBins bin_tiles(const Projected& projected, const float* opacities, int width
       }
   }
   if (too_many) fail("bin_tiles: more than 2^31 tile intersections");
-  return bins;
 }
 
 }  // namespace retimegs::render

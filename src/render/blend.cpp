@@ -112,10 +112,11 @@ struct Context {
   UninitVector<CacheLine> records;
   const float* packed = nullptr;
 
-  // Packs the records, or borrows `saved` (from blend_forward with the same inputs) when given.
+  // Packs the records (into `storage`'s memory), or borrows `saved` (from blend_forward with the
+  // same inputs) when given.
   Context(const BlendInputs& blend_in, const TileBins& tile_bins, const RenderOptions& opts,
-          const UninitVector<CacheLine>* saved = nullptr)
-      : in(&blend_in), bins(&tile_bins), options(&opts) {
+          const UninitVector<CacheLine>* saved = nullptr, UninitVector<CacheLine>&& storage = {})
+      : in(&blend_in), bins(&tile_bins), options(&opts), records(std::move(storage)) {
     const Projected& p = *in->projected;
     const int c = in->channels;
     channels_ext = c + (options->render_depth ? 1 : 0);
@@ -656,13 +657,20 @@ std::vector<int> balanced_tile_runs(const BlendOutput& forward, const TileBins& 
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
                           const RenderOptions& options) {
+  BlendOutput out;
+  blend_forward(in, bins, options, out);
+  return out;
+}
+
+void blend_forward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
+                   BlendOutput& out) {
   check_inputs(in, bins);
-  Context ctx(in, bins, options);
+  Context ctx(in, bins, options, nullptr, std::move(out.records));
   const Rule rule(options);
   const std::size_t pixels = std::size_t(in.width) * in.height;
-  BlendOutput out;
-  out.image = Image(in.width, in.height, in.channels);
   // Left unset here: every tile writes all its pixels.
+  out.image.width = in.width, out.image.height = in.height, out.image.channels = in.channels;
+  out.image.data.resize(pixels * in.channels);
   out.alpha.resize(pixels);
   if (options.render_depth) out.depth.resize(pixels);
   out.final_T.resize(pixels);
@@ -682,12 +690,18 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
     }
   });
   out.records = std::move(ctx.records);  // the buffer moves: ctx.packed is not used again
-  return out;
 }
 
 void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
                     const BlendOutput& forward, const float* v_image, const float* v_alpha,
                     const float* v_depth, GaussianGrads& grads) {
+  UninitVector<float> sums;
+  blend_backward(in, bins, options, forward, v_image, v_alpha, v_depth, grads, sums);
+}
+
+void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
+                    const BlendOutput& forward, const float* v_image, const float* v_alpha,
+                    const float* v_depth, GaussianGrads& grads, UninitVector<float>& buffers) {
   check_inputs(in, bins);
   if (!v_image) fail("blend_backward: v_image is required");
   if (v_depth && !options.render_depth)
@@ -708,7 +722,7 @@ void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOpt
   // scattered over its whole buffer). Left uninitialised here and zeroed by its own thread (in
   // parallel, and first touch puts the pages near that thread).
   const std::size_t buffer_size = n * grad_stride;
-  UninitVector<float> buffers(threads * buffer_size);
+  buffers.resize(threads * buffer_size);
   const std::vector<int> first_tile =
       balanced_tile_runs(forward, bins, in.width, in.height, threads);
   dispatch_channels(ctx.channels_ext, [&]<int kC>() {

@@ -344,14 +344,22 @@ void project_backward_scalar(const GaussiansT<T>& g, const PinholeT<T>& camera,
 
 // Float goes 16 Gaussians at a time (project_lanes.cpp).
 template <typename T>
-ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
-                              const RenderOptions& options) {
+void project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                     const RenderOptions& options, ProjectedT<T>& out) {
   if constexpr (std::is_same_v<T, float>) {
-    return project_forward_lanes(g, camera, options);  // validates as it reads
+    project_forward_lanes(g, camera, options, out);  // validates as it reads
   } else {
     check_gaussians(g);
-    return project_forward_scalar(g, camera, options);
+    out = project_forward_scalar(g, camera, options);
   }
+}
+
+template <typename T>
+ProjectedT<T> project_forward(const GaussiansT<T>& g, const PinholeT<T>& camera,
+                              const RenderOptions& options) {
+  ProjectedT<T> out;
+  project_forward(g, camera, options, out);
+  return out;
 }
 
 template <typename T>
@@ -365,17 +373,19 @@ void project_backward(const GaussiansT<T>& g, const PinholeT<T>& camera,
   }
 }
 
-#define RETIMEGS_INSTANTIATE_PROJECT(T)                                               \
-  template void check_sizes_and_features<T>(const GaussiansT<T>&);                    \
-  template void check_gaussians<T>(const GaussiansT<T>&);                             \
-  template TileRect radius_tile_rect<T>(T, T, int, int, int);                         \
-  template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);       \
-  template TileRect blend_tile_rect<T>(const T*, const T*, int, T, int, int,          \
-                                       const RenderOptions&);                         \
-  template ProjectedT<T> project_forward<T>(const GaussiansT<T>&, const PinholeT<T>&, \
-                                            const RenderOptions&);                    \
-  template void project_backward<T>(const GaussiansT<T>&, const PinholeT<T>&,         \
-                                    const ProjectedT<T>&, const RenderOptions&,       \
+#define RETIMEGS_INSTANTIATE_PROJECT(T)                                                            \
+  template void check_sizes_and_features<T>(const GaussiansT<T>&);                                 \
+  template void check_gaussians<T>(const GaussiansT<T>&);                                          \
+  template TileRect radius_tile_rect<T>(T, T, int, int, int);                                      \
+  template std::array<T, 2> alpha_extent<T>(const T*, T, const RenderOptions&);                    \
+  template TileRect blend_tile_rect<T>(const T*, const T*, int, T, int, int,                       \
+                                       const RenderOptions&);                                      \
+  template ProjectedT<T> project_forward<T>(const GaussiansT<T>&, const PinholeT<T>&,              \
+                                            const RenderOptions&);                                 \
+  template void project_forward<T>(const GaussiansT<T>&, const PinholeT<T>&, const RenderOptions&, \
+                                   ProjectedT<T>&);                                                \
+  template void project_backward<T>(const GaussiansT<T>&, const PinholeT<T>&,                      \
+                                    const ProjectedT<T>&, const RenderOptions&,                    \
                                     GaussianGradsT<T>&);
 RETIMEGS_INSTANTIATE_PROJECT(float)
 RETIMEGS_INSTANTIATE_PROJECT(double)

@@ -184,11 +184,10 @@ simd::mask tile_rect_not_empty(vf u, vf v, vi radius, int tiles_x, int tiles_y) 
 
 }  // namespace
 
-ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,
-                                        const RenderOptions& options) {
+void project_forward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,
+                           const RenderOptions& options, ProjectedT<float>& out) {
   check_sizes_and_features(g);  // before anything is allocated or read
   const std::size_t n = g.size();
-  ProjectedT<float> out;
   // Every row is written below (zero for the culled).
   out.means2d.resize(2 * n);
   out.conics.resize(3 * n);
@@ -231,7 +230,6 @@ ProjectedT<float> project_forward_lanes(const GaussiansT<float>& g, const Pinhol
     batch.store(out.radii.data(), radius, visible);
   }
   if (invalid) check_gaussians(g);  // throws, naming the first bad value
-  return out;
 }
 
 void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& camera,

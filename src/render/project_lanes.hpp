@@ -29,9 +29,9 @@ struct FovGuardT {
 template <typename T>
 void check_sizes_and_features(const GaussiansT<T>& gaussians);
 
-ProjectedT<float> project_forward_lanes(const GaussiansT<float>& gaussians,
-                                        const PinholeT<float>& camera,
-                                        const RenderOptions& options);
+// Writes every row of `out` (its arrays keep their capacity).
+void project_forward_lanes(const GaussiansT<float>& gaussians, const PinholeT<float>& camera,
+                           const RenderOptions& options, ProjectedT<float>& out);
 
 void project_backward_lanes(const GaussiansT<float>& gaussians, const PinholeT<float>& camera,
                             const ProjectedT<float>& projected, const RenderOptions& options,

@@ -38,34 +38,60 @@ void check_camera(const Camera& camera) {
 
 RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,
                                const float* background, const RenderOptions& options) {
+  RenderOutput out;
+  rasterize_forward(gaussians, camera, background, options, out);
+  return out;
+}
+
+void rasterize_forward(const Gaussians& gaussians, const Camera& camera, const float* background,
+                       const RenderOptions& options, RenderOutput& out) {
   check_camera(camera);
   if (background)
     for (int c = 0; c < gaussians.channels; ++c)
       if (!std::isfinite(background[c]))
         fail("background[{}] is {} (must be finite)", c, background[c]);
-  RenderOutput out;
   // project_forward validates the Gaussians.
-  out.projected = project_forward(gaussians, PinholeT<float>(camera), options);
-  out.bins =
-      bin_tiles(out.projected, gaussians.opacities.data(), camera.width, camera.height, options);
-  out.blend =
-      blend_forward(blend_inputs(gaussians, camera, out.projected, background), out.bins, options);
-  return out;
+  project_forward(gaussians, PinholeT<float>(camera), options, out.projected);
+  bin_tiles(out.projected, gaussians.opacities.data(), camera.width, camera.height, options,
+            out.bins);
+  blend_forward(blend_inputs(gaussians, camera, out.projected, background), out.bins, options,
+                out.blend);
 }
+
+namespace {
+
+// Both rasterize_backward overloads: into `grads`, with `buffers` as the blend's scratch.
+void backward_into(const Gaussians& gaussians, const Camera& camera, const float* background,
+                   const RenderOptions& options, const RenderOutput& forward, const float* v_image,
+                   const float* v_alpha, const float* v_depth, GaussianGrads& grads,
+                   UninitVector<float>& buffers) {
+  if (forward.projected.size() != gaussians.size() ||
+      forward.blend.final_T.size() != std::size_t(camera.width) * camera.height)
+    fail("rasterize_backward: the saved forward does not match these Gaussians and camera");
+  grads.channels = gaussians.channels;  // each stage sizes (and fills) its own fields
+  blend_backward(blend_inputs(gaussians, camera, forward.projected, background), forward.bins,
+                 options, forward.blend, v_image, v_alpha, v_depth, grads, buffers);
+  project_backward(gaussians, PinholeT<float>(camera), forward.projected, options, grads);
+}
+
+}  // namespace
 
 GaussianGrads rasterize_backward(const Gaussians& gaussians, const Camera& camera,
                                  const float* background, const RenderOptions& options,
                                  const RenderOutput& forward, const float* v_image,
                                  const float* v_alpha, const float* v_depth) {
-  if (forward.projected.size() != gaussians.size() ||
-      forward.blend.final_T.size() != std::size_t(camera.width) * camera.height)
-    fail("rasterize_backward: the saved forward does not match these Gaussians and camera");
-  GaussianGrads grads;  // each stage sizes (and fills) its own fields
-  grads.channels = gaussians.channels;
-  blend_backward(blend_inputs(gaussians, camera, forward.projected, background), forward.bins,
-                 options, forward.blend, v_image, v_alpha, v_depth, grads);
-  project_backward(gaussians, PinholeT<float>(camera), forward.projected, options, grads);
+  GaussianGrads grads;
+  UninitVector<float> buffers;
+  backward_into(gaussians, camera, background, options, forward, v_image, v_alpha, v_depth, grads,
+                buffers);
   return grads;
+}
+
+void rasterize_backward(const Gaussians& gaussians, const Camera& camera, const float* background,
+                        const RenderOptions& options, RenderOutput& forward, const float* v_image,
+                        GaussianGrads& grads, const float* v_alpha, const float* v_depth) {
+  backward_into(gaussians, camera, background, options, forward, v_image, v_alpha, v_depth, grads,
+                forward.backward_buffers);
 }
 
 }  // namespace retimegs::render

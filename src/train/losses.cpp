@@ -1,5 +1,6 @@
 #include "retimegs/train/losses.hpp"
 
+#include <array>
 #include <cmath>
 
 #include "retimegs/core/error.hpp"
@@ -9,8 +10,12 @@
 namespace retimegs::train {
 
 namespace {
-// Images below this many pixels are not worth waking the other threads for.
+// Images below this many pixels, and row sets below this many rows, are not worth waking the other
+// threads for.
 constexpr std::ptrdiff_t kParallelPixels = 1 << 14;
+constexpr std::ptrdiff_t kParallelRows = 1 << 12;
+// The regulariser's sum is split into this many runs of the rows (more than any thread count).
+constexpr int kRegularizerRuns = 64;
 }  // namespace
 
 const Image& rgb_of(const Image& render, Image& buffer) {
@@ -24,8 +29,10 @@ const Image& rgb_of(const Image& render, Image& buffer) {
   return buffer;
 }
 
-double image_loss(const Image& rgb, const Image& target, double ssim_lambda, double weight,
-                  Image& v_render) {
+double image_loss(const Image& rgb, const SsimTarget& ssim_target, double ssim_lambda,
+                  double weight, Image& v_render) {
+  if (!ssim_target.image) fail("image loss: the target was not prepared");
+  const Image& target = *ssim_target.image;
   if (rgb.channels != 3 || rgb.width != target.width || rgb.height != target.height ||
       target.channels != 3 || v_render.width != rgb.width || v_render.height != rgb.height ||
       v_render.channels < 3)
@@ -33,8 +40,6 @@ double image_loss(const Image& rgb, const Image& target, double ssim_lambda, dou
          rgb.channels, target.width, target.height, target.channels, v_render.width,
          v_render.height, v_render.channels);
   const std::size_t n = rgb.data.size();
-  Image v_ssim;
-  const double s = ssim_backward(rgb, target, -ssim_lambda * weight, v_ssim);
   const float l1_grad = float((1 - ssim_lambda) * weight / double(n));
   const int channels = v_render.channels;
   const std::ptrdiff_t pixels = std::ptrdiff_t(rgb.pixels());
@@ -45,12 +50,10 @@ double image_loss(const Image& rgb, const Image& target, double ssim_lambda, dou
       const std::size_t i = 3 * p + c;
       const float diff = rgb.data[i] - target.data[i];
       l1 += std::abs(diff);
-      v_render.data[channels * p + c] += (diff > 0   ? l1_grad
-                                          : diff < 0 ? -l1_grad
-                                                     : 0.0f) +
-                                         v_ssim.data[i];
+      v_render.data[channels * p + c] += diff > 0 ? l1_grad : diff < 0 ? -l1_grad : 0.0f;
     }
   l1 /= double(n);
+  const double s = ssim_backward_add(rgb, ssim_target, -ssim_lambda * weight, v_render);
   return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
 }
 
@@ -82,12 +85,23 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
 double regularizer(const model::Primitives& p, const std::vector<std::int32_t>& rows,
                    double opacity_weight, double scale_weight) {
   const std::size_t n = p.size();
-  double reg = 0;
-  for (const std::int32_t r : rows) {
-    reg += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
-    for (int a = 0; a < 3; ++a)
-      reg += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
+  const std::size_t count = rows.size();
+  // Partial sums over a fixed split of the rows, added in order: the same for any thread count.
+  std::array<double, kRegularizerRuns> partial{};
+#pragma omp parallel for schedule(static) if (count >= std::size_t(kParallelRows))
+  for (int run = 0; run < kRegularizerRuns; ++run) {
+    double sum = 0;
+    for (std::size_t j = count * run / kRegularizerRuns; j < count * (run + 1) / kRegularizerRuns;
+         ++j) {
+      const std::size_t r = std::size_t(rows[j]);
+      sum += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
+      for (int a = 0; a < 3; ++a)
+        sum += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
+    }
+    partial[run] = sum;
   }
+  double reg = 0;
+  for (const double sum : partial) reg += sum;
   return reg;
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <numbers>
 
 #include <Eigen/Geometry>
 
@@ -64,6 +66,28 @@ void correct_sources(model::Primitives& p, const std::vector<std::int32_t>& sour
   }
 }
 
+// splitmix64's finaliser: a bijection of 64-bit words whose outputs pass as independent uniform
+// bits for consecutive inputs.
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// Three standard normal values for row `row` under `key`, counter-based: four uniforms in (0, 1]
+// from splitmix64 of (key, row, k), two Box–Muller pairs, the fourth value unused.
+Eigen::Vector3f normal3(std::uint64_t key, std::uint64_t row) {
+  const std::uint64_t base = splitmix64(key ^ splitmix64(row)) * 4;
+  double u[4];
+  for (int k = 0; k < 4; ++k)
+    u[k] = (double(splitmix64(base + k) >> 11) + 1.0) * 0x1.0p-53;  // 53 bits, never 0
+  const double r0 = std::sqrt(-2 * std::log(u[0])), r1 = std::sqrt(-2 * std::log(u[2]));
+  return Eigen::Vector3f(float(r0 * std::cos(2 * std::numbers::pi * u[1])),
+                         float(r0 * std::sin(2 * std::numbers::pi * u[1])),
+                         float(r1 * std::cos(2 * std::numbers::pi * u[3])));
+}
+
 }  // namespace
 
 void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_factor) {
@@ -116,10 +140,13 @@ Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap
 
 void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, double lr_means,
                   std::mt19937_64& rng) {
-  std::normal_distribution<float> normal;
-  for (const std::int32_t row : rows) {
-    const std::size_t i = std::size_t(row);
-    const Eigen::Vector3f eps(normal(rng), normal(rng), normal(rng));
+  const std::uint64_t key = rng();
+  const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
+  // Rows are distinct and their draws depend on (key, row) alone: any order, any thread.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t j = 0; j < count; ++j) {
+    const std::size_t i = std::size_t(rows[j]);
+    const Eigen::Vector3f eps = normal3(key, i);
     const double sigma = opacity_of(p, i);
     const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));
     if (gate < 1e-12) continue;

@@ -156,14 +156,14 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   eo.flow_features = pass.flow;
   eo.rows = &active;
   Stopwatch clock;
-  const model::Evaluated e =
-      model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo);
+  model::Evaluated& e = evaluated_[int(pass.group)];
+  model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo, e);
   stats.seconds.evaluate += clock.lap();
   const int channels = e.gaussians.channels;
   const std::vector<float> background(channels, 0.0f);
   const render::RenderOptions render_options;
-  const render::RenderOutput out =
-      render::rasterize_forward(e.gaussians, camera, background.data(), render_options);
+  render::RenderOutput& out = render_;
+  render::rasterize_forward(e.gaussians, camera, background.data(), render_options, out);
   stats.seconds.render_forward += clock.lap();
   Image& v_image = v_image_;
   zero_image(v_image, camera.width, camera.height, channels);
@@ -176,7 +176,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
     model::apply_camera_color(rgb, color, corrected_);
     seen = &corrected_;
   }
-  stats.image_loss += image_loss(*seen, target, config_.ssim_lambda, 1.0, v_image);
+  stats.image_loss += image_loss(*seen, ssim_target_, config_.ssim_lambda, 1.0, v_image);
   if (camera_color()) {
     model::CameraColor v_color;
     model::apply_camera_color_backward(rgb, color, v_image, v_color);
@@ -193,8 +193,9 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   }
   if (pass.group == model::Group::kAll) stats.psnr = psnr(*seen, target);
   stats.seconds.losses += clock.lap();
-  const GaussianGrads vg = render::rasterize_backward(e.gaussians, camera, background.data(),
-                                                      render_options, out, v_image.data.data());
+  GaussianGrads& vg = v_gaussians_;
+  render::rasterize_backward(e.gaussians, camera, background.data(), render_options, out,
+                             v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
                            grads);
@@ -225,6 +226,9 @@ StepStats Trainer::step_view(int c, int i) {
   const double w_flow = flow_weight(it);
   const std::vector<RenderPass> passes = render_passes(i, w_flow > 0);
   unpack(set_.images[c][i], target_);
+  Stopwatch target_clock;
+  ssim_target_.assign(target_);
+  stats.seconds.losses += target_clock.lap();  // the SSIM loss's target side, for all renders
   const std::vector<std::int32_t>& active = index_.rows_at(i);
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;

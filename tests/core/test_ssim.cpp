@@ -118,6 +118,41 @@ TEST(Ssim, BackwardMatchesFiniteDifferences) {
   RecordProperty("worst_abs_error", fmt::format("{:.3e}", worst));
 }
 
+// A prepared target serves several renders: ssim_backward_add returns ssim_backward's value and
+// adds its gradient, bit for bit, into the first channels of a wider gradient image; the other
+// channels keep their values. An unprepared target or a mismatched gradient is an error.
+TEST(Ssim, PreparedTargetAddsTheSameGradient) {
+  const int threads_before = max_threads();
+  for (const int threads : {1, 2})
+    for (const auto [channels, wide_channels] :
+         {std::pair{3, 5}, std::pair{3, 3}, std::pair{1, 2}}) {
+      set_threads(threads);
+      const auto [b, unused] = random_pair(150, 130, channels, 5);
+      SsimTarget target;
+      target.assign(b);
+      for (const unsigned seed : {6u, 7u}) {
+        const auto [a, also_unused] = random_pair(150, 130, channels, seed);
+        Image v_a;
+        const double s = ssim_backward(a, b, -0.3, v_a);
+        Image wide(150, 130, wide_channels, 0.5f);
+        EXPECT_EQ(ssim_backward_add(a, target, -0.3, wide), s);
+        for (std::size_t p = 0; p < a.pixels(); ++p)
+          for (int c = 0; c < wide_channels; ++c)
+            ASSERT_EQ(wide.data[wide_channels * p + c],
+                      c < channels ? 0.5f + v_a.data[channels * p + c] : 0.5f)
+                << p << " " << channels << " in " << wide_channels;
+      }
+    }
+  set_threads(threads_before);
+  const Image a(8, 8, 3);
+  Image narrow(8, 8, 2);
+  SsimTarget unprepared;
+  EXPECT_THROW(ssim_backward_add(a, unprepared, 1.0, narrow), Error);
+  SsimTarget target;
+  target.assign(a);
+  EXPECT_THROW(ssim_backward_add(a, target, 1.0, narrow), Error);
+}
+
 TEST(Ssim, SizeMismatchThrows) {
   const Image a(8, 8, 3), b(8, 8, 1), c(8, 7, 3);
   EXPECT_THROW(ssim(a, b), Error);

@@ -1,6 +1,7 @@
 // evaluate(t, camera) and its backward against central finite differences in double precision:
 // temporal opacity, trajectory, rotation, SH colour, flow features, compensation, STGS, and the
 // whole evaluate -> rasterise chain.
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -8,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
@@ -266,6 +268,50 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
     evaluate_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
     expect_gradients_match(p, rep, config.sh_degree, grads, loss, 1e-6, 2e-5);
   }
+}
+
+// The selection runs in chunks on all threads and the in-place overload reuses a batch: either
+// way the batch is the value overload's on one thread, byte for byte, for every group, whether the
+// reused batch held a bigger or a smaller one before.
+TEST(Evaluate, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
+  const P source = random_primitives(Representation::kRetime, 11, 20000);
+  PrimitivesT<float> p;
+  p.resize(source.size());
+  for (int f = 0; f < P::kFieldCount; ++f)
+    std::copy(source.fields()[f].values->begin(), source.fields()[f].values->end(),
+              p.fields()[f].values->begin());
+  ModelConfig config;
+  config.sh_degree = 3;
+  std::vector<std::int32_t> rows;
+  for (std::int32_t i = 0; i < std::int32_t(p.size()); i += 1 + i % 3) rows.push_back(i);
+  const Camera camera = small_camera(64, 48);
+  const auto same = [](const EvaluatedT<float>& a, const EvaluatedT<float>& b) {
+    return a.gaussians.channels == b.gaussians.channels && a.gaussians.means == b.gaussians.means &&
+           a.gaussians.log_scales == b.gaussians.log_scales &&
+           a.gaussians.quats == b.gaussians.quats &&
+           a.gaussians.opacities == b.gaussians.opacities &&
+           a.gaussians.features == b.gaussians.features &&
+           a.primitive_from_gaussian == b.primitive_from_gaussian && a.temporal == b.temporal;
+  };
+  const int threads_before = max_threads();
+  EvaluatedT<float> reused;
+  for (const Group group : {Group::kAll, Group::kLeft, Group::kRight, Group::kAll}) {
+    EvaluateOptions options;
+    options.group = group;
+    options.compensate = group != Group::kAll;
+    options.flow_features = group != Group::kAll;
+    options.rows = group == Group::kRight ? nullptr : &rows;
+    set_threads(1);
+    const EvaluatedT<float> serial = evaluate(p, config, kGrid, 4.0, camera, options);
+    EXPECT_GT(serial.primitive_from_gaussian.size(), 1000u);
+    for (const int threads : {2, 3}) {
+      set_threads(threads);
+      EXPECT_TRUE(same(evaluate(p, config, kGrid, 4.0, camera, options), serial)) << threads;
+      evaluate(p, config, kGrid, 4.0, camera, options, reused);
+      EXPECT_TRUE(same(reused, serial)) << threads;
+    }
+  }
+  set_threads(threads_before);
 }
 
 }  // namespace

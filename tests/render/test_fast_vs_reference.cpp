@@ -148,6 +148,35 @@ TEST(RenderDeterminism, SameThreadCountIsBitIdentical) {
   EXPECT_LT(max_abs_diff(v_means[0], v_means[2]), 1e-5 * max_abs(v_means[0]));
 }
 
+// The reusing overloads give the allocating ones' results, byte for byte, into a RenderOutput and
+// GaussianGrads that held a render of more Gaussians and channels before (and of fewer after).
+TEST(RenderReuse, ReusedOutputsMatchFreshOnes) {
+  const Camera camera = test_camera(70, 50);
+  const std::vector<float> background(7, 0.25f);
+  const auto v_image_d = random_values(std::size_t(70) * 50 * 7, 23);
+  const std::vector<float> v_image(v_image_d.begin(), v_image_d.end());
+  render::RenderOutput out;
+  GaussianGrads grads;
+  for (const auto& [n, channels] : {std::pair{1500, 7}, std::pair{600, 3}, std::pair{900, 7}}) {
+    const Gaussians g = cast_gaussians<float>(random_gaussians<double>(camera, n, channels, 24));
+    const auto fresh = render::rasterize_forward(g, camera, background.data());
+    const auto fresh_grads =
+        render::rasterize_backward(g, camera, background.data(), {}, fresh, v_image.data());
+    render::rasterize_forward(g, camera, background.data(), {}, out);
+    render::rasterize_backward(g, camera, background.data(), {}, out, v_image.data(), grads);
+    EXPECT_EQ(out.blend.image.data, fresh.blend.image.data) << n;
+    EXPECT_EQ(out.blend.alpha, fresh.blend.alpha) << n;
+    EXPECT_EQ(out.bins.gaussian_from_isect, fresh.bins.gaussian_from_isect) << n;
+    EXPECT_EQ(out.projected.radii, fresh.projected.radii) << n;
+    EXPECT_EQ(grads.channels, fresh_grads.channels) << n;
+    for (const auto field :
+         {&GaussianGrads::v_means, &GaussianGrads::v_log_scales, &GaussianGrads::v_quats,
+          &GaussianGrads::v_opacities, &GaussianGrads::v_features, &GaussianGrads::v_means2d,
+          &GaussianGrads::v_conics})
+      EXPECT_EQ(grads.*field, fresh_grads.*field) << n;
+  }
+}
+
 // min_alpha = 0 turns the footprint test off (every block of every binned tile is visited).
 TEST(RenderFastVsReferenceOptions, ZeroMinAlphaMatches) {
   render::RenderOptions options;

@@ -1,8 +1,10 @@
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -147,6 +149,60 @@ TEST(Relocation, NoiseMovesOnlyFaintPrimitivesOfTheGivenRows) {
   }
   EXPECT_GT(faint / 30, 1e-5);
   EXPECT_LT(solid / 260, 1e-9 + 1e-3 * faint / 30);
+}
+
+// The noise is counter-based: one key drawn from the generator per call, the same perturbation
+// for any thread count, and per row Σ ε with ε ~ N(0, I): for faint axis-aligned primitives of
+// scales s, Δμ / (k s²) is standard normal per axis (mean, variance, tails, no correlation).
+TEST(Relocation, NoiseIsThreadInvariantAndStandardNormal) {
+  constexpr int kRows = 40000;
+  constexpr double kLr = 1.6e-4, kLogit = -10.0, kScales[3] = {0.1, 0.2, 0.3};
+  model::Primitives p;
+  p.resize(kRows);
+  std::vector<std::int32_t> rows;
+  for (int i = 0; i < kRows; ++i) {
+    p.q0[4 * i] = 1;
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = float(std::log(kScales[a]));
+    p.opacity_logit[i] = float(kLogit);
+    rows.push_back(i);
+  }
+  const int threads_before = max_threads();
+  std::vector<model::Primitives> moved;
+  std::vector<std::mt19937_64> generators;
+  for (const int threads : {1, 2, 3}) {
+    set_threads(threads);
+    moved.push_back(p);
+    generators.emplace_back(9);
+    inject_noise(moved.back(), rows, kLr, generators.back());
+  }
+  set_threads(threads_before);
+  std::mt19937_64 one_draw(9);
+  one_draw();
+  for (std::size_t k = 1; k < moved.size(); ++k) {
+    EXPECT_EQ(moved[k].mu, moved[0].mu) << k;
+    EXPECT_EQ(generators[k], one_draw) << k;
+  }
+  const double sigma = 1 / (1 + std::exp(-kLogit));
+  const double gate = 1 / (1 + std::exp(100 * (sigma - 0.005)));
+  const double k = gate * kLr * 5e5;
+  double mean[3] = {}, square[3] = {}, cross[3] = {};
+  int tails = 0;
+  for (int i = 0; i < kRows; ++i) {
+    double eps[3];
+    for (int a = 0; a < 3; ++a) {
+      eps[a] = moved[0].mu[3 * i + a] / (k * kScales[a] * kScales[a]);
+      mean[a] += eps[a] / kRows;
+      square[a] += eps[a] * eps[a] / kRows;
+      tails += std::abs(eps[a]) > 2;
+    }
+    for (int a = 0; a < 3; ++a) cross[a] += eps[a] * eps[(a + 1) % 3] / kRows;
+  }
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(mean[a], 0, 0.025) << a;  // 5 standard errors
+    EXPECT_NEAR(square[a], 1, 0.04) << a;
+    EXPECT_NEAR(cross[a], 0, 0.025) << a;
+  }
+  EXPECT_NEAR(tails / (3.0 * kRows), 0.0455, 0.005);  // P(|ε| > 2)
 }
 
 }  // namespace

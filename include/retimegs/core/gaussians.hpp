@@ -22,6 +22,13 @@ struct GaussiansT {
   GaussiansT(std::size_t n, int c)
       : channels(c), means(3 * n), log_scales(3 * n), quats(4 * n), opacities(n), features(n * c) {}
 
+  // n rows of c channels, keeping the arrays' capacity; values are left for the caller to set.
+  void resize(std::size_t n, int c) {
+    channels = c;
+    means.resize(3 * n), log_scales.resize(3 * n), quats.resize(4 * n), opacities.resize(n);
+    features.resize(n * c);
+  }
+
   std::size_t size() const { return opacities.size(); }
 };
 

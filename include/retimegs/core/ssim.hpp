@@ -7,6 +7,8 @@
 //
 // Moments, the map and the gradient are accumulated in double: σ² = E[x²] − μ² cancels badly in
 // float (3DGS's float32 value differs by ~1.3e-5 from the exact one).
+#include <vector>
+
 #include "retimegs/core/image.hpp"
 
 namespace retimegs {
@@ -19,6 +21,22 @@ double ssim(const Image& a, const Image& b, Image* map = nullptr);
 // the constant target): v_a = v_ssim · d ssim / d a, written (not accumulated) as [H, W, C].
 // The training loss λ·(1 − SSIM) passes v_ssim = −λ.
 double ssim_backward(const Image& a, const Image& b, double v_ssim, Image& v_a);
+
+// The target side of SSIM, prepared once for several renders compared with one image (a training
+// step's three renders against its view): the window moments μ_b and E[b²] of the target, which
+// the render's moments do not change. assign() borrows `b` (it must outlive the target's use)
+// and reuses the arrays' capacity.
+struct SsimTarget {
+  const Image* image = nullptr;
+  std::vector<double> mu, e_sq;  // [H, W, C] μ_b and E[b²] of each window, in double
+
+  void assign(const Image& b);
+};
+
+// Mean SSIM of a against the prepared target, adding v_ssim · d ssim / d a into the first
+// a.channels channels of v_out ([H, W, C'] with C' >= C: a render's gradient with more channels).
+// The same values as ssim_backward. Throws Error on a size mismatch or an unprepared target.
+double ssim_backward_add(const Image& a, const SsimTarget& b, double v_ssim, Image& v_out);
 
 // Slow, obviously correct versions for tests: direct 11×11 double sums per pixel, and the gradient
 // as the explicit sum over every window that contains the pixel.

@@ -49,6 +49,11 @@ template <typename T>
 EvaluatedT<T> evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config,
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options);
+// The same batch written into `out`, whose arrays keep their capacity: a caller that evaluates
+// every step (the Trainer) reuses one EvaluatedT per render instead of allocating it.
+template <typename T>
+void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
+              double t, const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out);
 
 // Accumulates (+=) into `grads` (sized to the primitives) the gradient that flows back from
 // `v_gaussians` (the renderer's gradient of the batch `evaluated`).

@@ -24,5 +24,8 @@ struct TileBins {
 // depth keep the lower Gaussian index first. Deterministic for any thread count.
 TileBins bin_tiles(const Projected& projected, const float* opacities /* [N] */, int width,
                    int height, const RenderOptions& options);
+// The same into `bins`, whose arrays keep their capacity.
+void bin_tiles(const Projected& projected, const float* opacities /* [N] */, int width, int height,
+               const RenderOptions& options, TileBins& bins);
 
 }  // namespace retimegs::render

@@ -50,6 +50,9 @@ struct BlendOutput {
 
 BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
                           const RenderOptions& options);
+// The same into `out`, whose arrays keep their capacity.
+void blend_forward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
+                   BlendOutput& out);
 
 // Upstream gradients v_image [H, W, C] (required), v_alpha [H, W] and v_depth [H, W] (nullptr =
 // zero; v_depth requires options.render_depth). `forward` must come from blend_forward with the
@@ -60,5 +63,10 @@ BlendOutput blend_forward(const BlendInputs& in, const TileBins& bins,
 void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
                     const BlendOutput& forward, const float* v_image, const float* v_alpha,
                     const float* v_depth, GaussianGrads& grads);
+// The same with the per-thread gradient buffers [threads, N, stride] in `buffers`, scratch whose
+// capacity a caller keeps across calls (its contents on return are not part of the result).
+void blend_backward(const BlendInputs& in, const TileBins& bins, const RenderOptions& options,
+                    const BlendOutput& forward, const float* v_image, const float* v_alpha,
+                    const float* v_depth, GaussianGrads& grads, UninitVector<float>& buffers);
 
 }  // namespace retimegs::render

@@ -62,6 +62,10 @@ void check_gaussians(const GaussiansT<T>& gaussians);
 template <typename T>
 ProjectedT<T> project_forward(const GaussiansT<T>& gaussians, const PinholeT<T>& camera,
                               const RenderOptions& options);
+// The same into `out`, whose arrays keep their capacity (float; double reallocates).
+template <typename T>
+void project_forward(const GaussiansT<T>& gaussians, const PinholeT<T>& camera,
+                     const RenderOptions& options, ProjectedT<T>& out);
 
 // Given grads.v_means2d, v_conics, v_depths (for rows with radius > 0), sets grads.v_means,
 // v_log_scales and v_quats (zero for culled rows). Clamped directions of the field-of-view guard

@@ -22,6 +22,9 @@ struct RenderOutput {
   Projected projected;
   TileBins bins;
   BlendOutput blend;  // image [H, W, C], alpha [H, W], depth [H, W], saved per-pixel state
+  // Scratch of the reusing rasterize_backward (the blend's per-thread gradient buffers), kept here
+  // so that one RenderOutput held across passes also keeps the backward's memory.
+  UninitVector<float> backward_buffers;
 };
 
 // Throws Error unless the camera has a positive size, finite positive focal lengths, a finite
@@ -31,6 +34,10 @@ void check_camera(const Camera& camera);
 // background: C values (nullptr = black).
 RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,
                                const float* background, const RenderOptions& options = {});
+// The same into `out`, whose arrays keep their capacity: a loop that renders every step (training)
+// reuses one RenderOutput instead of allocating tens of megabytes per render.
+void rasterize_forward(const Gaussians& gaussians, const Camera& camera, const float* background,
+                       const RenderOptions& options, RenderOutput& out);
 
 // v_image [H, W, C] required; v_alpha [H, W] and v_depth [H, W] optional (nullptr = zero).
 // `forward` must come from rasterize_forward with the same arguments.
@@ -38,5 +45,11 @@ GaussianGrads rasterize_backward(const Gaussians& gaussians, const Camera& camer
                                  const float* background, const RenderOptions& options,
                                  const RenderOutput& forward, const float* v_image,
                                  const float* v_alpha = nullptr, const float* v_depth = nullptr);
+// The same into `grads`, whose arrays keep their capacity, with forward.backward_buffers as the
+// scratch (the only part of `forward` it changes).
+void rasterize_backward(const Gaussians& gaussians, const Camera& camera, const float* background,
+                        const RenderOptions& options, RenderOutput& forward, const float* v_image,
+                        GaussianGrads& grads, const float* v_alpha = nullptr,
+                        const float* v_depth = nullptr);
 
 }  // namespace retimegs::render

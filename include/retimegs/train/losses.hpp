@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "retimegs/core/image.hpp"
+#include "retimegs/core/ssim.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
@@ -15,9 +16,10 @@ namespace retimegs::train {
 // channels, else a copy written into `buffer` (its allocation reused across calls).
 const Image& rgb_of(const Image& render, Image& buffer);
 
-// The render's RGB `rgb` [H, W, 3] (rgb_of) against target [H, W, 3]; the gradient goes into the
-// first 3 channels of v_render.
-double image_loss(const Image& rgb, const Image& target, double ssim_lambda, double weight,
+// The render's RGB `rgb` [H, W, 3] (rgb_of) against the target [H, W, 3], prepared for SSIM once
+// per view (its moments serve every render of a step); the gradient goes into the first 3
+// channels of v_render.
+double image_loss(const Image& rgb, const SsimTarget& target, double ssim_lambda, double weight,
                   Image& v_render);
 
 // Mean over known pixels of |u - u*| + |v - v*|, the render's flow in channels

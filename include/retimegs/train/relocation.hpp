@@ -33,8 +33,10 @@ Relocation grow(model::Primitives& primitives, model::Representation representat
                 std::size_t cap, double growth, double min_opacity, std::mt19937_64& rng);
 
 // 3DGS-MCMC noise: μ += Σ ε · sigmoid(-100 (σ - 0.005)) · lr_means · 5e5, Σ = R diag(e^s)² Rᵀ,
-// on the ascending `rows` only (three normal draws each, in row order): a training step perturbs
-// the primitives visible at its time, those its image loss and Adam step see.
+// on the ascending `rows` only: a training step perturbs the primitives visible at its time, those
+// its image loss and Adam step see. ε ~ N(0, I₃) is counter-based, a function of (key, row) with
+// one 64-bit key drawn from `rng` per call (splitmix64 and Box–Muller), so that the rows are
+// perturbed in parallel with the same result for any thread count.
 void inject_noise(model::Primitives& primitives, const std::vector<std::int32_t>& rows,
                   double lr_means, std::mt19937_64& rng);
 

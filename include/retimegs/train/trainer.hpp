@@ -13,15 +13,18 @@
 // Per-camera colour (model::CameraColor, unless ablated): every render pass of a step compares
 // exp(m_c) ⊙ RGB + c_c of its camera c with the target; Adam updates (m_c, c_c) at every step of
 // camera c. The model stores them by camera name.
+#include <array>
 #include <filesystem>
 #include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "retimegs/core/ssim.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
+#include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -122,6 +125,13 @@ class Trainer {
   std::vector<float> colors_, color_grads_;
   Adam color_adam_;
   Image corrected_;
+  SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
+  // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
+  // (indexed by model::Group; a group's batch size changes little from step to step), the render
+  // with its saved state and the gradient with respect to the batch.
+  std::array<model::Evaluated, 3> evaluated_;
+  render::RenderOutput render_;
+  GaussianGrads v_gaussians_;
   std::unique_ptr<DensityStrategy> strategy_;
   std::mt19937_64 rng_;
   int iteration_ = 0;
