@@ -1,5 +1,8 @@
 // retimegs: continuous-time 4D Gaussian Splatting (RetimeGS) on the CPU.
+#include <unistd.h>
+
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 
 #include <spdlog/spdlog.h>
@@ -9,7 +12,23 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/memory.hpp"
 
+namespace {
+
+// libgomp spins 300 000 times at a barrier before its threads sleep. On a machine busy with other
+// work a spinning thread holds the core its partner needs, and a training step (hundreds of short
+// parallel regions) runs several times slower; a short spin costs nothing measurable on an idle
+// machine (bench/README.md, "train_bench"). libgomp reads the setting once, when it loads, so the
+// program runs itself again with a short spin unless the user chose a wait policy.
+void use_short_openmp_spin(char** argv) {
+  if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
+  setenv("GOMP_SPINCOUNT", "10000", 1);
+  execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  use_short_openmp_spin(argv);
   CLI::App app{
       "retimegs: reconstruct a dynamic scene from calibrated multi-view video and render it at "
       "any real-valued time (slow motion, speed ramps, bullet time)."};
