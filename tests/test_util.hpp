@@ -134,4 +134,16 @@ inline std::string message_of(const std::function<void()>& f) {
   return "(no Error thrown)";
 }
 
+// d loss() / d value by central differences of the given step (value restored afterwards).
+template <typename T, typename Loss>
+double central_difference(T& value, T step, const Loss& loss) {
+  const T keep = value;
+  value = keep + step;
+  const double plus = loss();
+  value = keep - step;
+  const double minus = loss();
+  value = keep;
+  return (plus - minus) / (2.0 * double(step));
+}
+
 }  // namespace retimegs::test

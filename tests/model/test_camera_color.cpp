@@ -61,13 +61,7 @@ TEST(CameraColor, BackwardMatchesCentralDifferences) {
     return sum;
   };
   const auto central_difference = [&](float& value) {
-    const float keep = value;
-    value = keep + kStep;
-    const double plus = loss();
-    value = keep - kStep;
-    const double minus = loss();
-    value = keep;
-    return (plus - minus) / (2.0 * kStep);
+    return test::central_difference(value, kStep, loss);
   };
   // d loss / d out = weights, in the RGB channels of a render that also has flow channels.
   Image v_render = random_image(9, 7, 3 + kFlowChannels, -1, 1, rng);

@@ -12,22 +12,17 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/train/losses.hpp"
+#include "test_util.hpp"
 
 namespace retimegs::train {
 namespace {
 
 constexpr float kStep = 1.0f / 2048;
 
-// d loss / d value by central differences of step kStep (value restored afterwards).
+// d loss / d value by central differences of step kStep.
 template <typename Loss>
 double central_difference(float& value, const Loss& loss) {
-  const float keep = value;
-  value = keep + kStep;
-  const double plus = loss();
-  value = keep - kStep;
-  const double minus = loss();
-  value = keep;
-  return (plus - minus) / (2.0 * kStep);
+  return test::central_difference(value, kStep, loss);
 }
 
 // RGB plus the flow channels, values k / 256 in [0.25, 0.75].
