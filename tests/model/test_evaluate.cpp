@@ -14,6 +14,7 @@
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/reference.hpp"
+#include "test_util.hpp"
 
 namespace retimegs::model {
 namespace {
@@ -104,14 +105,7 @@ void expect_gradients_match(P& p, Representation rep, int sh_degree, G& analytic
   ASSERT_EQ(params.size(), grads.size());
   int nonzero = 0;
   for (std::size_t k = 0; k < params.size(); ++k) {
-    double& x = *params[k].second;
-    const double keep = x;
-    x = keep + eps;
-    const double up = loss();
-    x = keep - eps;
-    const double down = loss();
-    x = keep;
-    const double fd = (up - down) / (2 * eps);
+    const double fd = test::central_difference(*params[k].second, eps, loss);
     EXPECT_NEAR(*grads[k], fd, tol * (1 + std::abs(fd))) << params[k].first;
     nonzero += std::abs(fd) > 1e-6;
   }
