@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <limits>
 #include <numeric>
 #include <random>
+#include <set>
 #include <tuple>
 #include <utility>
 
@@ -15,7 +15,6 @@
 #include "retimegs/core/pinhole.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/train/neighbors.hpp"
-#include "retimegs/train/stretch.hpp"
 
 namespace retimegs::train {
 
@@ -41,10 +40,6 @@ bool sample_flow(const Flow& f, double u, double v, Eigen::Vector2d& out) {
     }
   return true;
 }
-
-}  // namespace
-
-namespace {
 
 // A flow observation of one point in one camera: where the point's pixel moves to.
 struct Observation {
@@ -85,21 +80,23 @@ Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<O
   return d.allFinite() ? d : lifted;
 }
 
-}  // namespace
+// Where a point of a frame's cloud is seen: a training camera (slot) and its pixel there.
+struct PointView {
+  int camera;
+  Eigen::Vector2d uv;
+};
 
-std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot) {
+// Per point of frame slot `slot`, the training cameras that see it unoccluded (z-test against the
+// cloud's own depth map, a small splat per point) and its pixel in each.
+std::vector<std::vector<PointView>> point_views(const TrainingSet& set, int slot) {
   const io::PointCloud& cloud = *set.points[slot];
   const std::size_t n = cloud.size();
-  std::vector<std::vector<Observation>> forward(n), backward(n);
+  std::vector<std::vector<PointView>> views(n);
+  std::vector<Eigen::Vector3d> in_camera(n);
   for (std::size_t c = 0; c < set.cameras.size(); ++c) {
     const Camera& cam = set.scene.cameras[set.cameras[c]];
-    const auto& fwd = set.forward[c][slot];
-    const auto& bwd = set.backward[c][slot];
-    if (!fwd && !bwd) continue;
-    // The point cloud's own depth map in this camera (a small splat per point).
     std::vector<float> depth(std::size_t(cam.width) * cam.height,
                              std::numeric_limits<float>::infinity());
-    std::vector<Eigen::Vector3d> in_camera(n);
     for (std::size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d x(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]);
       in_camera[i] = cam.world_to_cam(x);
@@ -121,11 +118,28 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
       if (!cam.in_image(uv)) continue;
       const float nearest = depth[std::size_t(uv.y()) * cam.width + std::size_t(uv.x())];
       if (z > nearest * (1 + kOcclusionTolerance)) continue;  // occluded
-      Eigen::Vector2d f;
-      if (fwd && sample_flow(*fwd, uv.x(), uv.y(), f)) forward[i].push_back({&cam, uv + f});
-      if (bwd && sample_flow(*bwd, uv.x(), uv.y(), f)) backward[i].push_back({&cam, uv + f});
+      views[i].push_back({int(c), uv});
     }
   }
+  return views;
+}
+
+std::vector<PointMotion> point_motion(const TrainingSet& set, int slot,
+                                      const std::vector<std::vector<PointView>>& views) {
+  const io::PointCloud& cloud = *set.points[slot];
+  const std::size_t n = cloud.size();
+  std::vector<std::vector<Observation>> forward(n), backward(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (const PointView& view : views[i]) {
+      const Camera& cam = set.scene.cameras[set.cameras[view.camera]];
+      const auto& fwd = set.forward[view.camera][slot];
+      const auto& bwd = set.backward[view.camera][slot];
+      Eigen::Vector2d f;
+      if (fwd && sample_flow(*fwd, view.uv.x(), view.uv.y(), f))
+        forward[i].push_back({&cam, view.uv + f});
+      if (bwd && sample_flow(*bwd, view.uv.x(), view.uv.y(), f))
+        backward[i].push_back({&cam, view.uv + f});
+    }
   std::vector<PointMotion> motion(n);
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
@@ -138,163 +152,89 @@ std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot)
   return motion;
 }
 
-namespace {
-
-// Initial primitives before the budget: position, velocity (per frame), colour, window.
+// Initial primitives before the budget: position, velocity (per frame), colour and window
+// [mu_tau - tau_l, mu_tau + tau_r].
 struct Seeds {
-  std::vector<float> xyz, velocity, rgb, mu_tau, half_window;
-  // The flow-aware path's seeds: the training interval (slot of its first frame), the point
-  // (frame slot, index in that frame's cloud) each comes from, and whether the flows of two or
-  // more views measured its motion (one view is blind to motion along its viewing direction, and
-  // a point no flow sees has velocity zero for want of evidence, not for standing still).
-  std::vector<int> interval, frame;
-  std::vector<std::uint32_t> point;
-  std::vector<char> measured;
+  std::vector<float> xyz, velocity, rgb, mu_tau, tau_l, tau_r;
 
   std::size_t size() const { return mu_tau.size(); }
   void add(const Eigen::Vector3d& x, const Eigen::Vector3d& v, const Eigen::Vector3f& colour,
-           double t, double half) {
+           double t, double left, double right) {
     for (int a = 0; a < 3; ++a) {
       xyz.push_back(float(x[a]));
       velocity.push_back(float(v[a]));
       rgb.push_back(colour[a]);
     }
     mu_tau.push_back(float(t));
-    half_window.push_back(float(half));
+    tau_l.push_back(float(left));
+    tau_r.push_back(float(right));
   }
 };
 
-// Union-find over seeds whose sets hold at most one point per frame: two different points seen at
-// the same frame are two features, however close, and must not become one primitive.
-class Chains {
- public:
-  explicit Chains(const Seeds& seeds) : parent_(seeds.size()), points_(seeds.size()) {
-    std::iota(parent_.begin(), parent_.end(), 0);
-    for (std::size_t i = 0; i < seeds.size(); ++i) points_[i] = {{seeds.frame[i], seeds.point[i]}};
-  }
-  std::size_t root(std::size_t i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  // Joins the chains of a and b unless they hold different points of one frame.
-  void join(std::size_t a, std::size_t b) {
-    a = root(a), b = root(b);
-    if (a == b) return;
-    std::vector<std::pair<int, std::uint32_t>> both;
-    std::merge(points_[a].begin(), points_[a].end(), points_[b].begin(), points_[b].end(),
-               std::back_inserter(both));
-    both.erase(std::unique(both.begin(), both.end()), both.end());
-    for (std::size_t k = 1; k < both.size(); ++k)
-      if (both[k].first == both[k - 1].first) return;
-    parent_[b] = a;
-    points_[a] = std::move(both);
-    points_[b].clear();
-  }
-
- private:
-  std::vector<std::size_t> parent_;
-  std::vector<std::vector<std::pair<int, std::uint32_t>>> points_;  // per root, sorted
+// A point found standing still: where, its colour and the run of frame slots [first, last] over
+// which it keeps its look (first < last).
+struct StillPoint {
+  Eigen::Vector3d x;
+  Eigen::Vector3f colour;
+  int first, last;
 };
 
-// Static content once (paper §3.3.3's stretching criterion, applied to the seeds): at every inner
-// training frame t_b the seeds of the interval ending there are matched with those of the interval
-// starting there, and those with these (train/stretch.hpp's match_at_frame, positions at t_b).
-// Matched pairs join one chain, closest pairs first (seeds whose motion is not measured take no
-// part), and each chain of two or more seeds becomes one primitive: window the union of its
-// (adjacent) intervals, velocity zero, position the mean of where its points were seen, colour
-// their mean. A static point thus
-// starts as one primitive over all the frames it is seen at, instead of one copy per interval that
-// meet (and are drawn differently) at every training frame; a moving point's seeds fail the speed
-// test and stay per interval. Returns how many seeds were merged into how many primitives.
-std::pair<std::size_t, std::size_t> merge_static(Seeds& seeds, const model::TimeGrid& grid,
-                                                 const StretchSettings& settings) {
-  struct Pair {
-    float d2;
-    std::size_t a, c;
+// The run of training frames around `slot` over which a point keeps its look in the images: frame
+// j belongs while, over the views that see the point at `slot`, the median of the largest channel
+// difference between the pixel at frame j and at `slot` is at most `max_color`. Each camera is
+// compared with itself, so gain and white balance differences between cameras do not count, and
+// the median outvotes the few views a moving object crosses. Returns {slot, slot} when even a
+// neighbour frame differs or fewer than two views see the point.
+std::pair<int, int> unchanged_frames(const TrainingSet& set, int slot,
+                                     const std::vector<PointView>& views, double max_color) {
+  if (views.size() < 2) return {slot, slot};
+  std::vector<float> difference(views.size());
+  auto unchanged = [&](int j) {
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      const PackedImage& here = set.images[views[v].camera][slot];
+      const PackedImage& there = set.images[views[v].camera][j];
+      const std::size_t pixel =
+          std::size_t(views[v].uv.y()) * here.width + std::size_t(views[v].uv.x());
+      int largest = 0;
+      for (int ch = 0; ch < 3; ++ch)
+        largest = std::max(
+            largest, std::abs(int(here.data[3 * pixel + ch]) - int(there.data[3 * pixel + ch])));
+      difference[v] = float(largest) / 65535.0f;
+    }
+    const auto middle = difference.begin() + difference.size() / 2;
+    std::nth_element(difference.begin(), middle, difference.end());
+    return *middle <= max_color;
   };
-  std::vector<Pair> pairs;
-  for (int b = 1; b + 1 < grid.count; ++b) {
-    const double tb = grid.at(b);
-    std::vector<std::size_t> ending, starting;
-    for (std::size_t i = 0; i < seeds.size(); ++i) {
-      if (seeds.interval[i] == b - 1) ending.push_back(i);
-      if (seeds.interval[i] == b) starting.push_back(i);
-    }
-    auto side = [&](const std::vector<std::size_t>& items) {
-      StretchSide out;
-      for (const std::size_t i : items) {
-        const float dt = float(tb - seeds.mu_tau[i]);
-        double speed = 0;
-        for (int a = 0; a < 3; ++a) {
-          const float v = seeds.velocity[3 * i + a];
-          out.xyz.push_back(seeds.xyz[3 * i + a] + dt * v);
-          out.color.push_back(seeds.rgb[3 * i + a]);
-          speed += double(v) * v;
-        }
-        out.speed.push_back(seeds.measured[i] ? std::sqrt(speed)
-                                              : std::numeric_limits<double>::infinity());
-      }
-      return out;
-    };
-    // Both ways: each seed's nearest neighbour across t_b, so that no seed on either side is left
-    // out of its chain for having lost a near tie on the other side.
-    const StretchSide end_side = side(ending), start_side = side(starting);
-    auto add_pairs = [&](const StretchSide& from, const std::vector<std::size_t>& from_ids,
-                         const StretchSide& to, const std::vector<std::size_t>& to_ids) {
-      const std::vector<std::int32_t> partner = match_at_frame(from, to, settings);
-      for (std::size_t k = 0; k < from_ids.size(); ++k) {
-        if (partner[k] < 0) continue;
-        float d2 = 0;
-        for (int a = 0; a < 3; ++a) {
-          const float d = from.xyz[3 * k + a] - to.xyz[3 * partner[k] + a];
-          d2 += d * d;
-        }
-        pairs.push_back({d2, from_ids[k], to_ids[partner[k]]});
-      }
-    };
-    add_pairs(end_side, ending, start_side, starting);
-    add_pairs(start_side, starting, end_side, ending);
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
-    return std::tie(x.d2, x.a, x.c) < std::tie(y.d2, y.a, y.c);
-  });
-  Chains chains(seeds);
-  for (const Pair& pair : pairs) chains.join(pair.a, pair.c);
+  int first = slot, last = slot;
+  while (first > 0 && unchanged(first - 1)) --first;
+  while (last + 1 < int(set.frames.size()) && unchanged(last + 1)) ++last;
+  return {first, last};
+}
 
-  // Chains of two or more seeds, by root; each becomes one primitive in place of its root seed.
-  std::vector<std::vector<std::size_t>> members(seeds.size());
-  for (std::size_t i = 0; i < seeds.size(); ++i) members[chains.root(i)].push_back(i);
-  Seeds out;
-  std::size_t merged = 0, primitives = 0;
-  for (std::size_t r = 0; r < seeds.size(); ++r) {
-    const std::vector<std::size_t>& chain = members[r];
-    if (chain.empty()) continue;
-    Eigen::Vector3d x = Eigen::Vector3d::Zero();
-    Eigen::Vector3f colour = Eigen::Vector3f::Zero();
-    double from = std::numeric_limits<double>::infinity(), to = -from;
-    for (const std::size_t i : chain) {
-      // The point where it was seen (a seed is moved ½Δt along its velocity).
-      const float back = float(grid.at(seeds.frame[i]) - seeds.mu_tau[i]);
-      for (int a = 0; a < 3; ++a) {
-        x[a] += seeds.xyz[3 * i + a] + back * seeds.velocity[3 * i + a];
-        colour[a] += seeds.rgb[3 * i + a];
-      }
-      from = std::min(from, double(seeds.mu_tau[i]) - seeds.half_window[i]);
-      to = std::max(to, double(seeds.mu_tau[i]) + seeds.half_window[i]);
-    }
-    const double n = double(chain.size());
-    const Eigen::Vector3d v =
-        chain.size() == 1 ? Eigen::Vector3d(seeds.velocity[3 * r], seeds.velocity[3 * r + 1],
-                                            seeds.velocity[3 * r + 2])
-                          : Eigen::Vector3d::Zero();
-    out.add(x / n, v, colour / float(n), 0.5 * (from + to), 0.5 * (to - from));
-    if (chain.size() > 1) merged += chain.size(), ++primitives;
+// Static content once (paper §3.3.3's stretching criterion applied to the points; DESIGN.md §2
+// "Flow-aware initialisation" departs here): a still point becomes one unmoving primitive over its
+// run of frames, instead of one copy per interval that meet (and are drawn differently) at every
+// training frame. Its mu_tau is the centre of the interval in the middle of the run, as for a
+// stretched primitive. A point repeated verbatim with the same run (a static cloud written at
+// every frame) is one primitive; points found at different frames are kept apart even when close:
+// they are samples of the surface, and the initial density follows them.
+void add_still_points(const std::vector<StillPoint>& still, const model::TimeGrid& grid,
+                      Seeds& seeds) {
+  std::set<std::tuple<float, float, float, int, int>> taken;
+  for (const StillPoint& s : still) {
+    if (!taken.insert({float(s.x.x()), float(s.x.y()), float(s.x.z()), s.first, s.last}).second)
+      continue;
+    const double mu_tau = grid.at(s.first + (s.last - s.first - 1) / 2) + 0.5 * grid.step;
+    seeds.add(s.x, Eigen::Vector3d::Zero(), s.colour, mu_tau, mu_tau - grid.at(s.first),
+              grid.at(s.last) - mu_tau);
   }
-  seeds = std::move(out);
-  return {merged, primitives};
 }
 
 }  // namespace
+
+std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot) {
+  return point_motion(set, slot, point_views(set, slot));
+}
 
 model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
                              std::string& note) {
@@ -321,20 +261,26 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       for (int a = 0; a < 3; ++a) c[a] = float(colour(rng));
       const int slot = int(k % std::size_t(stgs ? nf : nf - 1));
       seeds.add(x, Eigen::Vector3d::Zero(), c,
-                stgs ? set.grid.at(slot) : set.grid.at(slot) + half_interval, half_interval);
+                stgs ? set.grid.at(slot) : set.grid.at(slot) + half_interval, half_interval,
+                half_interval);
     }
     note = fmt::format(
         "initialisation: the scene has no points; {} random points in a box of side "
         "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
         io::kRandomPointsTotal, 2 * half, centre.x(), centre.y(), centre.z());
   } else {
+    const bool find_still = options.use_flow && options.static_once && !stgs;
+    const double max_speed = options.stretch_speed * set.scene_extent;
+    std::vector<StillPoint> still;
     std::size_t with_motion = 0, total = 0;
     for (int i = 0; i < nf; ++i) {
       if (!set.points[i]) continue;
       const io::PointCloud& cloud = *set.points[i];
-      const std::vector<PointMotion> motion = options.use_flow && !stgs
-                                                  ? estimate_point_motion(set, i)
-                                                  : std::vector<PointMotion>(cloud.size());
+      const bool flow = options.use_flow && !stgs;
+      const std::vector<std::vector<PointView>> views =
+          flow ? point_views(set, i) : std::vector<std::vector<PointView>>(cloud.size());
+      const std::vector<PointMotion> motion =
+          flow ? point_motion(set, i, views) : std::vector<PointMotion>(cloud.size());
       for (std::size_t k = 0; k < cloud.size(); ++k) {
         const PointMotion& m = motion[k];
         // v = mean of the forward and the negated backward displacement, per frame.
@@ -353,8 +299,19 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
                 ? Eigen::Vector3f(0.5f, 0.5f, 0.5f)
                 : Eigen::Vector3f(cloud.rgb[3 * k], cloud.rgb[3 * k + 1], cloud.rgb[3 * k + 2]);
         if (stgs) {
-          seeds.add(x, v, colour, set.grid.at(i), half_interval);
+          seeds.add(x, v, colour, set.grid.at(i), half_interval, half_interval);
           continue;
+        }
+        // Standing still: flows of two or more views measure its motion (one view is blind to
+        // motion along its viewing direction, and a point no flow sees has velocity zero for want
+        // of evidence), below the stretching speed, and its look holds over a neighbour frame.
+        if (find_still && std::max(m.forward_views, m.backward_views) >= 2 &&
+            v.norm() <= max_speed) {
+          const auto [first, last] = unchanged_frames(set, i, views[k], options.stretch_color);
+          if (first < last) {
+            still.push_back({x, colour, first, last});
+            continue;
+          }
         }
         // Frame t_i seeds interval [t_i, t_{i+1}] (moved forward by ½Δt v) and [t_{i-1}, t_i]
         // (moved back by ½Δt v).
@@ -362,25 +319,18 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
           if (interval < 0 || interval + 1 >= nf) continue;
           const double sign = interval == i ? 1 : -1;
           seeds.add(x + sign * half_interval * v, v, colour, set.grid.at(i) + sign * half_interval,
-                    half_interval);
-          seeds.interval.push_back(interval);
-          seeds.frame.push_back(i);
-          seeds.point.push_back(std::uint32_t(k));
-          seeds.measured.push_back(std::max(m.forward_views, m.backward_views) >= 2);
+                    half_interval, half_interval);
         }
       }
     }
     std::string merged;
-    if (options.use_flow && options.static_once && !stgs) {
-      const StretchSettings settings{options.stretch_distance * set.scene_extent,
-                                     options.stretch_color,
-                                     options.stretch_speed * set.scene_extent};
+    if (find_still) {
       const std::size_t before = seeds.size();
-      const auto [seeds_merged, primitives] = merge_static(seeds, set.grid, settings);
+      add_still_points(still, set.grid, seeds);
       merged = fmt::format(
-          "; static content once: {} of the {} seeds merged into {} static primitives (stretching "
-          "criterion at initialisation)",
-          seeds_merged, before, primitives);
+          "; static content once: {} still points (stretching criterion) became {} primitives "
+          "spanning their frames",
+          still.size(), seeds.size() - before);
     }
     note = fmt::format("initialisation: {} points from {} frames, {} with flow-based motion{}{}",
                        total, nf, with_motion,
@@ -422,7 +372,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     p.q0[4 * j] = 1;
     p.opacity_logit[j] = logit;
     p.mu_tau[j] = seeds.mu_tau[k];
-    p.tau_l[j] = p.tau_r[j] = seeds.half_window[k];
+    p.tau_l[j] = seeds.tau_l[k];
+    p.tau_r[j] = seeds.tau_r[k];
     p.temporal_log_scale[j] = float(std::log(step));  // STGS: σ_τ is 1/e one interval off μ_τ
   }
   return p;

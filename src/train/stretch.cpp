@@ -21,8 +21,19 @@ double max_speed(const model::Primitives& p, std::size_t i) {
   return speed;
 }
 
-}  // namespace
+// One side of a training frame t_b for the stretching criterion: the primitives whose support
+// ends at t_b, or those whose support starts there.
+struct StretchSide {
+  std::vector<float> xyz;     // [N, 3]: positions at t_b
+  std::vector<double> color;  // [N, 3]: base colours (SH DC x C0: only differences count)
+  std::vector<double> speed;  // [N]: the largest speed of each (world units per frame)
+};
 
+// The stretching criterion at one training frame: each `ending` item is matched with its nearest
+// `starting` item (by position at t_b, among all of them) when that lies within max_distance, both
+// are no faster than max_speed, and their base colours differ by at most max_color in every
+// channel. Returns, per ending item, the index of its partner in `starting` or -1; several ending
+// items may share a partner.
 std::vector<std::int32_t> match_at_frame(const StretchSide& ending, const StretchSide& starting,
                                          const StretchSettings& settings) {
   const std::size_t n = ending.speed.size();
@@ -44,6 +55,8 @@ std::vector<std::int32_t> match_at_frame(const StretchSide& ending, const Stretc
   }
   return partner;
 }
+
+}  // namespace
 
 StretchResult stretch(model::Primitives& p, const model::ModelConfig& config,
                       const model::TimeGrid& grid, const StretchSettings& settings,

@@ -95,7 +95,6 @@ std::string Trainer::initialize() {
   options.max_primitives = config_.cap;
   options.initial_opacity = config_.init_opacity;
   options.seed = config_.seed;
-  options.stretch_distance = config_.stretch_distance;
   options.stretch_color = config_.stretch_color;
   options.stretch_speed = config_.stretch_speed;
   std::string note;

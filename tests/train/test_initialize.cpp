@@ -1,5 +1,6 @@
 // Flow-aware initialisation on a synthetic scene with exact flows: the 3-D motion lifted from the
 // cameras' flows carries frame t_i's points onto frame t_{i+1}'s, and static ground stays put.
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -55,99 +56,149 @@ TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   EXPECT_NE(note.find("with flow-based motion"), std::string::npos) << note;
   EXPECT_NE(note.find("static content once"), std::string::npos) << note;
   // Two intervals, each seeded from both of its frames: windows of one interval, or both
-  // intervals for static content (merged, unmoving).
+  // intervals for static content (unmoving, μ_τ at the first interval's centre as for a stretched
+  // primitive).
   ASSERT_GT(p.size(), 1000u);
   std::size_t merged = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
     ASSERT_EQ(p.velocity[9 * i], p.velocity[9 * i + 3]);  // v1 = v2 = v3 at initialisation
-    ASSERT_EQ(p.tau_l[i], p.tau_r[i]);
-    if (p.mu_tau[i] == 2.0f) {
-      ASSERT_EQ(p.tau_l[i], 2.0f);
+    ASSERT_TRUE(p.mu_tau[i] == 1.0f || p.mu_tau[i] == 3.0f) << p.mu_tau[i];
+    ASSERT_EQ(p.tau_l[i], 1.0f);
+    if (p.tau_r[i] == 3.0f) {
+      ASSERT_EQ(p.mu_tau[i], 1.0f);
       ASSERT_EQ(p.velocity[9 * i], 0.0f);
       ++merged;
       continue;
     }
-    ASSERT_TRUE(p.mu_tau[i] == 1.0f || p.mu_tau[i] == 3.0f) << p.mu_tau[i];
-    ASSERT_EQ(p.tau_l[i], 1.0f);
+    ASSERT_EQ(p.tau_r[i], 1.0f);
   }
   EXPECT_GT(merged, 100u);
 }
 
-// Static content once, with points known to be static or moving: frame 0's ground points repeated
-// unmoved at every frame become one primitive each, spanning the clip (its window open at both
-// ends); the moving objects' own points at each frame keep one primitive per interval.
-TEST(Initialize, StaticPointsSpanTheClipMovingPointsStayPerInterval) {
-  test::TempDir dir;
-  minimal_scene(dir / "scene", 6, 128, 96);
-  TrainingSet set = load_training_set(io::read_scene(dir / "scene"), io::FrameSelection::kAll);
-  ASSERT_EQ(set.frames.size(), 5u);  // frames 0..4: four intervals of one frame
+bool on_stage(const Eigen::Vector3d& x) {
+  return x.y() == 0 && x.norm() < 4;
+}
+bool on_object(const Eigen::Vector3d& x) {
+  return x.y() < -0.01 && x.norm() < 8;
+}
+
+// The minimal scene's five frames with points known to be static or moving: frame 0's ground
+// points repeated unmoved at every frame, and each frame's own object points. `measured[k]`: the
+// flows of two or more views measure ground point k's motion at every frame (the others' velocity
+// is not evidence of standing still, and they are not merged).
+struct RepeatedGround {
+  TrainingSet set;
+  io::PointCloud ground;
+  std::vector<char> measured;
+};
+
+RepeatedGround repeated_ground(const std::filesystem::path& root) {
+  minimal_scene(root, 6, 128, 96);
+  RepeatedGround out{load_training_set(io::read_scene(root), io::FrameSelection::kAll), {}, {}};
+  TrainingSet& set = out.set;
+  EXPECT_EQ(set.frames.size(), 5u);  // frames 0..4: four intervals of one frame
   auto select = [](const io::PointCloud& cloud, auto keep) {
-    io::PointCloud out;
+    io::PointCloud selected;
     for (std::size_t k = 0; k < cloud.size(); ++k) {
       const Eigen::Vector3d x(cloud.xyz[3 * k], cloud.xyz[3 * k + 1], cloud.xyz[3 * k + 2]);
       if (!keep(x)) continue;
-      out.xyz.insert(out.xyz.end(), &cloud.xyz[3 * k], &cloud.xyz[3 * k + 3]);
-      out.rgb.insert(out.rgb.end(), &cloud.rgb[3 * k], &cloud.rgb[3 * k + 3]);
+      selected.xyz.insert(selected.xyz.end(), &cloud.xyz[3 * k], &cloud.xyz[3 * k + 3]);
+      selected.rgb.insert(selected.rgb.end(), &cloud.rgb[3 * k], &cloud.rgb[3 * k + 3]);
     }
-    return out;
+    return selected;
   };
-  auto on_stage = [](const Eigen::Vector3d& x) { return x.y() == 0 && x.norm() < 4; };
-  auto on_object = [](const Eigen::Vector3d& x) { return x.y() < -0.01 && x.norm() < 8; };
-  const io::PointCloud ground = select(*set.points[0], on_stage);
+  out.ground = select(*set.points[0], on_stage);
   std::size_t object_points = 0;
   for (auto& cloud : set.points) {
     io::PointCloud objects = select(*cloud, on_object);
     object_points += objects.size();
-    cloud = ground;
+    cloud = out.ground;
     cloud->xyz.insert(cloud->xyz.end(), objects.xyz.begin(), objects.xyz.end());
     cloud->rgb.insert(cloud->rgb.end(), objects.rgb.begin(), objects.rgb.end());
   }
-  ASSERT_GT(ground.size(), 1000u);
-  ASSERT_GT(object_points, 1000u);
-
-  // The ground points whose motion the flows of two or more views measure at every frame (the
-  // others' velocity is not evidence of standing still, and they are not merged).
-  std::vector<char> measured(ground.size(), 1);
+  EXPECT_GT(out.ground.size(), 1000u);
+  EXPECT_GT(object_points, 1000u);
+  out.measured.assign(out.ground.size(), 1);
   for (int slot = 0; slot < 5; ++slot) {
     const std::vector<PointMotion> motion = estimate_point_motion(set, slot);
-    for (std::size_t k = 0; k < ground.size(); ++k)
-      measured[k] &= std::max(motion[k].forward_views, motion[k].backward_views) >= 2;
+    for (std::size_t k = 0; k < out.ground.size(); ++k)
+      out.measured[k] &= std::max(motion[k].forward_views, motion[k].backward_views) >= 2;
   }
+  return out;
+}
 
-  std::string note;
-  const model::Primitives p = initialize(set, {}, note);
-  EXPECT_NE(note.find("static content once"), std::string::npos) << note;
+// Per ground point, the windows [μ_τ - τ_l, μ_τ + τ_r] of the unmoving primitives initialised
+// exactly there.
+std::vector<std::vector<std::pair<float, float>>> ground_windows(const model::Primitives& p,
+                                                                 const io::PointCloud& ground) {
   const PointIndex index(ground.xyz);
-  std::vector<int> at_point(ground.size(), 0), spanning(ground.size(), 0);
-  std::size_t sphere = 0, sphere_per_interval = 0;
+  std::vector<std::vector<std::pair<float, float>>> windows(ground.size());
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const Eigen::Vector3d x(p.mu[3 * i], p.mu[3 * i + 1], p.mu[3 * i + 2]);
-    if (on_object(x)) {
-      // The orbiting sphere (path radius 1.2), clear of the box spinning at the origin.
-      if (std::hypot(x.x(), x.z()) < 0.8) continue;
-      ++sphere;
-      sphere_per_interval += p.tau_l[i] == 0.5f && p.tau_r[i] == 0.5f;
-
-      continue;
-    }
     std::uint32_t k;
     float d2;
     if (index.knn(p.mu.data() + 3 * i, 1, &k, &d2) < 1 || d2 > 1e-10f) continue;
-    const model::RetimeWindow<double> window{p.mu_tau[i], p.tau_l[i], p.tau_r[i], 0, 4, 0.02, 1e-3};
-    ++at_point[k];
-    spanning[k] += window.open_left() && window.open_right() && p.velocity[9 * i] == 0;
+    if (p.velocity[9 * i] != 0) continue;
+    windows[k].push_back({p.mu_tau[i] - p.tau_l[i], p.mu_tau[i] + p.tau_r[i]});
   }
+  return windows;
+}
+
+// Static content once: each still ground point, repeated verbatim at every frame, becomes one
+// unmoving primitive spanning the clip; the moving objects' own points at each frame keep one
+// primitive per interval.
+TEST(Initialize, StaticPointsSpanTheClipMovingPointsStayPerInterval) {
+  test::TempDir dir;
+  const RepeatedGround g = repeated_ground(dir / "scene");
+  std::string note;
+  const model::Primitives p = initialize(g.set, {}, note);
+  EXPECT_NE(note.find("static content once"), std::string::npos) << note;
+  std::size_t sphere = 0, sphere_per_interval = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector3d x(p.mu[3 * i], p.mu[3 * i + 1], p.mu[3 * i + 2]);
+    // The orbiting sphere (path radius 1.2), clear of the box spinning at the origin.
+    if (!on_object(x) || std::hypot(x.x(), x.z()) < 0.8) continue;
+    ++sphere;
+    sphere_per_interval += p.tau_l[i] == 0.5f && p.tau_r[i] == 0.5f;
+  }
+  ASSERT_GT(sphere, 1000u);
+  EXPECT_EQ(sphere_per_interval, sphere);
+
+  const auto windows = ground_windows(p, g.ground);
   std::size_t static_points = 0, once = 0;
-  for (std::size_t k = 0; k < ground.size(); ++k) {
-    if (!measured[k]) continue;
+  for (std::size_t k = 0; k < g.ground.size(); ++k) {
+    if (!g.measured[k]) continue;
     ++static_points;
-    once += at_point[k] == 1 && spanning[k] == 1;
+    once += windows[k].size() == 1 && windows[k][0] == std::pair<float, float>(0, 4);
   }
   ASSERT_GT(static_points, 1000u);
   // A few sit next to the sphere's silhouette in some view, where the flow carries its motion.
   EXPECT_GT(once, 0.95 * static_points) << once << " of " << static_points;
-  ASSERT_GT(sphere, 1000u);
-  EXPECT_EQ(sphere_per_interval, sphere);
+}
+
+// A still point's window ends where its look in the images changes: with every image of frames 3
+// and 4 darkened to a quarter (flows unchanged), each still ground point becomes one primitive over
+// frames 0-2 and one over frames 3-4.
+TEST(Initialize, StillPointsWindowEndsWhereItsLookChanges) {
+  test::TempDir dir;
+  RepeatedGround g = repeated_ground(dir / "scene");
+  for (auto& camera : g.set.images)
+    for (const int slot : {3, 4})
+      for (std::uint16_t& v : camera[slot].data) v /= 4;
+  std::string note;
+  const model::Primitives p = initialize(g.set, {}, note);
+  const auto windows = ground_windows(p, g.ground);
+  std::size_t static_points = 0, split = 0, spanning = 0;
+  for (std::size_t k = 0; k < g.ground.size(); ++k) {
+    if (!g.measured[k]) continue;
+    ++static_points;
+    std::vector<std::pair<float, float>> w = windows[k];
+    std::sort(w.begin(), w.end());
+    split += w == std::vector<std::pair<float, float>>{{0, 2}, {3, 4}};
+    for (const auto& [from, to] : w) spanning += from < 3 && to > 2;
+  }
+  ASSERT_GT(static_points, 1000u);
+  EXPECT_GT(split, 0.95 * static_points) << split << " of " << static_points;
+  EXPECT_EQ(spanning, 0u);  // no window crosses the change
 }
 
 TEST(Initialize, RandomFallbackWithoutPointsIsStated) {

@@ -17,11 +17,11 @@ struct InitOptions {
   std::size_t max_primitives = 100000;  // subsampled (deterministically) above this
   double initial_opacity = 0.1;
   std::uint64_t seed = 0;
-  // Static content once (flow-aware path only; false: the no-static-init ablation): the
-  // stretching criterion's thresholds, applied to the seeds of adjacent intervals; distance and
-  // speed x scene extent (TrainConfig's meaning).
+  // Static content once (flow-aware path only; false: the no-static-init ablation): points no
+  // faster than the stretching speed (x scene extent, TrainConfig's meaning) whose look in the
+  // images holds within the stretching colour over a run of frames start as one unmoving
+  // primitive over the run.
   bool static_once = true;
-  double stretch_distance = TrainConfig{}.stretch_distance;
   double stretch_color = TrainConfig{}.stretch_color;
   double stretch_speed = TrainConfig{}.stretch_speed;
 };

@@ -22,22 +22,6 @@ struct StretchSettings {
   double dead_logit = -10;  // σ ≈ 4.5e-5: invisible and below any relocation threshold
 };
 
-// One side of a training frame t_b for the stretching criterion: the primitives (or
-// initialisation seeds) whose support ends at t_b, or those whose support starts there.
-struct StretchSide {
-  std::vector<float> xyz;     // [N, 3]: positions at t_b
-  std::vector<double> color;  // [N, 3]: base colours (RGB, or SH DC x C0: only differences count)
-  std::vector<double> speed;  // [N]: the largest speed of each (world units per frame)
-};
-
-// The stretching criterion at one training frame, shared by stretch() and initialisation: each
-// `ending` item is matched with its nearest `starting` item (by position at t_b, among all of
-// them) when that lies within max_distance, both are no faster than max_speed, and their base
-// colours differ by at most max_color in every channel. Returns, per ending item, the index of its
-// partner in `starting` or -1; several ending items may share a partner.
-std::vector<std::int32_t> match_at_frame(const StretchSide& ending, const StretchSide& starting,
-                                         const StretchSettings& settings);
-
 struct StretchResult {
   std::size_t pairs = 0, stretched = 0, pruned = 0;
 };
