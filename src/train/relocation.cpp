@@ -30,7 +30,7 @@ std::vector<double> sampling_scores(const model::Primitives& p, model::Represent
     if (sigma <= min_opacity) continue;  // dead rows are never sources
     score[i] = rep == model::Representation::kStgs
                    ? sigma
-                   : sigma / std::max(1e-6, double(p.tau_l[i]) + double(p.tau_r[i]));
+                   : sigma * (double(p.tau_l[i]) + double(p.tau_r[i]));
   }
   return score;
 }

@@ -62,9 +62,8 @@ TEST(Relocation, KeepsCountCopiesEveryFieldAndRevivesDeadSlots) {
               p.tau_r[i] == p.tau_r[j] && p.opacity_logit[i] == p.opacity_logit[j];
     EXPECT_TRUE(found) << i;
   }
-  // Sampling ∝ σ / (τ_l + τ_r): row 250 has a 4x longer support, so it is drawn less often;
-  // over many draws the ratio of its copies to an equal-σ row's approaches 1/4 — a smoke check
-  // that long-lived primitives are down-weighted.
+  // Sampling ∝ σ · (τ_l + τ_r): of two equal-σ rows, the one with a 4x longer support is drawn
+  // 4x as often (weights 2 : 8 -> 0.8).
   model::Primitives q;
   q.resize(2);
   q.opacity_logit = {0.0f, 0.0f};
@@ -80,7 +79,7 @@ TEST(Relocation, KeepsCountCopiesEveryFieldAndRevivesDeadSlots) {
     relocate(t, model::Representation::kRetime, 0.01, r2);
     long_drawn += t.tau_r[2] == 7.0f;
   }
-  EXPECT_NEAR(long_drawn / 2000.0, 0.2, 0.03);  // weights 1/2 : 1/8 -> 0.2
+  EXPECT_NEAR(long_drawn / 2000.0, 0.8, 0.03);
 }
 
 // The MCMC correction preserves the rendered image to first order: relocating onto sources with

@@ -1,9 +1,16 @@
 #pragma once
 // MCMC relocation and growth (3DGS-MCMC Eq. 9 as gsplat's MCMCStrategy implements it, DESIGN.md
 // §7) adapted to 4D primitives: dead slots (σ <= min_opacity) take copies of live primitives drawn
-// ∝ the sampling score σ / (τ_l + τ_r) (σ for the STGS baseline), with the opacity / scale
-// correction that keeps the rendered image unchanged to first order; every parameter is copied,
-// the temporal ones too.
+// ∝ the sampling score σ · (τ_l + τ_r), the primitive's opacity mass over time (σ for the STGS
+// baseline), with the opacity / scale correction that keeps the rendered image unchanged to first
+// order; every parameter is copied, the temporal ones too.
+//
+// The score departs from DESIGN.md §2 and the paper (σ / (τ_l + τ_r)). 3DGS-MCMC treats the
+// primitives as samples of the scene's opacity and draws new ones where that mass is; in space-time
+// a primitive's mass is σ times the time it is visible, and a slot spent on static content serves
+// every frame it spans while a slot spent on one interval serves that interval only. Dividing by
+// the duration, with a CPU-sized budget, leaves static backgrounds to a few large Gaussians (fog);
+// see README, "Training recipe".
 #include <cstdint>
 #include <random>
 #include <vector>
