@@ -60,9 +60,9 @@ void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
 
 FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model) {
   auto owned = std::make_shared<const LoadedModel>(std::move(model));
-  return [&scene, owned](int camera, int frame) {
+  return [&scene, owned](int camera, double time) {
     const float black[3] = {0, 0, 0};
-    return render_loaded(*owned, scene.cameras[camera], double(frame), black, {}, Colors::kCamera);
+    return render_loaded(*owned, scene.cameras[camera], time, black, {}, Colors::kCamera);
   };
 }
 
