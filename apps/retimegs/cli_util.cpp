@@ -97,4 +97,21 @@ std::vector<double> slowmo_times(int num_frames, int factor) {
   return times;
 }
 
+CLI::Option* add_near_option(CLI::App& cmd, double& near) {
+  return cmd
+      .add_option("--near", near,
+                  "near plane in scene units: Gaussians closer to the camera are not drawn. On "
+                  "captures whose cameras see each other (domes, stages), a value beyond a camera "
+                  "body's depth (about 0.3 on Panoptic, in metres) keeps a rig camera's own body "
+                  "out of its renders")
+      ->capture_default_str();
+}
+
+render::RenderOptions near_render_options(double near) {
+  if (!(std::isfinite(near) && near > 0)) fail("--near: must be a finite number > 0, got {}", near);
+  render::RenderOptions options;
+  options.near_plane = float(near);
+  return options;
+}
+
 }  // namespace retimegs::app

@@ -4,6 +4,10 @@
 #include <utility>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
+#include "retimegs/render/options.hpp"
+
 namespace retimegs::app {
 
 // "A:B" -> {A, B} (inclusive); throws retimegs::Error naming `flag` on anything else.
@@ -27,5 +31,15 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
 
 // F frames per scene-frame interval over frames 0 .. num_frames - 1: t = k / F, k = 0 .. (K-1) F.
 std::vector<double> slowmo_times(int num_frames, int factor);
+
+// The default of --near: gsplat's near plane, render::RenderOptions' default.
+constexpr double kDefaultNear = 0.01;
+
+// --near D: the near plane of a command's model renders, in scene units, into `near` (which holds
+// the default). Check it with near_render_options().
+CLI::Option* add_near_option(CLI::App& cmd, double& near);
+
+// Render options with near plane `near`; throws Error naming --near unless it is finite and > 0.
+render::RenderOptions near_render_options(double near);
 
 }  // namespace retimegs::app

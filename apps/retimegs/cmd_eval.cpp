@@ -1,6 +1,6 @@
 // retimegs eval (--model MODEL | --baseline crossfade|nearest|flow) --scene SCENE
 //               [--frames odd|all|LIST] [--cameras LIST] [--train-frames even|all] [--stability]
-//               [--lpips-weights DIR] [--save-renders DIR] --out METRICS.json
+//               [--lpips-weights DIR] [--save-renders DIR] [--near D] --out METRICS.json
 #include <filesystem>
 #include <memory>
 
@@ -22,6 +22,7 @@ void add_eval_command(CLI::App& app) {
     std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out,
                                         train_frames = "even";
     int threads = 0;
+    double near = kDefaultNear;
     bool stability = false;
   };
   auto args = std::make_shared<Args>();
@@ -55,12 +56,16 @@ void add_eval_command(CLI::App& app) {
                   "LPIPS-squeeze weights folder (default: ../shared/data/metrics/lpips_squeeze/"
                   "weights when present; otherwise lpips is null)");
   cmd->add_option("--save-renders", args->save, "also write DIR/<camera>/<frame:05d>.png");
+  auto* near = add_near_option(*cmd, args->near);
   cmd->add_option("--out", args->out, "metrics JSON to write")->required();
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
-  cmd->callback([args] {
+  cmd->callback([args, near] {
     set_threads(args->threads);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
+    if (!args->baseline.empty() && near->count() > 0)
+      fail("--near {}: a baseline renders no Gaussians; give --near with --model", args->near);
+    const render::RenderOptions render_options = near_render_options(args->near);
     const io::Scene scene = io::read_scene(args->scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
@@ -86,9 +91,10 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(scene, train_frames,
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
-      renderer = eval::model_renderer(scene, eval::load_model(args->model));
+      renderer = eval::model_renderer(scene, eval::load_model(args->model), render_options);
     }
-    const eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
+    eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
+    if (args->baseline.empty()) result.near = args->near;
     eval::write_json(result, args->out);
     if (!result.note.empty()) spdlog::info("{}", result.note);
     const auto lpips_text = [](const std::optional<double>& v) {

@@ -1,5 +1,5 @@
 // retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
-//                 --slowmo F | --retime FILE) [--path CAM,CAM,...] --out OUT
+//                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -22,6 +22,7 @@ void add_render_command(CLI::App& app) {
     std::optional<double> time;
     std::optional<int> slowmo;
     int path_frames = 60, threads = 0;
+    double near = kDefaultNear;
     bool force = false;
   };
   auto args = std::make_shared<Args>();
@@ -59,12 +60,14 @@ void add_render_command(CLI::App& app) {
       ->required();
   cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
       ->capture_default_str();
+  add_near_option(*cmd, args->near);
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     set_threads(args->threads);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
+    const render::RenderOptions render_options = near_render_options(args->near);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
 
@@ -94,7 +97,7 @@ void add_render_command(CLI::App& app) {
     const eval::LoadedModel model = eval::load_model(args->model);
     const int frames = int(frame_times.size());
     io::FrameWriter writer(args->out, frames, scene.fps, args->force);
-    eval::render_frames(model, path, frame_times, background.data(), writer);
+    eval::render_frames(model, path, frame_times, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });
 }

@@ -134,6 +134,7 @@ std::string to_json(const EvalResult& r) {
             {"lpips", optional_json(r.lpips)},
             {"masked", r.masked},
             {"whole", scores_json(r.whole)},
+            {"near", optional_json(r.near)},
             {"frames", r.frames},
             {"per_view", views}};
   if (r.stability) j["stability"] = stability_json(*r.stability);

@@ -44,25 +44,26 @@ Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
 
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    const std::vector<double>& times, const float* background,
-                   io::FrameWriter& writer) {
+                   io::FrameWriter& writer, const render::RenderOptions& options) {
   const int frames = int(times.size());
   Progress progress("render", frames, frames > 1);
   const Colors colors = path.size() == 1 ? Colors::kCamera : Colors::kModel;
   for (int f = 0; f < frames; ++f) {
     const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
     writer.write(
-        render_loaded(model, camera_along_path(path, s), times[f], background, {}, colors));
+        render_loaded(model, camera_along_path(path, s), times[f], background, options, colors));
     progress.tick();
   }
   progress.finish();
   writer.finish();
 }
 
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model) {
+FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
+                             const render::RenderOptions& options) {
   auto owned = std::make_shared<const LoadedModel>(std::move(model));
-  return [&scene, owned](int camera, int frame) {
+  return [&scene, owned, options](int camera, double time) {
     const float black[3] = {0, 0, 0};
-    return render_loaded(*owned, scene.cameras[camera], double(frame), black, {}, Colors::kCamera);
+    return render_loaded(*owned, scene.cameras[camera], time, black, options, Colors::kCamera);
   };
 }
 

@@ -63,9 +63,10 @@ TEST(Protocol, BaselinesOnALinearRamp) {
   EXPECT_GT(evaluate_views(scene, flow, options).psnr, 45.0);
   EXPECT_EQ(flow(1, 2.0).data, io::load_image(scene, 1, 2).data);
   const auto j = nlohmann::json::parse(to_json(nearest));
-  for (const char* key : {"psnr", "ssim", "lpips", "masked", "frames", "per_view"})
+  for (const char* key : {"psnr", "ssim", "lpips", "masked", "near", "frames", "per_view"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["lpips"].is_null());
+  EXPECT_TRUE(j["near"].is_null()) << "a baseline renders no Gaussians";
   EXPECT_EQ(j["frames"], nlohmann::json({1, 3}));
   EXPECT_EQ(j["per_view"][1]["camera"], "c0");
   EXPECT_EQ(j["per_view"][1]["frame"], 3);

@@ -17,7 +17,7 @@ namespace retimegs::eval {
 namespace {
 namespace fs = std::filesystem;
 
-// Two cameras looking at a cloud of static primitives; cam00 has a stored correction.
+// Two cameras looking at a cloud of drifting primitives; cam00 has a stored correction.
 struct Fixture {
   io::Scene scene;
   model::Model model;
@@ -41,6 +41,7 @@ struct Fixture {
       for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = u(rng);
       for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.15f);
       p.q0[4 * i] = 1;
+      p.velocity[9 * i] = 0.3f;
       for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
       p.opacity_logit[i] = 1.0f;
       p.mu_tau[i] = 1.0f;
@@ -81,6 +82,10 @@ TEST(RenderModel, ATrainingCameraRendersThroughItsCorrection) {
   const FrameRenderer renderer = model_renderer(f.scene, f.model);
   EXPECT_EQ(renderer(0, 1.0).data, corrected.data);
   EXPECT_EQ(renderer(1, 1.0).data, render_model(f.model, cam1, 1.0, black).data);
+  // Between frames too: stability renders at fractional times.
+  const Image between = render_model(f.model, cam1, 0.5, black);
+  EXPECT_GT(max_abs_diff(between, renderer(1, 1.0)), 0.01) << "the model changes in time";
+  EXPECT_EQ(renderer(1, 0.5).data, between.data);
 }
 
 TEST(RenderModel, OneCameraUsesItsColoursAPathTheModels) {

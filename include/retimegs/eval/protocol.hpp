@@ -66,6 +66,9 @@ struct EvalResult {
   std::vector<int> frames;
   std::vector<ViewScore> per_view;
   std::optional<Stability> stability;
+  // The near plane the model was rendered with (render::RenderOptions::near_plane); none for a
+  // baseline. evaluate_views() leaves it to the caller, who built the renderer.
+  std::optional<double> near;
   std::string note;  // e.g. why lpips is null
 };
 
@@ -73,9 +76,9 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options);
 
 // The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "whole": {"psnr",
-// "ssim", "lpips"}, "frames", "per_view" (each with its own "whole")}, and "stability": {"steps",
-// "max", "mean", "per_camera": [{"camera", "max_change", "static_fraction", "masked"}]} when
-// measured.
+// "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")}, and
+// "stability": {"steps", "max", "mean", "per_camera": [{"camera", "max_change",
+// "static_fraction", "masked"}]} when measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.
 void write_json(const EvalResult& result, const std::filesystem::path& path);

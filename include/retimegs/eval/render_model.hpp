@@ -45,14 +45,15 @@ Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
 // along `path` (camera_along_path; one camera stays put), written to `writer`, which is then
 // finished. One camera renders with its colours (Colors::kCamera), a path with the model's (its
 // cameras between the named ones have none). A progress bar is shown when there is more than one
-// frame.
+// frame. Every frame renders with `options`.
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    const std::vector<double>& times, const float* background,
-                   io::FrameWriter& writer);
+                   io::FrameWriter& writer, const render::RenderOptions& options = {});
 
-// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `frame` on black,
-// with that camera's colours (Colors::kCamera).
+// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `time` on black,
+// with that camera's colours (Colors::kCamera), every render with `options`.
 // `scene` must outlive the returned renderer; the model is owned by it.
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model);
+FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
+                             const render::RenderOptions& options = {});
 
 }  // namespace retimegs::eval
