@@ -10,7 +10,7 @@
 // a primitive's mass is σ times the time it is visible, and a slot spent on static content serves
 // every frame it spans while a slot spent on one interval serves that interval only. Dividing by
 // the duration, with a CPU-sized budget, leaves static backgrounds to a few large Gaussians (fog);
-// see README, "Training recipe".
+// see README, `retimegs train`.
 #include <cstdint>
 #include <random>
 #include <vector>
