@@ -32,8 +32,10 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
 // F frames per scene-frame interval over frames 0 .. num_frames - 1: t = k / F, k = 0 .. (K-1) F.
 std::vector<double> slowmo_times(int num_frames, int factor);
 
-// The default of --near: gsplat's near plane, render::RenderOptions' default.
+// The default of --near: gsplat's near plane, render::RenderOptions' default (written as the
+// double the help text shows).
 constexpr double kDefaultNear = 0.01;
+static_assert(float(kDefaultNear) == render::RenderOptions{}.near_plane);
 
 // --near D: the near plane of a command's model renders, in scene units, into `near` (which holds
 // the default). Check it with near_render_options().

@@ -107,10 +107,13 @@ json scores_json(const Scores& s) {
 json stability_json(const Stability& s) {
   json cameras = json::array();
   for (const CameraStability& c : s.per_camera)
-    cameras.push_back({{"camera", c.camera},
-                       {"max_change", optional_json(c.max_change)},
-                       {"static_fraction", c.static_fraction},
-                       {"masked", c.masked}});
+    cameras.push_back(
+        {{"camera", c.camera},
+         {"max_change", optional_json(c.max_change)},
+         {"max_between", c.max_between ? json::array({c.max_between->first, c.max_between->second})
+                                       : json(nullptr)},
+         {"static_fraction", c.static_fraction},
+         {"masked", c.masked}});
   return {{"steps", s.steps},
           {"max", optional_json(s.max)},
           {"mean", optional_json(s.mean)},

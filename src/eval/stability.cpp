@@ -91,7 +91,7 @@ Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render
     s.static_fraction = double(count) / double(n);
     if (count > 0) {
       Image previous = render(c, times[0]);
-      double largest = 0;
+      double largest = -1;
       for (std::size_t j = 1; j < times.size(); ++j) {
         Image current = render(c, times[j]);
         const int channels = current.channels;
@@ -102,7 +102,8 @@ Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render
             change += std::abs(double(current.data[i * channels + ch]) -
                                double(previous.data[i * channels + ch]));
         }
-        largest = std::max(largest, 255.0 * change / (double(count) * channels));
+        change *= 255.0 / (double(count) * channels);
+        if (change > largest) largest = change, s.max_between = {times[j - 1], times[j]};
         previous = std::move(current);
         bar.tick();
       }

@@ -98,6 +98,8 @@ TEST(Stability, MeasuresThePulseAtTrainingFramesOnStaticPixels) {
   for (const CameraStability& c : s.per_camera) {
     ASSERT_TRUE(c.max_change.has_value()) << c.camera;
     EXPECT_NEAR(*c.max_change, 3.0, 1e-3) << c.camera;
+    // The first pulse: from training frame 0 to the next slow-motion time.
+    EXPECT_EQ(c.max_between, std::make_pair(0.0, 0.25)) << c.camera;
     EXPECT_GT(c.static_fraction, 0.8) << c.camera;
   }
   EXPECT_TRUE(s.per_camera[0].masked);

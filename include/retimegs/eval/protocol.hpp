@@ -8,6 +8,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "retimegs/core/image.hpp"
@@ -48,8 +49,10 @@ struct ViewScore {
 struct CameraStability {
   std::string camera;
   std::optional<double> max_change;  // none when the camera has no static pixel
-  double static_fraction = 0;        // of the image's pixels
-  bool masked = false;               // static pixels from masks (else from pixel values)
+  // The consecutive times between which it changed the most (the first such pair).
+  std::optional<std::pair<double, double>> max_between;
+  double static_fraction = 0;  // of the image's pixels
+  bool masked = false;         // static pixels from masks (else from pixel values)
 };
 
 struct Stability {
