@@ -272,7 +272,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
     const bool find_still = options.use_flow && options.static_once && !stgs;
     const double max_speed = options.stretch_speed * set.scene_extent;
     std::vector<StillPoint> still;
-    std::size_t with_motion = 0, total = 0;
+    std::size_t with_motion = 0, total = 0, unmeasured = 0, fast = 0, changing = 0;
     for (int i = 0; i < nf; ++i) {
       if (!set.points[i]) continue;
       const io::PointCloud& cloud = *set.points[i];
@@ -305,12 +305,18 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         // Standing still: flows of two or more views measure its motion (one view is blind to
         // motion along its viewing direction, and a point no flow sees has velocity zero for want
         // of evidence), below the stretching speed, and its look holds over a neighbour frame.
-        if (find_still && std::max(m.forward_views, m.backward_views) >= 2 &&
-            v.norm() <= max_speed) {
-          const auto [first, last] = unchanged_frames(set, i, views[k], options.stretch_color);
-          if (first < last) {
-            still.push_back({x, colour, first, last});
-            continue;
+        if (find_still) {
+          if (std::max(m.forward_views, m.backward_views) < 2) {
+            ++unmeasured;
+          } else if (v.norm() > max_speed) {
+            ++fast;
+          } else {
+            const auto [first, last] = unchanged_frames(set, i, views[k], options.stretch_color);
+            if (first < last) {
+              still.push_back({x, colour, first, last});
+              continue;
+            }
+            ++changing;
           }
         }
         // Frame t_i seeds interval [t_i, t_{i+1}] (moved forward by ½Δt v) and [t_{i-1}, t_i]
@@ -329,8 +335,9 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       add_still_points(still, set.grid, seeds);
       merged = fmt::format(
           "; static content once: {} still points (stretching criterion) became {} primitives "
-          "spanning their frames",
-          still.size(), seeds.size() - before);
+          "spanning their frames (not still: {} with motion measured by fewer than two views, {} "
+          "faster than stretch_speed, {} whose look changes)",
+          still.size(), seeds.size() - before, unmeasured, fast, changing);
     }
     note = fmt::format("initialisation: {} points from {} frames, {} with flow-based motion{}{}",
                        total, nf, with_motion,
