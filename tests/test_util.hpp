@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "retimegs/core/camera.hpp"
 #include "retimegs/core/error.hpp"
 
 namespace retimegs::test {
@@ -144,6 +145,17 @@ double central_difference(T& value, T step, const Loss& loss) {
   const double minus = loss();
   value = keep;
   return (plus - minus) / (2.0 * double(step));
+}
+
+// A 64x48 pinhole camera (f = 60, principal point at the centre) at `eye` looking at the origin,
+// world up -y: the small view of the CLI tests' hand-made scenes.
+inline Camera small_camera(const std::string& name, const Eigen::Vector3d& eye) {
+  Camera cam;
+  cam.name = name;
+  cam.width = 64, cam.height = 48;
+  cam.fx = cam.fy = 60, cam.cx = 32, cam.cy = 24;
+  cam.world_to_camera = look_at(eye, {0, 0, 0}, {0, -1, 0});
+  return cam;
 }
 
 }  // namespace retimegs::test

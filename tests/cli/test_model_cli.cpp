@@ -29,14 +29,9 @@ struct Fixture {
     scene.root = root / "scene";
     scene.num_frames = 9;
     scene.fps = 24;
-    for (int c = 0; c < 2; ++c) {
-      Camera cam;
-      cam.name = "cam0" + std::to_string(c);
-      cam.width = 64, cam.height = 48;
-      cam.fx = cam.fy = 60, cam.cx = 32, cam.cy = 24;
-      cam.world_to_camera = look_at({2.0 * c - 1.0, -0.5, -4.0}, {0, 0, 0}, {0, -1, 0});
-      scene.cameras.push_back(cam);
-    }
+    for (int c = 0; c < 2; ++c)
+      scene.cameras.push_back(
+          test::small_camera("cam0" + std::to_string(c), {2.0 * c - 1.0, -0.5, -4.0}));
     io::write_scene_json(scene);
     model.grid = {0.0, 2.0, 5};
     std::mt19937 rng(1);

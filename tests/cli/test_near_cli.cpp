@@ -29,11 +29,7 @@ struct Fixture {
     scene.root = root / "scene";
     scene.num_frames = 3;
     scene.fps = 24;
-    Camera cam;
-    cam.name = "cam00";
-    cam.width = 64, cam.height = 48;
-    cam.fx = cam.fy = 60, cam.cx = 32, cam.cy = 24;
-    cam.world_to_camera = look_at({0, 0, -4.0}, {0, 0, 0}, {0, -1, 0});
+    const Camera cam = test::small_camera("cam00", {0, 0, -4.0});
     scene.cameras.push_back(cam);
     for (int k = 0; k < scene.num_frames; ++k)
       io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
