@@ -16,7 +16,7 @@ mkdir -p "$out"
 "$bin" prepare --scene "$out/scene" --train-frames even
 "$bin" sheet --scene "$out/scene" --out "$out/contact_sheet.png"
 rm -rf "$out/run"
-"$bin" train --scene "$out/scene" --out "$out/run" --train-frames even --iters "$iters" --cap 30000
+"$bin" train --scene "$out/scene" --out "$out/run" --train-frames even --iters "$iters" --cap 60000
 "$bin" render --model "$out/run/model.rgs" --scene "$out/scene" --camera cam00 --slowmo 8 \
   --out "$out/slowmo_8x.mp4" --force
 "$bin" eval --model "$out/run/model.rgs" --scene "$out/scene" --frames odd --stability \
