@@ -19,8 +19,10 @@ namespace {
 // Below this many candidate rows the selection runs on one thread (waking the others costs more).
 constexpr std::size_t kParallelCandidates = 4096;
 
-constexpr double kFlowNearZ =
-    1e-2;  // camera z floor for projecting control points (render near plane)
+// Camera z floor when projecting trajectory control points for the flow features: a control
+// point at or behind the camera would divide by a vanishing depth. A guard of its own (gsplat's
+// 0.01), not the render's near plane, which culls whole Gaussians and is the user's (--near).
+constexpr double kFlowNearZ = 1e-2;
 
 // Pixel coordinates of world point p and, when a jacobian is given, d(u, v)/dp [2, 3]. The
 // camera z is floored at kFlowNearZ, where it gets no gradient.
