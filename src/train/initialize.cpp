@@ -269,14 +269,14 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
         io::kRandomPointsTotal, 2 * half, centre.x(), centre.y(), centre.z());
   } else {
-    const bool find_still = options.use_flow && options.static_once && !stgs;
+    const bool flow = options.use_flow && !stgs;
+    const bool find_still = flow && options.static_once;
     const double max_speed = options.stretch_speed * set.scene_extent;
     std::vector<StillPoint> still;
     std::size_t with_motion = 0, total = 0, unmeasured = 0, fast = 0, changing = 0;
     for (int i = 0; i < nf; ++i) {
       if (!set.points[i]) continue;
       const io::PointCloud& cloud = *set.points[i];
-      const bool flow = options.use_flow && !stgs;
       const std::vector<std::vector<PointView>> views =
           flow ? point_views(set, i) : std::vector<std::vector<PointView>>(cloud.size());
       const std::vector<PointMotion> motion =
