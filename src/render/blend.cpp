@@ -428,12 +428,13 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
     for (int column = 0; column < list.columns; ++column) {
       const int i = state_index(row, column);
       const std::size_t pixel = std::size_t(list.y0 + row) * width + list.x0 + column;
-      out.final_T[pixel] = t[i];
-      out.alpha[pixel] = 1.0f - t[i];
-      out.last_contributor[pixel] = last[i];
-      out.n_contrib[pixel] = count[i];
+      simd::store_stream(&out.final_T[pixel], t[i]);
+      simd::store_stream(&out.alpha[pixel], 1.0f - t[i]);
+      simd::store_stream(&out.last_contributor[pixel], last[i]);
+      simd::store_stream(&out.n_contrib[pixel], count[i]);
       for (int c = 0; c < c_image; ++c)
-        out.image.data[pixel * c_image + c] = value[c * kPlane + i] + t[i] * ctx.background[c];
+        simd::store_stream(&out.image.data[pixel * c_image + c],
+                           value[c * kPlane + i] + t[i] * ctx.background[c]);
       if (ctx.options->render_depth) out.depth[pixel] = value[c_image * kPlane + i];
     }
   }
@@ -683,10 +684,11 @@ void blend_forward(const BlendInputs& in, const TileBins& bins, const RenderOpti
       const simd::FlushDenormals flush;
       TileState state;
       // Results do not depend on which thread draws which tile: dynamic balances the load.
-#pragma omp for schedule(dynamic, 1)
+#pragma omp for schedule(dynamic, 1) nowait
       for (int tile = 0; tile < bins.num_tiles(); ++tile) {
         forward_tile<kC>(ctx, rule, TileList(ctx, tile), state, out);
       }
+      simd::stream_fence();  // before the region's closing barrier publishes the outputs
     }
   });
   out.records = std::move(ctx.records);  // the buffer moves: ctx.packed is not used again

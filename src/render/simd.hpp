@@ -14,6 +14,9 @@
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #endif
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "retimegs/render/options.hpp"
 
@@ -40,6 +43,27 @@ inline void store(float* p, vf v) {
 }
 inline void store(std::int32_t* p, vi v) {
   std::memcpy(p, &v, sizeof(v));
+}
+
+// One value stored around the caches (where the instruction set has it): for outputs that
+// another thread or stage reads next, so that writing them does not first fetch the lines.
+inline void store_stream(std::int32_t* p, std::int32_t v) {
+#if defined(__SSE2__)
+  _mm_stream_si32(p, v);
+#else
+  *p = v;
+#endif
+}
+inline void store_stream(float* p, float v) {
+  std::int32_t bits;
+  std::memcpy(&bits, &v, sizeof(v));
+  store_stream(reinterpret_cast<std::int32_t*>(p), bits);
+}
+// Orders the stream stores before the stores that follow (those of other threads included).
+inline void stream_fence() {
+#if defined(__SSE2__)
+  _mm_sfence();
+#endif
 }
 
 #if defined(__AVX512F__)
