@@ -204,11 +204,29 @@ void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid
   }
 }
 
+namespace {
+
+// Whether row `row` of the renderer's gradient has a non-zero entry (the chain rule is linear in
+// it, so a zero row adds exactly zero).
+template <typename T>
+bool has_gradient(const GaussianGradsT<T>& vg, std::size_t row, int channels) {
+  const auto any = [](const T* values, int count) {
+    bool nonzero = false;
+    for (int k = 0; k < count; ++k) nonzero |= values[k] != T(0);
+    return nonzero;
+  };
+  return vg.v_opacities[row] != T(0) || any(&vg.v_means[3 * row], 3) ||
+         any(&vg.v_log_scales[3 * row], 3) || any(&vg.v_quats[4 * row], 4) ||
+         any(&vg.v_features[std::size_t(channels) * row], channels);
+}
+
+}  // namespace
+
 template <typename T>
 void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
                        double t_in, const Camera& camera, const EvaluateOptions& options,
                        const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
-                       PrimitiveGradsT<T>& grads) {
+                       PrimitiveGradsT<T>& grads, std::vector<std::uint8_t>* touched) {
   const T t = T(t_in), step = T(grid.step);
   const int channels = evaluated.gaussians.channels;
   const PinholeT<T> pinhole(camera);
@@ -219,7 +237,9 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   // Every primitive appears at most once in a batch: rows write disjoint gradient slots.
 #pragma omp parallel for schedule(static)
   for (std::size_t row = 0; row < m; ++row) {
+    if (!has_gradient(vg, row, channels)) continue;
     const std::size_t i = evaluated.primitive_from_gaussian[row];
+    if (touched) (*touched)[i] = 1;
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
     T* v_mu = &grads.v_mu[3 * i];
@@ -287,7 +307,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&,              \
                                      const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
-                                     PrimitiveGradsT<T>&);
+                                     PrimitiveGradsT<T>&, std::vector<std::uint8_t>*);
 RETIMEGS_INSTANTIATE(float)
 RETIMEGS_INSTANTIATE(double)
 #undef RETIMEGS_INSTANTIATE

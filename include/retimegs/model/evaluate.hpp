@@ -56,12 +56,16 @@ void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const
               double t, const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out);
 
 // Accumulates (+=) into `grads` (sized to the primitives) the gradient that flows back from
-// `v_gaussians` (the renderer's gradient of the batch `evaluated`).
+// `v_gaussians` (the renderer's gradient of the batch `evaluated`). Rows whose renderer gradient
+// is all zero (the Gaussians the render culled or that reached no pixel) contribute zero and are
+// skipped. When `touched` is given (sized to the primitives), touched[i] is set to 1 for every
+// primitive i that received a gradient.
 template <typename T>
 void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
-                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads);
+                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
+                       std::vector<std::uint8_t>* touched = nullptr);
 
 // The RetimeGS window of primitive i under the model's settings, in T, as evaluate applies it.
 template <typename T>
