@@ -226,7 +226,7 @@ template <typename T>
 void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
                        double t_in, const Camera& camera, const EvaluateOptions& options,
                        const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
-                       PrimitiveGradsT<T>& grads, std::vector<std::uint8_t>* touched) {
+                       PrimitiveGradsT<T>& grads) {
   const T t = T(t_in), step = T(grid.step);
   const int channels = evaluated.gaussians.channels;
   const PinholeT<T> pinhole(camera);
@@ -239,7 +239,6 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   for (std::size_t row = 0; row < m; ++row) {
     if (!has_gradient(vg, row, channels)) continue;
     const std::size_t i = evaluated.primitive_from_gaussian[row];
-    if (touched) (*touched)[i] = 1;
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
     T* v_mu = &grads.v_mu[3 * i];
@@ -307,7 +306,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&,              \
                                      const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
-                                     PrimitiveGradsT<T>&, std::vector<std::uint8_t>*);
+                                     PrimitiveGradsT<T>&);
 RETIMEGS_INSTANTIATE(float)
 RETIMEGS_INSTANTIATE(double)
 #undef RETIMEGS_INSTANTIATE

@@ -197,7 +197,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
                              v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
-                           grads, &touched_);
+                           grads);
   stats.seconds.evaluate_backward += clock.lap();
 }
 
@@ -232,27 +232,22 @@ StepStats Trainer::step_view(int c, int i) {
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
-  touched_.resize(p.size(), 0);
   for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
   stats.renders = int(passes.size());
   Stopwatch clock;
-  updated_.clear();
-  for (const std::int32_t r : active)
-    if (touched_[r]) updated_.push_back(r), touched_[r] = 0;
-  stats.updated = updated_.size();
-  const double reg = regularizer(p, updated_, config_.opacity_reg, config_.scale_reg);
-  regularizer_backward(p, updated_, config_.opacity_reg, config_.scale_reg, grads);
+  const double reg = regularizer(p, active, config_.opacity_reg, config_.scale_reg);
+  regularizer_backward(p, active, config_.opacity_reg, config_.scale_reg, grads);
   stats.loss = stats.image_loss + w_flow * stats.flow_loss + reg;
   stats.flow_weight = w_flow;
 
   // Optimiser step, then relocation, growth, noise and stretching.
   const double decay = lr_factor(it);
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
-  adam_.step(p, grads, updated_, means_decay, decay);
+  adam_.step(p, grads, active, means_decay, decay);
   if (camera_color()) step_camera_color(c, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
-  grads.zero_rows(updated_);
+  grads.zero_rows(active);
   const DensityChanges changes =
       strategy_->after_step(it, stats.lr_means, active, model_, adam_, rng_);
   stats.relocated = changes.relocated, stats.added = changes.added;
@@ -403,7 +398,6 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
                   {"psnr", s.psnr},
                   {"primitives", s.primitives},
                   {"active", s.active},
-                  {"updated", s.updated},
                   {"relocated", s.relocated},
                   {"added", s.added},
                   {"stretched", s.stretched},

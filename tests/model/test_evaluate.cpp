@@ -264,46 +264,6 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
   }
 }
 
-// A row of the renderer's gradient that is all zero (a culled Gaussian) adds nothing and leaves its
-// primitive untouched; every other row's primitive is marked and receives its gradient.
-TEST(Evaluate, BackwardMarksThePrimitivesThatReceivedAGradient) {
-  const Camera cam = small_camera();
-  ModelConfig config;
-  config.sh_degree = 3;
-  EvaluateOptions options;
-  options.min_opacity = 0;
-  options.flow_features = true;
-  const P p = random_primitives(Representation::kRetime, 23, 8);
-  const auto e = evaluate(p, config, kGrid, 4.0, cam, options);
-  ASSERT_GT(e.gaussians.size(), 3u);
-  GaussianGradsT<double> w(e.gaussians.size(), e.gaussians.channels);
-  // Rows 0 and 2 have no gradient, row 1 only in one flow feature, the rest in every field.
-  for (std::size_t row = 3; row < e.gaussians.size(); ++row) {
-    for (int k = 0; k < 3; ++k)
-      w.v_means[3 * row + k] = w.v_log_scales[3 * row + k] = 0.1 * (k + 1);
-    for (int k = 0; k < 4; ++k) w.v_quats[4 * row + k] = 0.2;
-    w.v_opacities[row] = 0.3;
-    for (int k = 0; k < e.gaussians.channels; ++k)
-      w.v_features[e.gaussians.channels * row + k] = 0.4;
-  }
-  w.v_features[e.gaussians.channels * 1 + kBackwardFlowChannel] = 0.5;
-  G grads(p.size());
-  std::vector<std::uint8_t> touched(p.size(), 0);
-  evaluate_backward(p, config, kGrid, 4.0, cam, options, e, w, grads, &touched);
-  for (std::size_t row = 0; row < e.gaussians.size(); ++row) {
-    const std::size_t i = std::size_t(e.primitive_from_gaussian[row]);
-    const bool expected = row == 1 || row >= 3;
-    EXPECT_EQ(touched[i], expected ? 1 : 0) << "row " << row;
-    bool any = false;
-    const std::pair<const std::vector<double>*, int> fields[] = {
-        {&grads.v_mu, 3}, {&grads.v_velocity, 9},     {&grads.v_log_scale, 3},    {&grads.v_q0, 4},
-        {&grads.v_q1, 4}, {&grads.v_sh, P::kShWidth}, {&grads.v_opacity_logit, 1}};
-    for (const auto& [values, width] : fields)
-      for (int k = 0; k < width; ++k) any |= (*values)[i * width + k] != 0;
-    EXPECT_EQ(any, expected) << "row " << row;
-  }
-}
-
 // The selection runs in chunks on all threads and the in-place overload reuses a batch: either
 // way the batch is the value overload's on one thread, byte for byte, for every group, whether the
 // reused batch held a bigger or a smaller one before.

@@ -57,15 +57,13 @@ void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const
 
 // Accumulates (+=) into `grads` (sized to the primitives) the gradient that flows back from
 // `v_gaussians` (the renderer's gradient of the batch `evaluated`). Rows whose renderer gradient
-// is all zero (the Gaussians the render culled or that reached no pixel) contribute zero and are
-// skipped. When `touched` is given (sized to the primitives), touched[i] is set to 1 for every
-// primitive i that received a gradient.
+// is all zero (the Gaussians the render culled or that reached no pixel) add exactly zero and are
+// skipped.
 template <typename T>
 void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
-                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
-                       std::vector<std::uint8_t>* touched = nullptr);
+                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads);
 
 // The RetimeGS window of primitive i under the model's settings, in T, as evaluate applies it.
 template <typename T>

@@ -5,13 +5,10 @@
 // stretching in the density strategy; checkpoints that resume bit-identically.
 //
 // A step at training frame i works on its active set, model::TemporalIndex::rows_at(i): the
-// rows its renders can draw. Evaluation and noise cover those rows only, so a step costs what is
-// visible at its time. Of them, the rows that received a gradient from a render (the primitives
-// the camera saw) are the step's updated rows: the regulariser, Adam (selective, as gsplat's
-// SelectiveAdam with its visibility mask) and the clearing of the gradient buffer cover those
-// only, so a primitive outside the view keeps its parameters and moments. The index is rebuilt
-// whenever the windows may have changed: at the start, after loading a checkpoint and after every
-// strategy call that changed the primitives.
+// rows its renders can draw. Evaluation, the regulariser, Adam (selective), noise and the
+// clearing of the gradient buffer cover those rows only, so a step costs what is visible at its
+// time. The index is rebuilt whenever the windows may have changed: at the start, after loading
+// a checkpoint and after every strategy call that changed the primitives.
 //
 // Per-camera colour (model::CameraColor, unless ablated): every render pass of a step compares
 // exp(m_c) ⊙ RGB + c_c of its camera c with the target; Adam updates (m_c, c_c) at every step of
@@ -60,8 +57,7 @@ struct StepStats {
   double psnr = 0;
   double flow_weight = 0, lr_means = 0;
   std::size_t primitives = 0, relocated = 0, added = 0, stretched = 0, pruned = 0;
-  std::size_t active = 0;   // rows in the step's active set (model::TemporalIndex)
-  std::size_t updated = 0;  // of those, the rows that received a gradient (and an Adam step)
+  std::size_t active = 0;  // rows in the step's active set (model::TemporalIndex)
   StageSeconds seconds;
 };
 
@@ -119,12 +115,8 @@ class Trainer {
   Optimizers adam_;
   model::TemporalIndex index_;
   // The step's gradient, reused across steps: all zero between steps (a step clears the rows it
-  // wrote, its updated rows; grown rows start zero).
+  // wrote, its active set; grown rows start zero).
   model::PrimitiveGrads grads_;
-  // Per primitive, whether a render of the step gave it a gradient (all zero between steps), and
-  // the step's updated rows, ascending.
-  std::vector<std::uint8_t> touched_;
-  std::vector<std::int32_t> updated_;
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
