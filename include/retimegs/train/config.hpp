@@ -60,7 +60,7 @@ struct TrainConfig {
   double gamma = 0.005;  // normalised clip time
 
   // MCMC.
-  std::size_t cap = 300000;  // primitive budget
+  std::size_t cap = 200000;  // primitive budget
   double min_opacity = 0.01, growth = 1.05;
   double init_opacity = 0.1;
 
