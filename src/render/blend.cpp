@@ -435,7 +435,8 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       for (int c = 0; c < c_image; ++c)
         simd::store_stream(&out.image.data[pixel * c_image + c],
                            value[c * kPlane + i] + t[i] * ctx.background[c]);
-      if (ctx.options->render_depth) out.depth[pixel] = value[c_image * kPlane + i];
+      if (ctx.options->render_depth)
+        simd::store_stream(&out.depth[pixel], value[c_image * kPlane + i]);
     }
   }
 }
