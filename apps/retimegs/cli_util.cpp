@@ -5,6 +5,7 @@
 #include <string>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/io/training_views.hpp"
 
 namespace retimegs::app {
 
@@ -97,18 +98,24 @@ std::vector<double> slowmo_times(int num_frames, int factor) {
   return times;
 }
 
-CLI::Option* add_near_option(CLI::App& cmd, double& near) {
-  return cmd
-      .add_option("--near", near,
-                  "near plane in scene units: Gaussians closer to the camera are not drawn. On "
-                  "captures whose cameras see each other (domes, stages), a value beyond a camera "
-                  "body's depth (about 0.3 on Panoptic, in metres) keeps a rig camera's own body "
-                  "out of its renders")
-      ->capture_default_str();
+CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
+  return cmd.add_option(
+      "--near", near,
+      fmt::format("near plane in scene units: Gaussians closer to the camera are not drawn "
+                  "(default: {:g} % of the scene's extent, the training cameras' radius; on a "
+                  "dome it keeps a rig camera's own body, which the other cameras see, out of "
+                  "its renders)",
+                  100 * io::kNearPlaneFraction));
+}
+
+double near_plane(const std::optional<double>& near, const io::Scene& scene) {
+  if (!near) return io::scene_near_plane(scene);
+  if (!(std::isfinite(*near) && *near > 0))
+    fail("--near: must be a finite number > 0, got {}", *near);
+  return *near;
 }
 
 render::RenderOptions near_render_options(double near) {
-  if (!(std::isfinite(near) && near > 0)) fail("--near: must be a finite number > 0, got {}", near);
   render::RenderOptions options;
   options.near_plane = float(near);
   return options;

@@ -1,11 +1,13 @@
 #pragma once
 // Small argument parsers shared by the sub-commands.
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
+#include "retimegs/io/scene.hpp"
 #include "retimegs/render/options.hpp"
 
 namespace retimegs::app {
@@ -32,16 +34,15 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
 // F frames per scene-frame interval over frames 0 .. num_frames - 1: t = k / F, k = 0 .. (K-1) F.
 std::vector<double> slowmo_times(int num_frames, int factor);
 
-// The default of --near: gsplat's near plane, render::RenderOptions' default (written as the
-// double the help text shows).
-constexpr double kDefaultNear = 0.01;
-static_assert(float(kDefaultNear) == render::RenderOptions{}.near_plane);
+// --near D: the near plane of a command's model renders, in scene units, into `near` (empty:
+// the scene's own, io::scene_near_plane). Resolve it with near_plane().
+CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near);
 
-// --near D: the near plane of a command's model renders, in scene units, into `near` (which holds
-// the default). Check it with near_render_options().
-CLI::Option* add_near_option(CLI::App& cmd, double& near);
+// --near when given (throws Error naming --near unless it is finite and > 0), else the scene's
+// near plane.
+double near_plane(const std::optional<double>& near, const io::Scene& scene);
 
-// Render options with near plane `near`; throws Error naming --near unless it is finite and > 0.
+// Render options with near plane `near`.
 render::RenderOptions near_render_options(double near);
 
 }  // namespace retimegs::app

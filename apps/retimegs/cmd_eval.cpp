@@ -22,7 +22,7 @@ void add_eval_command(CLI::App& app) {
     std::string model, baseline, scene, frames = "odd", cameras, lpips, save, out,
                                         train_frames = "even";
     int threads = 0;
-    double near = kDefaultNear;
+    std::optional<double> near;
     bool stability = false;
   };
   auto args = std::make_shared<Args>();
@@ -64,9 +64,9 @@ void add_eval_command(CLI::App& app) {
     set_threads(args->threads);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
     if (!args->baseline.empty() && near->count() > 0)
-      fail("--near {}: a baseline renders no Gaussians; give --near with --model", args->near);
-    const render::RenderOptions render_options = near_render_options(args->near);
+      fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);
     const io::Scene scene = io::read_scene(args->scene);
+    const double near_plane = app::near_plane(args->near, scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
     if (args->cameras.empty())
@@ -91,10 +91,11 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(scene, train_frames,
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
-      renderer = eval::model_renderer(scene, eval::load_model(args->model), render_options);
+      renderer = eval::model_renderer(scene, eval::load_model(args->model),
+                                      near_render_options(near_plane));
     }
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
-    if (args->baseline.empty()) result.near = args->near;
+    if (args->baseline.empty()) result.near = near_plane;
     eval::write_json(result, args->out);
     if (!result.note.empty()) spdlog::info("{}", result.note);
     const auto lpips_text = [](const std::optional<double>& v) {

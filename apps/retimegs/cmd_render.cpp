@@ -22,7 +22,7 @@ void add_render_command(CLI::App& app) {
     std::optional<double> time;
     std::optional<int> slowmo;
     int path_frames = 60, threads = 0;
-    double near = kDefaultNear;
+    std::optional<double> near;
     bool force = false;
   };
   auto args = std::make_shared<Args>();
@@ -67,8 +67,8 @@ void add_render_command(CLI::App& app) {
   cmd->callback([args] {
     set_threads(args->threads);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
-    const render::RenderOptions render_options = near_render_options(args->near);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
+    const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));
     if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
 
     std::vector<double> frame_times;

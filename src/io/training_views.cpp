@@ -57,6 +57,14 @@ TrainingViews training_views(const Scene& scene, FrameSelection which) {
   return views;
 }
 
+double TrainingViews::near_plane() const {
+  return kNearPlaneFraction * extent;
+}
+
+double scene_near_plane(const Scene& scene) {
+  return kNearPlaneFraction * cameras_extent(scene, training_cameras(scene));
+}
+
 Box cameras_look_box(const Scene& scene, const std::vector<int>& cameras) {
   if (cameras.empty()) fail("{}: no cameras to bound the scene", scene.json_path().string());
   const double extent = cameras_extent(scene, cameras);

@@ -160,7 +160,8 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   stats.seconds.evaluate += clock.lap();
   const int channels = e.gaussians.channels;
   const std::vector<float> background(channels, 0.0f);
-  const render::RenderOptions render_options;
+  render::RenderOptions render_options;
+  render_options.near_plane = set_.near_plane;
   render::RenderOutput& out = render_;
   render::rasterize_forward(e.gaussians, camera, background.data(), render_options, out);
   stats.seconds.render_forward += clock.lap();

@@ -30,7 +30,21 @@ struct TrainingViews {
   // 1.1 x the largest distance of a training camera's centre from their mean (gsplat's scene
   // scale; 1 when they coincide or there are none): the unit of learning rates and distances.
   double extent = 1;
+  // The near plane of every render of the scene, training and evaluation alike (see
+  // kNearPlaneFraction).
+  double near_plane() const;
 };
+
+// The near plane as a fraction of the extent. On captures whose cameras see each other (domes,
+// stages) the model holds each rig camera's body, which the other cameras see, a few centimetres
+// in front of that camera's centre (Panoptic: up to about 0.08 m, 2.4 % of its extent). A camera
+// never sees its own body, so a render from a rig camera must not draw it; 3 % clears it with a
+// margin while cutting only what is far closer than any camera of the rig stands to its subject.
+constexpr double kNearPlaneFraction = 0.03;
+
+// TrainingViews::near_plane() of the scene's training cameras: the default near plane of every
+// render of `scene` (train, eval, render).
+double scene_near_plane(const Scene& scene);
 
 // Frames 0, step, 2 step, ... < num_frames (step 2 for kEven, 1 for kAll), and the others:
 // what evaluation scores by default (`eval --frames odd` is held_out_frames of kEven).
