@@ -89,9 +89,9 @@ TEST(NearCli, AGaussianInFrontOfTheCameraCoversTheImageUnlessBeyondTheNearPlane)
   EXPECT_EQ(min_max(io::read_image(dir / "near.png")).second, 0.0f);
 }
 
-// By default the near plane is kNearPlaneFraction of the extent of the training cameras: 3 % of
-// 1.1 x 4 = 0.132 for cameras 8 apart, beyond the Gaussian 0.1 in front of cam00, so render draws
-// nothing; with cam00 alone (extent 1) it is 0.03 and the Gaussian covers the image.
+// By default the near plane is kNearPlaneFraction of the extent of the training cameras: 9 % of
+// 1.1 x 4 = 0.396 for cameras 8 apart, beyond the Gaussian 0.1 in front of cam00, so render draws
+// nothing; with cam00 alone (extent 1) it is 0.09 and the Gaussian covers the image.
 TEST(NearCli, TheDefaultNearPlaneIsTheScenes) {
   test::TempDir dir;
   const Fixture lone(dir / "lone"), rig(dir / "rig", 4.0);

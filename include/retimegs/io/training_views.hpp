@@ -36,11 +36,12 @@ struct TrainingViews {
 };
 
 // The near plane as a fraction of the extent. On captures whose cameras see each other (domes,
-// stages) the model holds each rig camera's body, which the other cameras see, a few centimetres
-// in front of that camera's centre (Panoptic: up to about 0.08 m, 2.4 % of its extent). A camera
-// never sees its own body, so a render from a rig camera must not draw it; 3 % clears it with a
-// margin while cutting only what is far closer than any camera of the rig stands to its subject.
-constexpr double kNearPlaneFraction = 0.03;
+// stages) the model holds each rig camera's body, and the wall around it, as well as the far
+// cameras that see them fix them: blobs up to about 0.3 m in front of a camera centre on Panoptic
+// (9 % of its extent), which a render from that camera would draw over its image. A rig camera
+// looks across the stage at content metres away (on a dome of radius R, the nearest wall in view
+// is more than R away), so culling this close loses nothing it sees.
+constexpr double kNearPlaneFraction = 0.09;
 
 // TrainingViews::near_plane() of the scene's training cameras: the default near plane of every
 // render of `scene` (train, eval, render).
