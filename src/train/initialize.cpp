@@ -184,10 +184,10 @@ struct StillPoint {
 // difference between the pixel at frame j and at `slot` is at most `max_color`. Each camera is
 // compared with itself, so gain and white balance differences between cameras do not count, and
 // the median outvotes the few views a moving object crosses. Returns {slot, slot} when even a
-// neighbour frame differs or fewer than two views see the point.
+// neighbour frame differs or no view sees the point.
 std::pair<int, int> unchanged_frames(const TrainingSet& set, int slot,
                                      const std::vector<PointView>& views, double max_color) {
-  if (views.size() < 2) return {slot, slot};
+  if (views.empty()) return {slot, slot};
   std::vector<float> difference(views.size());
   auto unchanged = [&](int j) {
     for (std::size_t v = 0; v < views.size(); ++v) {
@@ -302,11 +302,15 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
           seeds.add(x, v, colour, set.grid.at(i), half_interval, half_interval);
           continue;
         }
-        // Standing still: flows of two or more views measure its motion (one view is blind to
-        // motion along its viewing direction, and a point no flow sees has velocity zero for want
-        // of evidence), below the stretching speed, and its look holds over a neighbour frame.
+        // Standing still: the flow of at least one view measures its motion (a point no flow sees
+        // has velocity zero for want of evidence), below the stretching speed, and its look holds
+        // over a neighbour frame in every view that sees it. One view suffices: its flow is blind
+        // to motion along its viewing direction, but such a motion changes what the view records
+        // at the point's pixel (another part of the surface, or what lies behind), which the look
+        // test catches. Background seen by a single camera, left out, would start as one copy per
+        // interval; the copies meet at every training frame and make the static world pulse.
         if (find_still) {
-          if (std::max(m.forward_views, m.backward_views) < 2) {
+          if (m.forward_views + m.backward_views == 0) {
             ++unmeasured;
           } else if (v.norm() > max_speed) {
             ++fast;
@@ -335,7 +339,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       add_still_points(still, set.grid, seeds);
       merged = fmt::format(
           "; static content once: {} still points (stretching criterion) became {} primitives "
-          "spanning their frames (not still: {} with motion measured by fewer than two views, {} "
+          "spanning their frames (not still: {} whose motion no flow measures, {} "
           "faster than stretch_speed, {} whose look changes)",
           still.size(), seeds.size() - before, unmeasured, fast, changing);
     }
