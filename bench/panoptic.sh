@@ -6,20 +6,21 @@
 # baselines:
 #   - the odd frames on the training cameras, inside the masks and on the whole image;
 #   - the models' fit on their training frames (the even frames, training cameras, masked);
-#   - the odd frames on the 4 held-out test cameras (novel views, no masks: whole image), with a
-#     near plane of NEAR (0.3 m) so that a rig camera does not look out through its own body,
-#     which the other cameras saw and the model learned;
+#   - the odd frames on the 4 held-out test cameras (novel views, no masks: whole image), at the
+#     scene's near plane (9 % of its extent, 0.30 m here: a rig camera does not look out through
+#     its own body, which the other cameras saw and the model learned) or NEAR when set;
 #   - temporal stability of the 8x slow motion on training cameras 5 and 18 (static pixels:
 #     outside the dilated masks), in 8-bit levels;
 # with each model's primitive count, peak RSS (from the `train` log) and training time.
 # Writes bench/results/panoptic.md and bench/results/panoptic_sheet_{train,test}.png (ground
 # truth | ours | flow | cross-fade at held-out frame 7).
 #
-#   bash bench/panoptic.sh                 # PRESET=fast NEAR=0.3 POINTS= (prepare's default)
+#   bash bench/panoptic.sh                 # PRESET=fast NEAR= (the scene's) POINTS= (prepare's default)
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 preset=${PRESET:-fast}
-near=${NEAR:-0.3}
+near=${NEAR:-}
+near_text=${NEAR:-"the scene's (9 % of its extent, 0.30 m)"}
 points=${POINTS:-}
 data=${DATA:-$root/../shared/data/panoptic-basketball}
 work=${WORK:-$root/bench/results/panoptic}
@@ -54,7 +55,7 @@ for v in "${models[@]}"; do
 done
 for v in "${methods[@]}"; do
   case "$v" in
-    full|stgs) source=(--model "$work/$v/model.rgs" --near "$near") ;;
+    full|stgs) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"}) ;;
     *) source=(--baseline "$v") ;;
   esac
   for split in train test fit stability; do
@@ -95,8 +96,8 @@ cell() {
   echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
   echo "boxes, LPIPS on black-masked images), then the whole image. Fit: masked PSNR on the training"
   echo "frames themselves. Test cameras (0, 10, 15, 30; never trained on; no masks): whole image,"
-  echo "models rendered with a near plane of $near (a rig camera's own body, learned from the other"
-  echo "views, is not drawn in its render)."
+  echo "models rendered with a near plane of $near_text (a rig camera's own body, learned from the"
+  echo "other views, is not drawn in its render)."
   echo "Stability: largest mean absolute change between consecutive frames of the 8x slow motion over"
   echo "static pixels (outside the dilated masks) of cameras $stability_cams, in 8-bit levels."
   echo "Peak RSS and primitives from the train log."

@@ -36,9 +36,9 @@ struct TrainingViews {
 };
 
 // The near plane as a fraction of the extent. On captures whose cameras see each other (domes,
-// stages) the model holds each rig camera's body, and the wall around it, as well as the far
-// cameras that see them fix them: blobs up to about 0.3 m in front of a camera centre on Panoptic
-// (9 % of its extent), which a render from that camera would draw over its image. A rig camera
+// stages) the model holds each rig camera's body and the wall around it, placed only as precisely
+// as the distant cameras that see them allow: blobs up to about 0.3 m in front of a camera centre
+// on Panoptic (9 % of its extent), which a render from that camera would draw over its image. A rig camera
 // looks across the stage at content metres away (on a dome of radius R, the nearest wall in view
 // is more than R away), so culling this close loses nothing it sees.
 constexpr double kNearPlaneFraction = 0.09;
