@@ -101,11 +101,12 @@ std::vector<double> slowmo_times(int num_frames, int factor) {
 CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
   return cmd.add_option(
       "--near", near,
-      fmt::format("near plane in scene units: Gaussians closer to the camera are not drawn "
-                  "(default: {:g} % of the scene's extent, the training cameras' radius; on a "
-                  "dome it keeps a rig camera's own body, which the other cameras see, out of "
-                  "its renders)",
-                  100 * io::kNearPlaneFraction));
+      fmt::format(
+          "near plane in scene units: Gaussians closer to the camera are not drawn "
+          "(default: {:g} % of the scene's extent, 1.1 x the training cameras' radius; on a "
+          "dome it keeps a rig camera's own body, which the other cameras see, out of "
+          "its renders)",
+          100 * io::kNearPlaneFraction));
 }
 
 double near_plane(const std::optional<double>& near, const io::Scene& scene) {
