@@ -57,10 +57,6 @@ TrainingViews training_views(const Scene& scene, FrameSelection which) {
   return views;
 }
 
-double TrainingViews::near_plane() const {
-  return kNearPlaneFraction * extent;
-}
-
 double scene_near_plane(const Scene& scene) {
   return kNearPlaneFraction * cameras_extent(scene, training_cameras(scene));
 }

@@ -34,7 +34,7 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) 
   set.frames = views.frames;
   set.grid = {0.0, double(views.step), int(views.frames.size())};
   set.scene_extent = views.extent;
-  set.near_plane = float(views.near_plane());
+  set.near_plane = float(io::scene_near_plane(scene));
 
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
   set.images.assign(nc, std::vector<PackedImage>(nf));

@@ -30,21 +30,18 @@ struct TrainingViews {
   // 1.1 x the largest distance of a training camera's centre from their mean (gsplat's scene
   // scale; 1 when they coincide or there are none): the unit of learning rates and distances.
   double extent = 1;
-  // The near plane of every render of the scene, training and evaluation alike (see
-  // kNearPlaneFraction).
-  double near_plane() const;
 };
 
 // The near plane as a fraction of the extent. On captures whose cameras see each other (domes,
 // stages) the model holds each rig camera's body and the wall around it, placed only as precisely
 // as the distant cameras that see them allow: blobs up to about 0.3 m in front of a camera centre
-// on Panoptic (9 % of its extent), which a render from that camera would draw over its image. A rig camera
-// looks across the stage at content metres away (on a dome of radius R, the nearest wall in view
-// is more than R away), so culling this close loses nothing it sees.
+// on Panoptic (9 % of its extent), which a render from that camera would draw over its image. A rig
+// camera looks across the stage at content metres away (on a dome of radius R, the nearest wall in
+// view is more than R away), so culling this close loses nothing it sees.
 constexpr double kNearPlaneFraction = 0.09;
 
-// TrainingViews::near_plane() of the scene's training cameras: the default near plane of every
-// render of `scene` (train, eval, render).
+// kNearPlaneFraction x TrainingViews::extent: the near plane of training's renders and the
+// default of eval's and render's.
 double scene_near_plane(const Scene& scene);
 
 // Frames 0, step, 2 step, ... < num_frames (step 2 for kEven, 1 for kAll), and the others:

@@ -26,7 +26,7 @@ struct TrainingSet {
   std::vector<std::optional<io::PointCloud>> points;       // per frame slot
 
   double scene_extent = 1.0;  // io::TrainingViews::extent
-  float near_plane = 0.01f;   // io::TrainingViews::near_plane()
+  float near_plane = 0.01f;   // io::scene_near_plane
   std::size_t flow_files() const;
   std::size_t image_bytes() const;  // of the packed images
 };
