@@ -152,17 +152,25 @@ std::vector<PointMotion> point_motion(const TrainingSet& set, int slot,
   return motion;
 }
 
-// Initial primitives before the budget: position, velocity (per frame), colour and window
+// The velocities of a trajectory's control points, per frame (DESIGN.md §2): v1 carries p0 to
+// p1, v2 p1 to p2 (the primitive's own interval), v3 p2 to p3.
+struct Velocities {
+  Eigen::Vector3d v1 = Eigen::Vector3d::Zero(), v2 = Eigen::Vector3d::Zero(),
+                  v3 = Eigen::Vector3d::Zero();
+};
+
+// Initial primitives before the budget: position, velocities, colour and window
 // [mu_tau - tau_l, mu_tau + tau_r].
 struct Seeds {
-  std::vector<float> xyz, velocity, rgb, mu_tau, tau_l, tau_r;
+  std::vector<float> xyz, velocity, rgb, mu_tau, tau_l, tau_r;  // velocity: v1, v2, v3 per row
 
   std::size_t size() const { return mu_tau.size(); }
-  void add(const Eigen::Vector3d& x, const Eigen::Vector3d& v, const Eigen::Vector3f& colour,
-           double t, double left, double right) {
+  void add(const Eigen::Vector3d& x, const Velocities& v, const Eigen::Vector3f& colour, double t,
+           double left, double right) {
+    for (const Eigen::Vector3d* w : {&v.v1, &v.v2, &v.v3})
+      for (int a = 0; a < 3; ++a) velocity.push_back(float((*w)[a]));
     for (int a = 0; a < 3; ++a) {
       xyz.push_back(float(x[a]));
-      velocity.push_back(float(v[a]));
       rgb.push_back(colour[a]);
     }
     mu_tau.push_back(float(t));
@@ -225,7 +233,7 @@ void add_still_points(const std::vector<StillPoint>& still, const model::TimeGri
     if (!taken.insert({float(s.x.x()), float(s.x.y()), float(s.x.z()), s.first, s.last}).second)
       continue;
     const double mu_tau = grid.at(s.first + (s.last - s.first - 1) / 2) + 0.5 * grid.step;
-    seeds.add(s.x, Eigen::Vector3d::Zero(), s.colour, mu_tau, mu_tau - grid.at(s.first),
+    seeds.add(s.x, Velocities{}, s.colour, mu_tau, mu_tau - grid.at(s.first),
               grid.at(s.last) - mu_tau);
   }
 }
@@ -260,9 +268,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       for (int a = 0; a < 3; ++a) x[a] = centre[a] + half * u(rng);
       for (int a = 0; a < 3; ++a) c[a] = float(colour(rng));
       const int slot = int(k % std::size_t(stgs ? nf : nf - 1));
-      seeds.add(x, Eigen::Vector3d::Zero(), c,
-                stgs ? set.grid.at(slot) : set.grid.at(slot) + half_interval, half_interval,
-                half_interval);
+      seeds.add(x, Velocities{}, c, stgs ? set.grid.at(slot) : set.grid.at(slot) + half_interval,
+                half_interval, half_interval);
     }
     note = fmt::format(
         "initialisation: the scene has no points; {} random points in a box of side "
@@ -298,8 +305,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
             cloud.rgb.empty()
                 ? Eigen::Vector3f(0.5f, 0.5f, 0.5f)
                 : Eigen::Vector3f(cloud.rgb[3 * k], cloud.rgb[3 * k + 1], cloud.rgb[3 * k + 2]);
-        if (stgs) {
-          seeds.add(x, v, colour, set.grid.at(i), half_interval, half_interval);
+        if (stgs) {  // STGS polynomial coefficients start at zero
+          seeds.add(x, Velocities{}, colour, set.grid.at(i), half_interval, half_interval);
           continue;
         }
         // Standing still: the flow of at least one view measures its motion (a point no flow sees
@@ -323,14 +330,22 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
             ++changing;
           }
         }
-        // Frame t_i seeds interval [t_i, t_{i+1}] (moved forward by ½Δt v) and [t_{i-1}, t_i]
-        // (moved back by ½Δt v).
-        for (const int interval : {i, i - 1}) {
-          if (interval < 0 || interval + 1 >= nf) continue;
-          const double sign = interval == i ? 1 : -1;
-          seeds.add(x + sign * half_interval * v, v, colour, set.grid.at(i) + sign * half_interval,
-                    half_interval, half_interval);
-        }
+        // Frame t_i seeds interval [t_i, t_{i+1}] and [t_{i-1}, t_i]. Each control point is where
+        // the flows put the point: p0 at x + backward displacement (t_{i-1}), x itself at t_i, and
+        // x + forward displacement (t_{i+1}); a point no flow measures in one direction moves at
+        // v both ways, and the control point beyond the measured ones continues the last chord
+        // (DESIGN.md §2's fallback at the clip ends). DESIGN.md §2 sets v1 = v2 = v3 = v, the mean
+        // of both displacements: on a curved or accelerating path that straight line misses the
+        // point's position at the interval's far end by the path's bend (a ball turning 1 rad
+        // per interval lands a radius off), so the two seeds of an interval draw two objects.
+        const Eigen::Vector3d into = m.backward_views ? Eigen::Vector3d(-m.backward / step) : v;
+        const Eigen::Vector3d onward = m.forward_views ? Eigen::Vector3d(m.forward / step) : v;
+        if (i + 1 < nf)
+          seeds.add(x + half_interval * onward, {into, onward, onward}, colour,
+                    set.grid.at(i) + half_interval, half_interval, half_interval);
+        if (i > 0)
+          seeds.add(x - half_interval * into, {into, into, onward}, colour,
+                    set.grid.at(i) - half_interval, half_interval, half_interval);
       }
     }
     std::string merged;
@@ -377,9 +392,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       p.log_scale[3 * j + a] = std::log(std::max(scale[j], 1e-7f));
       p.sh[model::Primitives::kShWidth * j + a] =
           float((seeds.rgb[3 * k + a] - 0.5) / model::kShC0);
-      if (!stgs)  // v1 = v2 = v3 (STGS polynomial coefficients start at zero)
-        for (int r = 0; r < 3; ++r) p.velocity[9 * j + 3 * r + a] = seeds.velocity[3 * k + a];
     }
+    for (int a = 0; a < 9; ++a) p.velocity[9 * j + a] = seeds.velocity[9 * k + a];
     p.q0[4 * j] = 1;
     p.opacity_logit[j] = logit;
     p.mu_tau[j] = seeds.mu_tau[k];
