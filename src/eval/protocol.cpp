@@ -113,7 +113,8 @@ json stability_json(const Stability& s) {
          {"max_between", c.max_between ? json::array({c.max_between->first, c.max_between->second})
                                        : json(nullptr)},
          {"static_fraction", c.static_fraction},
-         {"masked", c.masked}});
+         {"masked", c.masked},
+         {"swept", c.swept}});
   return {{"steps", s.steps},
           {"max", optional_json(s.max)},
           {"mean", optional_json(s.mean)},

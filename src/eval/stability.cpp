@@ -16,6 +16,25 @@ namespace {
 // One 8-bit level; the tolerance absorbs float rounding of k / 255.
 constexpr float kOneLevel = 1.0f / 255.0f + 1e-6f;
 
+// Marks in `moving` the pixels that the foreground of `mask` crosses on its way along `flow` (to
+// the frame the flow leads to): each known foreground pixel p sweeps p + s F(p), 0 < s < 1, in
+// steps of at most a pixel.
+void sweep_along_flow(const Image& mask, const Flow& flow, cv::Mat& moving) {
+  const int w = flow.width, h = flow.height;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = std::size_t(y) * w + x;
+      if (!flow.valid[i] || !is_foreground(mask, i)) continue;
+      const double u = flow.uv[2 * i], v = flow.uv[2 * i + 1];
+      const int steps = int(std::ceil(std::hypot(u, v)));
+      for (int k = 1; k < steps; ++k) {
+        const int sx = int(std::lround(x + u * k / steps)),
+                  sy = int(std::lround(y + v * k / steps));
+        if (sx >= 0 && sy >= 0 && sx < w && sy < h) moving.at<unsigned char>(sy, sx) = 1;
+      }
+    }
+}
+
 }  // namespace
 
 int stability_dilation_radius(int width, int height) {
@@ -27,17 +46,27 @@ StaticPixels static_pixels(const io::Scene& scene, int camera) {
   const std::size_t n = std::size_t(cam.width) * cam.height;
   StaticPixels result;
   cv::Mat moving(cam.height, cam.width, CV_8U, cv::Scalar(0));
-  bool all_masks = true;
-  for (int k = 0; k < scene.num_frames && all_masks; ++k) {
-    const std::optional<Image> mask = io::load_mask(scene, camera, k);
-    if (!mask) {
-      all_masks = false;
-      break;
-    }
+  std::vector<Image> masks;
+  for (int k = 0; k < scene.num_frames; ++k) {
+    std::optional<Image> mask = io::load_mask(scene, camera, k);
+    if (!mask) break;
     for (std::size_t i = 0; i < n; ++i)
       if (is_foreground(*mask, i)) moving.data[i] = 1;
+    masks.push_back(std::move(*mask));
   }
-  if (all_masks) {
+  if (int(masks.size()) == scene.num_frames) {
+    // Between frame k and the next frame j the scene has a flow to, the foreground's path.
+    for (int k = 0; k < scene.num_frames; ++k)
+      for (int j = k + 1; j < scene.num_frames; ++j) {
+        const std::optional<Flow> forward = io::load_flow(scene, camera, k, j);
+        const std::optional<Flow> backward = io::load_flow(scene, camera, j, k);
+        if (forward) sweep_along_flow(masks[k], *forward, moving);
+        if (backward) sweep_along_flow(masks[j], *backward, moving);
+        if (forward || backward) {
+          result.swept = true;
+          break;
+        }
+      }
     const int r = stability_dilation_radius(cam.width, cam.height);
     cv::dilate(moving, moving,
                cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
@@ -85,7 +114,7 @@ Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render
     const StaticPixels still = static_pixels(scene, c);
     CameraStability s;
     s.camera = scene.cameras[c].name;
-    s.masked = still.from_masks;
+    s.masked = still.from_masks, s.swept = still.swept;
     const std::size_t n = still.is_static.size();
     const std::size_t count = std::count(still.is_static.begin(), still.is_static.end(), 1);
     s.static_fraction = double(count) / double(n);

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/eval/protocol.hpp"
+#include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "test_util.hpp"
 
@@ -71,6 +72,50 @@ TEST(Stability, StaticPixelsFromMasksOrValues) {
   EXPECT_EQ(at(values, 12, 9), 1);   // no dilation without masks
   EXPECT_EQ(at(values, 30, 30), 1);  // one level of drift is still static
   EXPECT_EQ(at(values, 32, 30), 0);  // two is not
+}
+
+// A 3x3 square that jumps 8 px right per frame: its masks leave 5-px gaps along its path, which
+// the frames' masks call static; the scene's flows (here from frame k to k + 1) say the square
+// crosses them between frames.
+TEST(Stability, TheMasksPathsAlongTheFlowsAreNotStatic) {
+  test::TempDir dir;
+  io::Scene scene;
+  scene.root = dir / "s";
+  scene.num_frames = 4;
+  scene.fps = 10;
+  Camera cam;
+  cam.name = "c0";
+  cam.width = cam.height = kSize;
+  cam.fx = cam.fy = 30, cam.cx = cam.cy = kSize / 2.0;
+  scene.cameras.push_back(cam);
+  auto inside = [](int x, int y, int k) {
+    return x >= 2 + 8 * k && x < 5 + 8 * k && y >= 10 && y < 13;
+  };
+  for (int k = 0; k < 4; ++k) {
+    Image image(kSize, kSize, 3, 0.4f), mask(kSize, kSize, 1, 0.0f);
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x)
+        if (inside(x, y, k)) mask.at(y, x) = 1, image.at(y, x, 0) = 1;
+    io::write_png(scene.image_path(0, k), image);
+    io::write_png(scene.mask_path(0, k), mask);
+  }
+  io::write_scene_json(scene);
+  const auto at = [](const StaticPixels& s, int x, int y) { return s.is_static[y * kSize + x]; };
+  const StaticPixels masks_only = static_pixels(io::read_scene(scene.root), 0);
+  EXPECT_FALSE(masks_only.swept);
+  EXPECT_EQ(at(masks_only, 7, 11), 1);  // in the gap between frames 0 and 1
+  for (int k = 0; k < 3; ++k) {
+    Flow flow(kSize, kSize);
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x)
+        if (inside(x, y, k)) flow.uv[2 * (y * kSize + x)] = 8;
+    io::write_flo(scene.flow_path(0, k, k + 1), flow);
+  }
+  const StaticPixels swept = static_pixels(io::read_scene(scene.root), 0);
+  EXPECT_TRUE(swept.swept);
+  for (const int x : {7, 15, 23}) EXPECT_EQ(at(swept, x, 11), 0) << x;  // the gaps
+  EXPECT_EQ(at(swept, 7, 8), 1);    // two pixels above the path: static
+  EXPECT_EQ(at(swept, 33, 11), 1);  // beyond the last frame
 }
 
 // A render that is the still background plus a pulse of `pulse` levels at the training frames

@@ -53,6 +53,7 @@ struct CameraStability {
   std::optional<std::pair<double, double>> max_between;
   double static_fraction = 0;  // of the image's pixels
   bool masked = false;         // static pixels from masks (else from pixel values)
+  bool swept = false;          // ... and the masks' paths along the scene's flows
 };
 
 struct Stability {
@@ -81,18 +82,23 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
 // The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "whole": {"psnr",
 // "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")}, and
 // "stability": {"steps", "max", "mean", "per_camera": [{"camera", "max_change",
-// "static_fraction", "masked"}]} when measured.
+// "static_fraction", "masked", "swept"}]} when measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.
 void write_json(const EvalResult& result, const std::filesystem::path& path);
 
 // The pixels of `camera` that are static in the ground truth. With a mask at every frame: outside
-// the union over all frames of the masks dilated by stability_dilation_radius() (a mask's soft
-// edge, motion blur and shadows stay out). Otherwise: pixels whose value in no channel varies by
-// more than one 8-bit level over all frames.
+// the union over all frames of the masks and of their paths between frames, dilated by
+// stability_dilation_radius() (a mask's soft edge, motion blur and shadows stay out). The path
+// from frame k to the next frame j that the scene has a flow to (k -> j or j -> k) is swept by
+// carrying each foreground pixel along the flow: an object that moves more than its own size per
+// frame crosses, between frames, pixels no frame's mask covers, and a slow-motion render that
+// draws it there is right, not unstable. Without masks at every frame: pixels whose value in no
+// channel varies by more than one 8-bit level over all frames.
 struct StaticPixels {
   std::vector<unsigned char> is_static;  // [H, W] 1 = static
   bool from_masks = false;
+  bool swept = false;  // some of the masks' paths came from flows
 };
 StaticPixels static_pixels(const io::Scene& scene, int camera);
 // 2 % of the image's larger side, at least one pixel: 13 px at 640x360, 6 px at 256x192.
