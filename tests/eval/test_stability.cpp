@@ -18,20 +18,28 @@ bool in_square(int x, int y, int frame) {
   return x >= 2 + 4 * frame && x < 8 + 4 * frame && y >= 10 && y < 16;
 }
 
-// 5 frames, 40x40: a still grey background (0.4) with the moving square (white). Camera 0 has
-// masks of the square; camera 1 has none, and its pixel (30, 30) drifts by one 8-bit level over
-// the clip while (32, 30) drifts by two.
-io::Scene square_scene(const std::filesystem::path& root) {
+// A scene of `frames` frames and `cameras` cameras c0, c1, ... of kSize x kSize, without files.
+io::Scene blank_scene(const std::filesystem::path& root, int frames, int cameras) {
   io::Scene scene;
   scene.root = root;
-  scene.num_frames = 5;
+  scene.num_frames = frames;
   scene.fps = 10;
-  for (int c = 0; c < 2; ++c) {
+  for (int c = 0; c < cameras; ++c) {
     Camera cam;
     cam.name = "c" + std::to_string(c);
     cam.width = cam.height = kSize;
     cam.fx = cam.fy = 30, cam.cx = cam.cy = kSize / 2.0;
     scene.cameras.push_back(cam);
+  }
+  return scene;
+}
+
+// 5 frames, 40x40: a still grey background (0.4) with the moving square (white). Camera 0 has
+// masks of the square; camera 1 has none, and its pixel (30, 30) drifts by one 8-bit level over
+// the clip while (32, 30) drifts by two.
+io::Scene square_scene(const std::filesystem::path& root) {
+  io::Scene scene = blank_scene(root, 5, 2);
+  for (int c = 0; c < 2; ++c) {
     for (int k = 0; k < 5; ++k) {
       Image image(kSize, kSize, 3, 100 / 255.0f);
       Image mask(kSize, kSize, 1, 0.0f);
@@ -79,15 +87,7 @@ TEST(Stability, StaticPixelsFromMasksOrValues) {
 // crosses them between frames.
 TEST(Stability, TheMasksPathsAlongTheFlowsAreNotStatic) {
   test::TempDir dir;
-  io::Scene scene;
-  scene.root = dir / "s";
-  scene.num_frames = 4;
-  scene.fps = 10;
-  Camera cam;
-  cam.name = "c0";
-  cam.width = cam.height = kSize;
-  cam.fx = cam.fy = 30, cam.cx = cam.cy = kSize / 2.0;
-  scene.cameras.push_back(cam);
+  const io::Scene scene = blank_scene(dir / "s", 4, 1);
   auto inside = [](int x, int y, int k) {
     return x >= 2 + 8 * k && x < 5 + 8 * k && y >= 10 && y < 13;
   };
