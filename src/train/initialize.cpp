@@ -336,8 +336,9 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         // v both ways, and the control point beyond the measured ones continues the last chord
         // (DESIGN.md §2's fallback at the clip ends). DESIGN.md §2 sets v1 = v2 = v3 = v, the mean
         // of both displacements: on a curved or accelerating path that straight line misses the
-        // point's position at the interval's far end by the path's bend (a ball turning 1 rad
-        // per interval lands a radius off), so the two seeds of an interval draw two objects.
+        // point's position at the interval's far end by the path's bend (the fast synthetic
+        // ball, turning 1 rad per interval, lands 0.7 m off), so the two seeds of an interval draw
+        // two objects.
         const Eigen::Vector3d into = m.backward_views ? Eigen::Vector3d(-m.backward / step) : v;
         const Eigen::Vector3d onward = m.forward_views ? Eigen::Vector3d(m.forward / step) : v;
         if (i + 1 < nf)
