@@ -156,10 +156,10 @@ void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, d
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t j = 0; j < count; ++j) {
     const std::size_t i = std::size_t(rows[j]);
-    const Eigen::Vector3f eps = normal3(key, i);
     const double sigma = opacity_of(p, i);
     const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));
     if (gate < 1e-12 || moves_past_itself(p, i, interval)) continue;
+    const Eigen::Vector3f eps = normal3(key, i);
     const Eigen::Quaternionf q(p.q0[4 * i], p.q0[4 * i + 1], p.q0[4 * i + 2], p.q0[4 * i + 3]);
     const Eigen::Matrix3f r = q.normalized().toRotationMatrix();
     const Eigen::Vector3f s2(std::exp(2 * p.log_scale[3 * i]), std::exp(2 * p.log_scale[3 * i + 1]),
