@@ -14,7 +14,9 @@
 // losses with their gradients; other: the rest of the step, noise injection and the clearing of
 // the gradient rows included), relocation_ms, the amortised relocation, and `active`, the rows in
 // the step's active set.
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -70,7 +72,9 @@ train::TrainingSet synthetic_set() {
 
 // `total` primitives in the cube, each of one interval [t_k, t_{k+1}] as initialisation makes them;
 // `active` of them in the intervals either side of kStepFrame, the rest spread over the others.
-// 5 % are dead (opacity under the relocation threshold).
+// 5 % are dead (opacity under the relocation threshold). The rows come in random order, as
+// relocation and growth leave them after a while of training; the trainer puts them in its
+// locality order.
 model::Primitives synthetic_primitives(std::size_t total, std::size_t active) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<float> unit(-1, 1), colour(0, 1);
@@ -95,6 +99,10 @@ model::Primitives synthetic_primitives(std::size_t total, std::size_t active) {
     p.mu_tau[j] = float(kFrameStep * (interval + 0.5));
     p.tau_l[j] = p.tau_r[j] = float(kFrameStep / 2);
   }
+  std::vector<std::int32_t> old_from_new(total);
+  std::iota(old_from_new.begin(), old_from_new.end(), 0);
+  std::shuffle(old_from_new.begin(), old_from_new.end(), rng);
+  p.reorder(old_from_new);
   return p;
 }
 

@@ -47,7 +47,7 @@ FrameRange frames_around(double centre, const TimeGrid& grid, const Holds& holds
 template <typename T>
 TemporalIndex::TemporalIndex(const PrimitivesT<T>& p, const ModelConfig& config,
                              const TimeGrid& grid, double min_opacity)
-    : frames_(grid.count) {
+    : frames_(grid.count), size_(p.size()) {
   const std::size_t n = p.size();
   if (config.representation == Representation::kStgs) {
     every_row_ = true;
@@ -93,6 +93,23 @@ const std::vector<std::int32_t>& TemporalIndex::rows_at(int frame) const {
   if (frame < 0 || frame >= frames_)
     fail("temporal index: frame {} is not among the {} training frames", frame, frames_);
   return rows_[every_row_ ? 0 : frame];
+}
+
+std::vector<std::int32_t> TemporalIndex::locality_order() const {
+  std::vector<std::int32_t> old_from_new(size_);
+  std::iota(old_from_new.begin(), old_from_new.end(), 0);
+  if (every_row_) return old_from_new;
+  const int none = frames_;  // sorts after every frame
+  std::vector<int> first(size_, none), last(size_, none);
+  for (int j = 0; j < frames_; ++j)
+    for (const std::int32_t i : rows_[j]) {
+      if (first[i] == none) first[i] = j;
+      last[i] = j;
+    }
+  std::stable_sort(old_from_new.begin(), old_from_new.end(), [&](std::int32_t a, std::int32_t b) {
+    return std::pair(first[a], last[a]) < std::pair(first[b], last[b]);
+  });
+  return old_from_new;
 }
 
 template TemporalIndex::TemporalIndex(const PrimitivesT<float>&, const ModelConfig&,

@@ -99,6 +99,11 @@ void Adam::resize(std::size_t rows) {
   v_.resize(rows * width_, 0.0f);
 }
 
+void Adam::reorder(const std::vector<std::int32_t>& old_from_new) {
+  model::reorder_rows(m_, width_, old_from_new);
+  model::reorder_rows(v_, width_, old_from_new);
+}
+
 Optimizers::Optimizers(const model::Primitives& p, model::Representation representation,
                        const TrainConfig& config, double scene_extent, double frame_step) {
   const std::size_t count =
@@ -138,6 +143,10 @@ void Optimizers::reset_rows(const std::vector<std::int32_t>& rows) {
 
 void Optimizers::resize(std::size_t rows) {
   for (Group& g : groups_) g.adam.resize(rows);
+}
+
+void Optimizers::reorder(const std::vector<std::int32_t>& old_from_new) {
+  for (Group& g : groups_) g.adam.reorder(old_from_new);
 }
 
 }  // namespace retimegs::train

@@ -120,6 +120,57 @@ TEST(TemporalIndex, StgsListsEveryRowAtEveryFrame) {
   std::vector<std::int32_t> all(p.size());
   for (std::size_t r = 0; r < p.size(); ++r) all[r] = std::int32_t(r);
   for (int i = 0; i < kGrid.count; ++i) EXPECT_EQ(index.rows_at(i), all) << i;
+  EXPECT_EQ(index.locality_order(), all);
+}
+
+// After reordering by locality_order, frame j's rows are the same primitives and form at most j + 1
+// runs of consecutive rows; the order is stable (rows of equal frames keep their order) and a
+// second pass leaves it as it is.
+TEST(TemporalIndex, LocalityOrderPutsEachFramesRowsInFewRuns) {
+  const ModelConfig config;
+  Primitives p = random_primitives(2000, 5);
+  for (std::size_t i = 0; i < p.size(); ++i) p.sh[Primitives::kShWidth * i + 3] = float(i);  // tag
+  const TemporalIndex before(p, config, kGrid);
+  const std::vector<std::int32_t> old_from_new = before.locality_order();
+  std::vector<std::int32_t> sorted = old_from_new;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 0; k < sorted.size(); ++k) ASSERT_EQ(sorted[k], std::int32_t(k));
+  p.reorder(old_from_new);
+  const auto tag = [&](std::int32_t row) { return p.sh[Primitives::kShWidth * row + 3]; };
+  for (std::size_t k = 0; k < p.size(); ++k)
+    ASSERT_EQ(tag(std::int32_t(k)), float(old_from_new[k]));
+  const TemporalIndex after(p, config, kGrid);
+  std::size_t scattered_runs = 0;
+  for (int j = 0; j < kGrid.count; ++j) {
+    const std::vector<std::int32_t>& rows = after.rows_at(j);
+    std::vector<float> now, then;
+    for (const std::int32_t r : rows) now.push_back(tag(r));
+    for (const std::int32_t r : before.rows_at(j)) then.push_back(float(r));
+    std::sort(now.begin(), now.end());
+    EXPECT_EQ(now, then) << j;
+    std::size_t runs = rows.empty() ? 0 : 1;
+    for (std::size_t k = 1; k < rows.size(); ++k) runs += rows[k] != rows[k - 1] + 1;
+    EXPECT_LE(runs, std::size_t(j + 1)) << j;
+    const std::vector<std::int32_t>& old_rows = before.rows_at(j);
+    for (std::size_t k = 1; k < old_rows.size(); ++k)
+      scattered_runs += old_rows[k] != old_rows[k - 1] + 1;
+  }
+  EXPECT_GT(scattered_runs, std::size_t(10 * kGrid.count));  // the test's rows start scattered
+  const std::vector<std::int32_t> again = after.locality_order();
+  for (std::size_t k = 0; k < again.size(); ++k) ASSERT_EQ(again[k], std::int32_t(k));
+  // Stable: rows with the same frames keep their relative order.
+  for (std::size_t k = 1; k < old_from_new.size(); ++k) {
+    const auto frames_of = [&](std::int32_t old_row) {
+      std::vector<int> frames;
+      for (int j = 0; j < kGrid.count; ++j)
+        if (std::binary_search(before.rows_at(j).begin(), before.rows_at(j).end(), old_row))
+          frames.push_back(j);
+      return frames;
+    };
+    if (frames_of(old_from_new[k]) == frames_of(old_from_new[k - 1]))
+      ASSERT_LT(old_from_new[k - 1], old_from_new[k]) << k;
+  }
+  EXPECT_THROW(reorder_rows(p.mu, 3, std::vector<std::int32_t>(5)), Error);
 }
 
 TEST(Evaluate, OverTheIndexRowsEqualsTheFullScan) {

@@ -52,6 +52,36 @@ TEST(Adam, ResetRowsAndGrowthStartFromZeroState) {
   EXPECT_LT(p[2], before);
 }
 
+// Reordering the moments with the rows: a group stepped, reordered, then stepped on reordered
+// gradients holds, bit for bit, the reordered state of a group stepped throughout in the old order.
+TEST(Adam, ReorderMovesEachRowsMomentsWithIt) {
+  constexpr int kRows = 5, kWidth = 2;
+  const std::vector<std::int32_t> old_from_new = {3, 0, 4, 2, 1};
+  std::mt19937 rng(4);
+  std::normal_distribution<float> normal;
+  std::vector<float> g1(kRows * kWidth), g2(kRows * kWidth), p(kRows * kWidth);
+  for (float& v : g1) v = normal(rng);
+  for (float& v : g2) v = normal(rng);
+  for (float& v : p) v = normal(rng);
+  Adam kept(kRows, kWidth), moved(kRows, kWidth);
+  std::vector<float> p_kept = p, p_moved = p;
+  kept.step(p_kept.data(), g1.data(), 0.01);
+  moved.step(p_moved.data(), g1.data(), 0.01);
+  moved.reorder(old_from_new);
+  model::reorder_rows(p_moved, kWidth, old_from_new);
+  std::vector<float> g2_moved = g2;
+  model::reorder_rows(g2_moved, kWidth, old_from_new);
+  kept.step(p_kept.data(), g2.data(), 0.01);
+  moved.step(p_moved.data(), g2_moved.data(), 0.01);
+  for (int k = 0; k < kRows; ++k)
+    for (int a = 0; a < kWidth; ++a) {
+      const std::size_t from = std::size_t(old_from_new[k]) * kWidth + a, to = k * kWidth + a;
+      EXPECT_EQ(p_moved[to], p_kept[from]) << k;
+      EXPECT_EQ(moved.m()[to], kept.m()[from]) << k;
+      EXPECT_EQ(moved.v()[to], kept.v()[from]) << k;
+    }
+}
+
 // Selective steps over 6 rows of width 3: rows 0 and 3 are in every step's set, rows 1 and 4 in
 // every other one, row 5 in none. Rows in every set evolve bit for bit as under dense Adam; a row
 // outside a step's set keeps its parameters and both moments; the step count is the group's.

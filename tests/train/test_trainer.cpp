@@ -2,6 +2,7 @@
 // in-between frames; resuming from a checkpoint reproduces the uninterrupted run bit for bit; the
 // same seed gives the same model.
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -126,6 +127,52 @@ TEST(Trainer, AStepChangesOnlyItsActiveRows) {
     }
     EXPECT_EQ(changed, s.active) << "every active row moves (Adam's first step moves every row)";
   }
+}
+
+// The trainer keeps its rows in the temporal index's locality order: a starting model in any order
+// is reordered (the same primitives), and so is the model after relocation, growth and stretching.
+TEST(Trainer, KeepsItsRowsInLocalityOrder) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);
+  TrainConfig config;
+  config.iters = 60;  // milestones scaled: relocation and growth every step, stretching at 9
+  config.cap = 1500;
+  Trainer drawn(set, config);
+  drawn.initialize();
+  model::Primitives shuffled = drawn.model().primitives;
+  std::vector<std::int32_t> old_from_new(shuffled.size());
+  for (std::size_t k = 0; k < old_from_new.size(); ++k)
+    old_from_new[k] = std::int32_t((k * 7919) % old_from_new.size());
+  shuffled.reorder(old_from_new);
+  const auto in_order = [&](const model::Primitives& p) {
+    const std::vector<std::int32_t> order =
+        model::TemporalIndex(p, drawn.model().config, drawn.model().grid).locality_order();
+    for (std::size_t k = 0; k < order.size(); ++k)
+      if (order[k] != std::int32_t(k)) return false;
+    return true;
+  };
+  ASSERT_TRUE(in_order(drawn.model().primitives));
+  ASSERT_FALSE(in_order(shuffled));
+  Trainer trainer(set, config);
+  trainer.initialize(shuffled);
+  EXPECT_TRUE(in_order(trainer.model().primitives));
+  const auto rows = [](const model::Primitives& p) {  // the rows' means and colours, sorted
+    std::vector<std::array<float, 6>> out(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (int a = 0; a < 3; ++a)
+        out[i][a] = p.mu[3 * i + a], out[i][3 + a] = p.sh[model::Primitives::kShWidth * i + a];
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(rows(trainer.model().primitives), rows(drawn.model().primitives));
+  int changed = 0;
+  for (int it = 0; it < config.iters; ++it) {
+    const StepStats s = trainer.step();
+    changed += s.relocated + s.added + s.stretched > 0;
+    ASSERT_TRUE(in_order(trainer.model().primitives)) << "after step " << s.iteration;
+  }
+  EXPECT_GT(changed, 5);
 }
 
 TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {

@@ -39,6 +39,11 @@ struct ModelConfig {
   int sh_degree = 3;      // active SH degree (training raises it gradually)
 };
 
+// Rows of `width` values of `values` in the order old_from_new (new row k is old row
+// old_from_new[k]); throws Error unless old_from_new has one entry per row.
+template <typename T>
+void reorder_rows(std::vector<T>& values, int width, const std::vector<std::int32_t>& old_from_new);
+
 // One row per primitive. Optimised fields first, then the window that only stretching changes.
 //   Retime: x(t) from μ and v1, v2, v3 (Catmull-Rom control points, DESIGN.md §2),
 //           σ_τ(t) from (μ_τ, τ_l, τ_r).
@@ -87,6 +92,11 @@ struct PrimitivesT {
     for (int i = 0; i < kFieldCount; ++i)
       std::copy_n(src[i].values->data() + from * src[i].width, src[i].width,
                   dst[i].values->data() + to * dst[i].width);
+  }
+  // Puts the rows in the order old_from_new (a permutation of the rows): new row k is old row
+  // old_from_new[k].
+  void reorder(const std::vector<std::int32_t>& old_from_new) {
+    for (Field f : fields()) reorder_rows(*f.values, f.width, old_from_new);
   }
 
  private:

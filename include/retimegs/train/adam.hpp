@@ -40,6 +40,8 @@ class Adam {
   void reset_rows(const std::vector<std::int32_t>& rows);
   // Grows (zero state) or shrinks to `rows` rows.
   void resize(std::size_t rows);
+  // Moves the rows' moments with their parameters (model::PrimitivesT::reorder).
+  void reorder(const std::vector<std::int32_t>& old_from_new);
 
   std::size_t rows() const { return width_ ? m_.size() / width_ : 0; }
   std::int64_t steps() const { return steps_; }
@@ -81,9 +83,10 @@ class Optimizers {
             const std::vector<std::int32_t>& rows, double means_decay, double decay);
   // The means' rate of a step with these factors.
   double means_rate(double means_decay, double decay) const;
-  // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows.
+  // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows; rows moved.
   void reset_rows(const std::vector<std::int32_t>& rows);
   void resize(std::size_t rows);
+  void reorder(const std::vector<std::int32_t>& old_from_new);
 
   // The (name, adam) groups, for checkpoints.
   std::vector<Group>::iterator begin() { return groups_.begin(); }

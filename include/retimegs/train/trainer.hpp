@@ -93,7 +93,8 @@ class Trainer {
   double flow_weight(int it) const;
   double lr_factor(int it) const;
   void make_optimizers();
-  // The temporal index of the current primitives.
+  // The temporal index of the current primitives, after putting the rows (with their Adam state)
+  // in its locality order.
   void rebuild_index();
   bool camera_color() const { return !config_.ablate.no_camera_color; }
   // The colour correction of training camera slot c.
