@@ -105,7 +105,8 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const
 
 template <typename T>
 void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid, double t_in,
-              const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out) {
+              const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out,
+              const ShadedT<T>* shaded) {
   if (!std::isfinite(t_in)) fail("evaluate: time {} is not finite", t_in);
   if (options.group != Group::kAll) {
     if (config.representation == Representation::kStgs)
@@ -186,7 +187,10 @@ void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid
     for (int a = 0; a < 4; ++a) g.quats[4 * row + a] = p.q0[4 * i + a] + p.q1[4 * i + a] * dt;
     const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     T* features = &g.features[channels * row];
-    sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, features);
+    if (shaded)
+      std::copy_n(&shaded->rgb[3 * i], 3, features);
+    else
+      sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, features);
     if (options.flow_features) {
       const FlowRule rule = flow_rule(p.mu_tau[i], t);
       T pb[3], pf[3], pk[3], uv_b[2], uv_f[2], uv_k[2];
@@ -226,7 +230,7 @@ template <typename T>
 void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
                        double t_in, const Camera& camera, const EvaluateOptions& options,
                        const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
-                       PrimitiveGradsT<T>& grads) {
+                       PrimitiveGradsT<T>& grads, ShadedT<T>* shaded) {
   const T t = T(t_in), step = T(grid.step);
   const int channels = evaluated.gaussians.channels;
   const PinholeT<T> pinhole(camera);
@@ -264,12 +268,16 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
     // Position: directly and through the view direction of the SH colour.
     const auto coefficients =
         trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
-    T x[3];
-    apply_trajectory(coefficients, mu, v, x);
     T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
-    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
-    sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, &vg.v_features[channels * row],
-                 &grads.v_sh[kSh * i], v_x);
+    const T* v_rgb = &vg.v_features[channels * row];
+    if (shaded) {
+      for (int a = 0; a < 3; ++a) shaded->v_rgb[3 * i + a] += v_rgb[a];
+    } else {
+      T x[3];
+      apply_trajectory(coefficients, mu, v, x);
+      const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
+      sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, v_rgb, &grads.v_sh[kSh * i], v_x);
+    }
     apply_trajectory_vjp(config.representation, coefficients, v, v_x, v_mu, v_v, v_mu_tau);
     // Flow features: differences of projected control points.
     if (options.flow_features) {
@@ -296,17 +304,71 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   }
 }
 
+template <typename T>
+void shade(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid, double t_in,
+           const Camera& camera, const std::vector<std::int32_t>& rows, ShadedT<T>& out) {
+  const T t = T(t_in), step = T(grid.step);
+  const std::array<T, 3> eye = eye_of<T>(camera);
+  out.rgb.resize(3 * p.size());
+  out.v_rgb.resize(3 * p.size());
+  const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < count; ++k) {
+    const std::size_t i = std::size_t(rows[k]);
+    T x[3];
+    apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step),
+                     &p.mu[3 * i], &p.velocity[9 * i], x);
+    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
+    sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, &out.rgb[3 * i]);
+    std::fill_n(&out.v_rgb[3 * i], 3, T(0));
+  }
+}
+
+template <typename T>
+void shade_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
+                    double t_in, const Camera& camera, const std::vector<std::int32_t>& rows,
+                    const ShadedT<T>& shaded, PrimitiveGradsT<T>& grads) {
+  const T t = T(t_in), step = T(grid.step);
+  const std::array<T, 3> eye = eye_of<T>(camera);
+  constexpr int kSh = PrimitivesT<T>::kShWidth;
+  const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < count; ++k) {
+    const std::size_t i = std::size_t(rows[k]);
+    const T* v_rgb = &shaded.v_rgb[3 * i];
+    if (v_rgb[0] == T(0) && v_rgb[1] == T(0) && v_rgb[2] == T(0)) continue;
+    const T* mu = &p.mu[3 * i];
+    const T* v = &p.velocity[9 * i];
+    const auto coefficients =
+        trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
+    T x[3];
+    apply_trajectory(coefficients, mu, v, x);
+    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
+    T v_x[3] = {0, 0, 0}, v_mu_tau = 0;
+    sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, v_rgb, &grads.v_sh[kSh * i], v_x);
+    apply_trajectory_vjp(config.representation, coefficients, v, v_x, &grads.v_mu[3 * i],
+                         &grads.v_velocity[9 * i], v_mu_tau);
+    if (config.representation == Representation::kStgs) grads.v_mu_tau[i] += v_mu_tau;
+  }
+}
+
 #define RETIMEGS_INSTANTIATE(T)                                                                  \
   template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,              \
                             const TimeGrid&, double, Group);                                     \
   template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&);             \
   template void evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,  \
-                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&);              \
+                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&,               \
+                            const ShadedT<T>*);                                                  \
   template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
                                      double, const Camera&, const EvaluateOptions&,              \
                                      const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
-                                     PrimitiveGradsT<T>&);
+                                     PrimitiveGradsT<T>&, ShadedT<T>*);                          \
+  template void shade<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,     \
+                         const Camera&, const std::vector<std::int32_t>&, ShadedT<T>&);          \
+  template void shade_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \
+                                  double, const Camera&, const std::vector<std::int32_t>&,       \
+                                  const ShadedT<T>&, PrimitiveGradsT<T>&);
 RETIMEGS_INSTANTIATE(float)
 RETIMEGS_INSTANTIATE(double)
 #undef RETIMEGS_INSTANTIATE

@@ -164,7 +164,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   eo.rows = &active;
   Stopwatch clock;
   model::Evaluated& e = evaluated_[int(pass.group)];
-  model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo, e);
+  model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo, e, &shaded_);
   stats.seconds.evaluate += clock.lap();
   const int channels = e.gaussians.channels;
   const std::vector<float> background(channels, 0.0f);
@@ -206,7 +206,7 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
                              v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
-                           grads);
+                           grads, &shaded_);
   stats.seconds.evaluate_backward += clock.lap();
 }
 
@@ -241,8 +241,16 @@ StepStats Trainer::step_view(int c, int i) {
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
+  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  Stopwatch shade_clock;
+  model::shade(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_);
+  stats.seconds.evaluate += shade_clock.lap();
   for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
   stats.renders = int(passes.size());
+  shade_clock.lap();
+  model::shade_backward(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_,
+                        grads);
+  stats.seconds.evaluate_backward += shade_clock.lap();
   Stopwatch clock;
   const double reg = regularizer(p, active, config_.opacity_reg, config_.scale_reg);
   regularizer_backward(p, active, config_.opacity_reg, config_.scale_reg, grads);

@@ -168,6 +168,62 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
   }
 }
 
+// A step's renders sharing one shading (shade, then evaluate and evaluate_backward given it, then
+// shade_backward) give the same batches, bit for bit, and the same gradient as each render
+// evaluating and differentiating its own SH colours: the triple render at a training time, and
+// STGS's single render.
+TEST(Evaluate, SharedShadingEqualsPerRenderShading) {
+  const Camera cam = small_camera();
+  EvaluateOptions all, left, right;
+  all.min_opacity = left.min_opacity = right.min_opacity = 0;
+  left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
+  right.group = Group::kRight, right.compensate = true, right.flow_features = true;
+  struct SharedCase {
+    Representation rep;
+    double t;
+    std::vector<EvaluateOptions> passes;
+  };
+  for (const SharedCase& c : {SharedCase{Representation::kRetime, 4.0, {all, left, right}},
+                              SharedCase{Representation::kStgs, 3.4, {all}}}) {
+    SCOPED_TRACE(int(c.rep));
+    ModelConfig config;
+    config.representation = c.rep;
+    const P p = random_primitives(c.rep, 23, 12);
+    std::vector<std::int32_t> rows(p.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = std::int32_t(i);
+    ShadedT<double> shaded;
+    shade(p, config, kGrid, c.t, cam, rows, shaded);
+    G own(p.size()), shared(p.size());
+    std::mt19937 rng(9);
+    std::normal_distribution<double> normal;
+    for (EvaluateOptions options : c.passes) {
+      options.rows = &rows;
+      const auto plain = evaluate(p, config, kGrid, c.t, cam, options);
+      EvaluatedT<double> with;
+      evaluate(p, config, kGrid, c.t, cam, options, with, &shaded);
+      ASSERT_GT(plain.gaussians.size(), 0u);
+      EXPECT_EQ(with.gaussians.features, plain.gaussians.features);
+      EXPECT_EQ(with.gaussians.means, plain.gaussians.means);
+      EXPECT_EQ(with.primitive_from_gaussian, plain.primitive_from_gaussian);
+      GaussianGradsT<double> w(plain.gaussians.size(), plain.gaussians.channels);
+      for (auto* v : {&w.v_means, &w.v_log_scales, &w.v_quats, &w.v_opacities, &w.v_features})
+        for (double& x : *v) x = normal(rng);
+      evaluate_backward(p, config, kGrid, c.t, cam, options, plain, w, own);
+      evaluate_backward(p, config, kGrid, c.t, cam, options, with, w, shared, &shaded);
+    }
+    shade_backward(p, config, kGrid, c.t, cam, rows, shaded, shared);
+    const auto expected = gradients(own, c.rep, config.sh_degree);
+    const auto actual = gradients(shared, c.rep, config.sh_degree);
+    ASSERT_EQ(expected.size(), actual.size());
+    int nonzero = 0;
+    for (std::size_t k = 0; k < expected.size(); ++k) {
+      EXPECT_NEAR(*actual[k], *expected[k], 1e-12 * (1 + std::abs(*expected[k]))) << k;
+      nonzero += *expected[k] != 0;
+    }
+    EXPECT_GT(nonzero, int(expected.size()) / 2);
+  }
+}
+
 TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
   const Camera cam = small_camera();
   ModelConfig config;

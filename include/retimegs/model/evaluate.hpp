@@ -36,6 +36,18 @@ struct EvaluateOptions {
   const std::vector<std::int32_t>* rows = nullptr;
 };
 
+// The SH colours of one time and camera, shared by a training step's renders: its triple render
+// draws every primitive at the same position, hence view direction, in each pass. shade() fills
+// `rgb` on the given rows and clears their `v_rgb`; evaluate given them copies each colour instead
+// of evaluating the SH, evaluate_backward adds each colour's gradient into v_rgb instead of
+// differentiating the SH, and shade_backward then differentiates the SH once per row: the same
+// gradient as per render, since the SH's VJP is linear in the colour's gradient.
+template <typename T>
+struct ShadedT {
+  std::vector<T> rgb, v_rgb;  // [N, 3]; valid on the rows shade() was given
+};
+using Shaded = ShadedT<float>;
+
 template <typename T>
 struct EvaluatedT {
   GaussiansT<T> gaussians;                            // [M] rows, channels 3 or 3 + kFlowChannels
@@ -51,19 +63,36 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& primitives, const ModelConfig& conf
                        const EvaluateOptions& options);
 // The same batch written into `out`, whose arrays keep their capacity: a caller that evaluates
 // every step (the Trainer) reuses one EvaluatedT per render instead of allocating it.
+// `shaded`, when given, holds the colours at (t, camera) of every row the batch can select.
 template <typename T>
 void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
-              double t, const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out);
+              double t, const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out,
+              const ShadedT<T>* shaded = nullptr);
 
 // Accumulates (+=) into `grads` (sized to the primitives) the gradient that flows back from
 // `v_gaussians` (the renderer's gradient of the batch `evaluated`). Rows whose renderer gradient
 // is all zero (the Gaussians the render culled or that reached no pixel) add exactly zero and are
-// skipped.
+// skipped. With `shaded` (as given to evaluate) the colours' gradient is added into
+// shaded->v_rgb, for shade_backward, instead of being taken through the SH.
 template <typename T>
 void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
-                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads);
+                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
+                       ShadedT<T>* shaded = nullptr);
+
+// The SH colour at (t, camera) of each of the ascending `rows` into out.rgb, and zero into their
+// out.v_rgb; `out` is sized to the primitives, keeping its other rows.
+template <typename T>
+void shade(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
+           double t, const Camera& camera, const std::vector<std::int32_t>& rows, ShadedT<T>& out);
+// Accumulates (+=) into `grads` the gradient of the rows' colours, shaded.v_rgb, through the SH
+// and the view direction; rows whose v_rgb is zero are skipped.
+template <typename T>
+void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
+                    const TimeGrid& grid, double t, const Camera& camera,
+                    const std::vector<std::int32_t>& rows, const ShadedT<T>& shaded,
+                    PrimitiveGradsT<T>& grads);
 
 // The RetimeGS window of primitive i under the model's settings, in T, as evaluate applies it.
 template <typename T>

@@ -127,6 +127,7 @@ class Trainer {
   Adam color_adam_;
   Image corrected_;
   SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
+  model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders
   // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
   // (indexed by model::Group; a group's batch size changes little from step to step), the render
   // with its saved state and the gradient with respect to the batch.
