@@ -61,6 +61,16 @@ Adam::Adam(std::size_t rows, int width, AdamSettings settings, std::vector<float
 
 void Adam::step(float* params, const float* grads, double lr,
                 const std::vector<std::int32_t>* rows) {
+  update<false>(params, grads, lr, rows);
+}
+
+void Adam::step_and_clear(float* params, float* grads, double lr,
+                          const std::vector<std::int32_t>* rows) {
+  update<true>(params, grads, lr, rows);
+}
+
+template <bool kClear, typename G>
+void Adam::update(float* params, G* grads, double lr, const std::vector<std::int32_t>* rows) {
   ++steps_;
   const float b1 = float(settings_.beta1), b2 = float(settings_.beta2);
   const double correction1 = 1.0 - std::pow(settings_.beta1, double(steps_));
@@ -84,6 +94,7 @@ void Adam::step(float* params, const float* grads, double lr,
       m[i] = b1 * m[i] + (1 - b1) * g;
       v[i] = b2 * v[i] + (1 - b2) * g * g;
       params[i] -= step_size * scale[k] * m[i] / (std::sqrt(v[i]) * inv_sqrt_c2 + eps);
+      if constexpr (kClear) grads[i] = 0;
     }
   }
 }
@@ -124,12 +135,12 @@ Optimizers::Optimizers(const model::Primitives& p, model::Representation represe
   }
 }
 
-void Optimizers::step(model::Primitives& p, const model::PrimitiveGrads& grads,
+void Optimizers::step(model::Primitives& p, model::PrimitiveGrads& grads,
                       const std::vector<std::int32_t>& rows, double means_decay, double decay) {
   for (std::size_t k = 0; k < groups_.size(); ++k) {
     const OptimisedField& f = kOptimised[k];
     const double rate = (f.means_decay ? base_rates_[k] * means_decay : base_rates_[k]) * decay;
-    groups_[k].adam.step((p.*f.values).data(), (grads.*f.grads).data(), rate, &rows);
+    groups_[k].adam.step_and_clear((p.*f.values).data(), (grads.*f.grads).data(), rate, &rows);
   }
 }
 

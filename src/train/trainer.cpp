@@ -264,7 +264,6 @@ StepStats Trainer::step_view(int c, int i) {
   if (camera_color()) step_camera_color(c, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
-  grads.zero_rows(active);
   const DensityChanges changes =
       strategy_->after_step(it, stats.lr_means, active, model_, adam_, rng_);
   stats.relocated = changes.relocated, stats.added = changes.added;

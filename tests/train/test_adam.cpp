@@ -82,6 +82,24 @@ TEST(Adam, ReorderMovesEachRowsMomentsWithIt) {
     }
 }
 
+// step_and_clear is step, then the stepped rows' gradients zero; other rows' gradients stay.
+TEST(Adam, StepAndClearIsStepThenZeroGradientRows) {
+  constexpr int kRows = 4, kWidth = 3;
+  Adam a(kRows, kWidth), b(kRows, kWidth);
+  std::vector<float> pa(kRows * kWidth, 1.0f), pb = pa, g(kRows * kWidth);
+  for (int k = 0; k < kRows * kWidth; ++k) g[k] = 0.1f * float(k + 1);
+  const std::vector<std::int32_t> rows = {0, 2};
+  std::vector<float> consumed = g;
+  a.step(pa.data(), g.data(), 0.01, &rows);
+  b.step_and_clear(pb.data(), consumed.data(), 0.01, &rows);
+  EXPECT_EQ(pa, pb);
+  EXPECT_EQ(a.m(), b.m());
+  EXPECT_EQ(a.v(), b.v());
+  for (int r = 0; r < kRows; ++r)
+    for (int k = 0; k < kWidth; ++k)
+      EXPECT_EQ(consumed[r * kWidth + k], r % 2 == 0 ? 0.0f : g[r * kWidth + k]) << r;
+}
+
 // Selective steps over 6 rows of width 3: rows 0 and 3 are in every step's set, rows 1 and 4 in
 // every other one, row 5 in none. Rows in every set evolve bit for bit as under dense Adam; a row
 // outside a step's set keeps its parameters and both moments; the step count is the group's.

@@ -130,16 +130,6 @@ struct PrimitiveGradsT {
   void resize(std::size_t n) {
     for (const auto& [values, width] : fields()) values->resize(n * width, T(0));
   }
-  // Zeroes the given rows (distinct), on all threads: a buffer reused across training steps is
-  // cleared where the step wrote, not in full.
-  void zero_rows(const std::vector<std::int32_t>& rows) {
-    const auto all = fields();
-    const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t j = 0; j < count; ++j)
-      for (const auto& [values, width] : all)
-        std::fill_n(values->data() + std::size_t(rows[j]) * width, width, T(0));
-  }
 
  private:
   std::array<std::pair<std::vector<T>*, int>, 9> fields() {

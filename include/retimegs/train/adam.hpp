@@ -36,6 +36,10 @@ class Adam {
   // params and grads are [rows(), width].
   void step(float* params, const float* grads, double lr,
             const std::vector<std::int32_t>* rows = nullptr);
+  // The same step, then the stepped rows' gradients set to zero in the same pass (a training
+  // step's gradient buffer is cleared where it was read, without a pass of its own).
+  void step_and_clear(float* params, float* grads, double lr,
+                      const std::vector<std::int32_t>* rows = nullptr);
   // Zeroes the moments of the given rows (their parameters were replaced).
   void reset_rows(const std::vector<std::int32_t>& rows);
   // Grows (zero state) or shrinks to `rows` rows.
@@ -53,6 +57,9 @@ class Adam {
   std::int64_t& step_count() { return steps_; }
 
  private:
+  template <bool kClear, typename G>
+  void update(float* params, G* grads, double lr, const std::vector<std::int32_t>* rows);
+
   int width_ = 0;
   AdamSettings settings_;
   std::vector<float> column_scale_;  // [width]
@@ -78,8 +85,9 @@ class Optimizers {
              const TrainConfig& config, double scene_extent, double frame_step);
 
   // One Adam step of every field over the ascending `rows` (the step's active set) at its base
-  // rate × decay, and × means_decay too for means and velocities.
-  void step(model::Primitives& primitives, const model::PrimitiveGrads& grads,
+  // rate × decay, and × means_decay too for means and velocities; leaves the rows' gradients of
+  // the optimised fields zero.
+  void step(model::Primitives& primitives, model::PrimitiveGrads& grads,
             const std::vector<std::int32_t>& rows, double means_decay, double decay);
   // The means' rate of a step with these factors.
   double means_rate(double means_decay, double decay) const;

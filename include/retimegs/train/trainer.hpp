@@ -115,8 +115,9 @@ class Trainer {
   model::Model model_;
   Optimizers adam_;
   model::TemporalIndex index_;
-  // The step's gradient, reused across steps: all zero between steps (a step clears the rows it
-  // wrote, its active set; grown rows start zero).
+  // The step's gradient, reused across steps: all zero between steps (the optimiser clears the
+  // rows it read, the step's active set, in its fields; a representation writes only the fields
+  // it optimises; grown rows start zero).
   model::PrimitiveGrads grads_;
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
