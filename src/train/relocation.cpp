@@ -22,16 +22,6 @@ double opacity_of(const model::Primitives& p, std::size_t i) {
   return model::sigmoid<double>(p.opacity_logit[i]);
 }
 
-// Whether primitive i travels farther than its own size (largest scale) over an interval of
-// length `interval` at its velocity v2.
-bool moves_past_itself(const model::Primitives& p, std::size_t i, double interval) {
-  if (interval <= 0) return false;
-  const Eigen::Map<const Eigen::Vector3f> v2(&p.velocity[9 * i + 3]);
-  const float size =
-      std::exp(std::max({p.log_scale[3 * i], p.log_scale[3 * i + 1], p.log_scale[3 * i + 2]}));
-  return interval * v2.norm() > size;
-}
-
 std::vector<double> sampling_scores(const model::Primitives& p, model::Representation rep,
                                     double min_opacity) {
   std::vector<double> score(p.size(), 0.0);
@@ -149,7 +139,7 @@ Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap
 }
 
 void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, double lr_means,
-                  double interval, std::mt19937_64& rng) {
+                  std::mt19937_64& rng) {
   const std::uint64_t key = rng();
   const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
   // Rows are distinct and their draws depend on (key, row) alone: any order, any thread.
@@ -158,7 +148,7 @@ void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, d
     const std::size_t i = std::size_t(rows[j]);
     const double sigma = opacity_of(p, i);
     const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));
-    if (gate < 1e-12 || moves_past_itself(p, i, interval)) continue;
+    if (gate < 1e-12) continue;
     const Eigen::Vector3f eps = normal3(key, i);
     const Eigen::Quaternionf q(p.q0[4 * i], p.q0[4 * i + 1], p.q0[4 * i + 2], p.q0[4 * i + 3]);
     const Eigen::Matrix3f r = q.normalized().toRotationMatrix();

@@ -15,8 +15,7 @@ DensityChanges McmcStrategy::after_step(int it, double lr_means,
   DensityChanges changes;
   model::Primitives& p = model.primitives;
   const model::Representation rep = model.config.representation;
-  inject_noise(p, active, lr_means, rep == model::Representation::kStgs ? 0.0 : model.grid.step,
-               rng);
+  inject_noise(p, active, lr_means, rng);
   if (it % config_.scaled(config_.relocate_every) == 0 &&
       it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
     const Relocation moved = relocate(p, rep, config_.min_opacity, rng);

@@ -44,12 +44,7 @@ Relocation grow(model::Primitives& primitives, model::Representation representat
 // its image loss and Adam step see. ε ~ N(0, I₃) is counter-based, a function of (key, row) with
 // one 64-bit key drawn from `rng` per call (splitmix64 and Box–Muller), so that the rows are
 // perturbed in parallel with the same result for any thread count.
-// A primitive that travels farther than its own size over an `interval` (Δt · |v2| > its largest
-// scale; interval 0: none, as for STGS, whose velocities are polynomial coefficients) is left
-// alone. The noise shifts a primitive's whole path: a faint piece of a moving object walks off it
-// and, keeping the object's speed, sweeps across the static background it lands on, a haze that
-// moves between the training frames. Moving content is placed by the flows instead.
 void inject_noise(model::Primitives& primitives, const std::vector<std::int32_t>& rows,
-                  double lr_means, double interval, std::mt19937_64& rng);
+                  double lr_means, std::mt19937_64& rng);
 
 }  // namespace retimegs::train

@@ -30,8 +30,8 @@ class DensityStrategy {
 };
 
 // The MCMC schedule of RetimeGS (DESIGN.md §2, §7), milestones in TrainConfig::scaled units:
-//   every step: noise on the step's faint active primitives that do not move past themselves over
-//     an interval (inject_noise), scaled by the means' learning rate;
+//   every step: noise on the step's faint active primitives (inject_noise), scaled by the means'
+//     learning rate;
 //   every relocate_every steps strictly between relocate_start and relocate_stop: relocation of
 //     the dead primitives, then growth towards the cap; every row whose parameters were replaced
 //     or appended restarts with zero Adam moments, like a fresh parameter;
