@@ -81,6 +81,27 @@ void control_point_position(int k, T step, const T* mu, const T* v, T p[3]) {
   apply_trajectory(control_point<T>(k, step), mu, v, p);
 }
 
+// Row i's SH colour seen from `eye` with the primitive at x.
+template <typename T>
+void color_at(const PrimitivesT<T>& p, std::size_t i, int degree, const T x[3],
+              const std::array<T, 3>& eye, T rgb[3]) {
+  const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
+  sh_color(degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, rgb);
+}
+
+// VJP of color_at with the primitive at its trajectory `c`: adds the SH gradient into grads.v_sh
+// and the position's (through the view direction) into v_x.
+template <typename T>
+void color_vjp(const PrimitivesT<T>& p, std::size_t i, int degree,
+               const TrajectoryCoefficients<T>& c, const std::array<T, 3>& eye, const T v_rgb[3],
+               PrimitiveGradsT<T>& grads, T v_x[3]) {
+  T x[3];
+  apply_trajectory(c, &p.mu[3 * i], &p.velocity[9 * i], x);
+  const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
+  constexpr int kSh = PrimitivesT<T>::kShWidth;
+  sh_color_vjp(degree, &p.sh[kSh * i], dir, v_rgb, &grads.v_sh[kSh * i], v_x);
+}
+
 }  // namespace
 
 template <typename T>
@@ -185,12 +206,11 @@ void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid
     for (int a = 0; a < 3; ++a) g.log_scales[3 * row + a] = p.log_scale[3 * i + a];
     const T dt = t - p.mu_tau[i];
     for (int a = 0; a < 4; ++a) g.quats[4 * row + a] = p.q0[4 * i + a] + p.q1[4 * i + a] * dt;
-    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     T* features = &g.features[channels * row];
     if (shaded)
       std::copy_n(&shaded->rgb[3 * i], 3, features);
     else
-      sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, features);
+      color_at(p, i, config.sh_degree, x, eye, features);
     if (options.flow_features) {
       const FlowRule rule = flow_rule(p.mu_tau[i], t);
       T pb[3], pf[3], pk[3], uv_b[2], uv_f[2], uv_k[2];
@@ -236,7 +256,6 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   const PinholeT<T> pinhole(camera);
   const std::array<T, 3> eye = eye_of<T>(camera);
   const bool stgs = config.representation == Representation::kStgs;
-  constexpr int kSh = PrimitivesT<T>::kShWidth;
   const std::size_t m = evaluated.primitive_from_gaussian.size();
   // Every primitive appears at most once in a batch: rows write disjoint gradient slots.
 #pragma omp parallel for schedule(static)
@@ -273,10 +292,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
     if (shaded) {
       for (int a = 0; a < 3; ++a) shaded->v_rgb[3 * i + a] += v_rgb[a];
     } else {
-      T x[3];
-      apply_trajectory(coefficients, mu, v, x);
-      const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
-      sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, v_rgb, &grads.v_sh[kSh * i], v_x);
+      color_vjp(p, i, config.sh_degree, coefficients, eye, v_rgb, grads, v_x);
     }
     apply_trajectory_vjp(config.representation, coefficients, v, v_x, v_mu, v_v, v_mu_tau);
     // Flow features: differences of projected control points.
@@ -318,8 +334,7 @@ void shade(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& g
     T x[3];
     apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step),
                      &p.mu[3 * i], &p.velocity[9 * i], x);
-    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
-    sh_color(config.sh_degree, &p.sh[PrimitivesT<T>::kShWidth * i], dir, &out.rgb[3 * i]);
+    color_at(p, i, config.sh_degree, x, eye, &out.rgb[3 * i]);
     std::fill_n(&out.v_rgb[3 * i], 3, T(0));
   }
 }
@@ -330,24 +345,18 @@ void shade_backward(const PrimitivesT<T>& p, const ModelConfig& config, const Ti
                     const ShadedT<T>& shaded, PrimitiveGradsT<T>& grads) {
   const T t = T(t_in), step = T(grid.step);
   const std::array<T, 3> eye = eye_of<T>(camera);
-  constexpr int kSh = PrimitivesT<T>::kShWidth;
   const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t k = 0; k < count; ++k) {
     const std::size_t i = std::size_t(rows[k]);
     const T* v_rgb = &shaded.v_rgb[3 * i];
     if (v_rgb[0] == T(0) && v_rgb[1] == T(0) && v_rgb[2] == T(0)) continue;
-    const T* mu = &p.mu[3 * i];
-    const T* v = &p.velocity[9 * i];
     const auto coefficients =
         trajectory_at(config.representation, config.trajectory, p.mu_tau[i], t, step);
-    T x[3];
-    apply_trajectory(coefficients, mu, v, x);
-    const T dir[3] = {x[0] - eye[0], x[1] - eye[1], x[2] - eye[2]};
     T v_x[3] = {0, 0, 0}, v_mu_tau = 0;
-    sh_color_vjp(config.sh_degree, &p.sh[kSh * i], dir, v_rgb, &grads.v_sh[kSh * i], v_x);
-    apply_trajectory_vjp(config.representation, coefficients, v, v_x, &grads.v_mu[3 * i],
-                         &grads.v_velocity[9 * i], v_mu_tau);
+    color_vjp(p, i, config.sh_degree, coefficients, eye, v_rgb, grads, v_x);
+    apply_trajectory_vjp(config.representation, coefficients, &p.velocity[9 * i], v_x,
+                         &grads.v_mu[3 * i], &grads.v_velocity[9 * i], v_mu_tau);
     if (config.representation == Representation::kStgs) grads.v_mu_tau[i] += v_mu_tau;
   }
 }

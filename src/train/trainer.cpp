@@ -113,13 +113,10 @@ void Trainer::initialize(model::Primitives primitives) {
 void Trainer::rebuild_index() {
   index_ = model::TemporalIndex(model_.primitives, model_.config, model_.grid);
   const std::vector<std::int32_t> old_from_new = index_.locality_order();
-  for (std::size_t k = 0; k < old_from_new.size(); ++k)
-    if (old_from_new[k] != std::int32_t(k)) {
-      model_.primitives.reorder(old_from_new);
-      adam_.reorder(old_from_new);  // the gradient rows are all zero between steps
-      index_ = model::TemporalIndex(model_.primitives, model_.config, model_.grid);
-      return;
-    }
+  if (std::is_sorted(old_from_new.begin(), old_from_new.end())) return;  // the identity
+  model_.primitives.reorder(old_from_new);
+  adam_.reorder(old_from_new);  // the gradient rows are all zero between steps
+  index_ = model::TemporalIndex(model_.primitives, model_.config, model_.grid);
 }
 
 void Trainer::make_optimizers() {
