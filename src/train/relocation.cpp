@@ -160,4 +160,15 @@ void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, d
   }
 }
 
+std::vector<std::int32_t> faint_short_rows(const model::Primitives& p, const model::TimeGrid& grid,
+                                           double max_opacity) {
+  // One interval, with room for the float rounding of a window set to exactly one.
+  const double one_interval = grid.step * (1 + 1e-4);
+  std::vector<std::int32_t> rows;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (opacity_of(p, i) < max_opacity && double(p.tau_l[i]) + double(p.tau_r[i]) <= one_interval)
+      rows.push_back(std::int32_t(i));
+  return rows;
+}
+
 }  // namespace retimegs::train

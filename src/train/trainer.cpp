@@ -21,6 +21,7 @@
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/losses.hpp"
+#include "retimegs/train/relocation.hpp"
 
 namespace retimegs::train {
 namespace fs = std::filesystem;
@@ -205,6 +206,32 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
                            grads, &shaded_);
   stats.seconds.evaluate_backward += clock.lap();
+}
+
+std::string Trainer::finish() {
+  model::Primitives& p = model_.primitives;
+  if (model_.config.representation == model::Representation::kStgs ||
+      !(config_.final_prune_opacity > 0))
+    return "final prune: off";
+  const std::vector<std::int32_t> pruned =
+      faint_short_rows(p, model_.grid, config_.final_prune_opacity);
+  // The kept rows first, in their order, then the pruned ones, which the resize drops.
+  std::vector<std::int32_t> old_from_new;
+  old_from_new.reserve(p.size());
+  std::vector<bool> drop(p.size(), false);
+  for (const std::int32_t r : pruned) drop[std::size_t(r)] = true;
+  for (std::size_t r = 0; r < p.size(); ++r)
+    if (!drop[r]) old_from_new.push_back(std::int32_t(r));
+  const std::size_t kept = old_from_new.size();
+  old_from_new.insert(old_from_new.end(), pruned.begin(), pruned.end());
+  p.reorder(old_from_new);
+  adam_.reorder(old_from_new);
+  p.resize(kept);
+  adam_.resize(kept);
+  rebuild_index();
+  return fmt::format(
+      "final prune: {} faint primitives (opacity < {}) that span one interval removed, {} left",
+      pruned.size(), config_.final_prune_opacity, kept);
 }
 
 StepStats Trainer::step() {
@@ -424,6 +451,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
     }
   }
   progress.finish();
+  spdlog::info("{}", trainer.finish());
   model::write_model(run.out / "model.rgs", trainer.model());
   spdlog::info("model: {} ({} primitives); peak memory {:.0f} MB", (run.out / "model.rgs").string(),
                trainer.model().primitives.size(), double(peak_rss_bytes()) / 1e6);

@@ -204,5 +204,30 @@ TEST(Relocation, NoiseIsThreadInvariantAndStandardNormal) {
   EXPECT_NEAR(tails / (3.0 * kRows), 0.0455, 0.005);  // P(|ε| > 2)
 }
 
+// The end of training's clean-up takes exactly the rows below the opacity whose window spans at
+// most one interval of the grid (Δt = 2 frames here); a window widened by stretching, or an
+// opacity at or above the bound, keeps a row.
+TEST(Relocation, FaintShortRowsAreTheFaintOnesOfOneInterval) {
+  const model::TimeGrid grid{0.0, 2.0, 5};
+  struct Row {
+    double opacity, tau_l, tau_r;
+    bool pruned;
+  };
+  const Row rows[] = {{0.01, 1.0, 1.0, true},   {0.049, 0.0, 2.0, true},  {0.049, 2.0, 0.0, true},
+                      {0.051, 1.0, 1.0, false}, {0.01, 1.0, 3.0, false},  {0.01, 3.0, 1.0, false},
+                      {0.9, 1.0, 1.0, false},   {0.0001, 0.5, 0.5, true}, {0.01, 1.0, 1.001, false},
+                      {0.3, 8.0, 0.0, false}};
+  model::Primitives p;
+  p.resize(std::size(rows));
+  std::vector<std::int32_t> expected;
+  for (std::size_t i = 0; i < std::size(rows); ++i) {
+    p.opacity_logit[i] = float(std::log(rows[i].opacity / (1 - rows[i].opacity)));
+    p.tau_l[i] = float(rows[i].tau_l), p.tau_r[i] = float(rows[i].tau_r);
+    if (rows[i].pruned) expected.push_back(std::int32_t(i));
+  }
+  EXPECT_EQ(faint_short_rows(p, grid, 0.05), expected);
+  EXPECT_TRUE(faint_short_rows(p, grid, 0.0).empty());
+}
+
 }  // namespace
 }  // namespace retimegs::train

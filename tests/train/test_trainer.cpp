@@ -3,6 +3,7 @@
 // same seed gives the same model.
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -14,6 +15,7 @@
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
+#include "retimegs/train/relocation.hpp"
 #include "retimegs/train/trainer.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
@@ -34,6 +36,9 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
   EXPECT_TRUE(fs::exists(dir / "run" / "model.rgs"));
   EXPECT_TRUE(fs::exists(dir / "run" / "config.json"));
   EXPECT_NE(test::read_text(dir / "run" / "log.jsonl").find("\"active\":"), std::string::npos);
+  EXPECT_TRUE(
+      faint_short_rows(model.primitives, model.grid, run.config.final_prune_opacity).empty())
+      << "train() ends with finish()";
 
   eval::EvalOptions options;
   options.frames = {1, 3};
@@ -127,6 +132,46 @@ TEST(Trainer, AStepChangesOnlyItsActiveRows) {
     }
     EXPECT_EQ(changed, s.active) << "every active row moves (Adam's first step moves every row)";
   }
+}
+
+// finish() removes the faint primitives of one interval and nothing else, with their optimiser
+// state: the kept rows are the others (as a set), and training can go on (index and Adam agree).
+TEST(Trainer, FinishRemovesTheFaintShortLivedRows) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);
+  TrainConfig config;
+  config.iters = 4;
+  config.cap = 600;
+  Trainer trainer(set, config);
+  trainer.initialize();
+  model::Primitives start = trainer.model().primitives;
+  for (std::size_t r = 0; r < start.size(); r += 4) start.opacity_logit[r] = -5.0f;  // σ ≈ 0.007
+  trainer.initialize(start);
+  trainer.step_view(0, 1);
+  const model::Model& model = trainer.model();
+  const std::vector<std::int32_t> faint =
+      faint_short_rows(model.primitives, model.grid, config.final_prune_opacity);
+  ASSERT_GT(faint.size(), 10u);
+  ASSERT_LT(faint.size(), model.primitives.size());
+  const auto keys = [](const model::Primitives& p, const std::vector<bool>& skip) {
+    std::vector<std::array<float, 4>> out;  // mean and opacity, sorted
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (skip.empty() || !skip[i])
+        out.push_back({p.mu[3 * i], p.mu[3 * i + 1], p.mu[3 * i + 2], p.opacity_logit[i]});
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  std::vector<bool> skip(model.primitives.size(), false);
+  for (const std::int32_t r : faint) skip[std::size_t(r)] = true;
+  const auto expected = keys(model.primitives, skip);
+  EXPECT_NE(trainer.finish().find(std::to_string(faint.size())), std::string::npos);
+  EXPECT_EQ(keys(trainer.model().primitives, {}), expected);
+  EXPECT_TRUE(
+      faint_short_rows(trainer.model().primitives, model.grid, config.final_prune_opacity).empty());
+  const StepStats s = trainer.step_view(1, 2);
+  EXPECT_GE(s.primitives, expected.size());  // growth may add rows again
+  EXPECT_TRUE(std::isfinite(s.loss));
 }
 
 // The trainer keeps its rows in the temporal index's locality order: a starting model in any order

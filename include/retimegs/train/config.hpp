@@ -62,6 +62,9 @@ struct TrainConfig {
   // MCMC.
   std::size_t cap = 200000;  // primitive budget
   double min_opacity = 0.01, growth = 1.05;
+  // After the last step, the primitives below this opacity that span one interval are removed
+  // (train::faint_short_rows; 0 keeps them).
+  double final_prune_opacity = 0.03;
   double init_opacity = 0.1;
 
   // Dynamic stretching: neighbours within this distance (x scene extent), colour (SH DC) and

@@ -47,4 +47,14 @@ Relocation grow(model::Primitives& primitives, model::Representation representat
 void inject_noise(model::Primitives& primitives, const std::vector<std::int32_t>& rows,
                   double lr_means, std::mt19937_64& rng);
 
+// The primitives for the end of training's clean-up, ascending: those fainter than max_opacity
+// whose window [μ_τ - τ_l, μ_τ + τ_r] spans at most one training interval (never stretched). Such
+// a primitive draws a faint patch for one interval and nothing else: relocation reuses slots only
+// below min_opacity, noise pushes the faint ones around, and faint pieces that drifted off a fast
+// object cross the static background between two training frames (the flicker that
+// eval --stability measures). Opaque and long-lived primitives, static content among them, are
+// never among them.
+std::vector<std::int32_t> faint_short_rows(const model::Primitives& primitives,
+                                           const model::TimeGrid& grid, double max_opacity);
+
 }  // namespace retimegs::train

@@ -74,6 +74,10 @@ class Trainer {
   // One step on view (set.cameras[camera], set.frames[frame]): what step() does once it has drawn.
   StepStats step_view(int camera, int frame);
 
+  // After the last step: removes train::faint_short_rows at config.final_prune_opacity (not for
+  // STGS, whose windows are not intervals), with their optimiser state; returns the note to log.
+  std::string finish();
+
   int iteration() const { return iteration_; }
   const model::Model& model() const { return model_; }
 
