@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/image_io.hpp"
 
@@ -25,6 +27,24 @@ Image to_rgb_tile(const Image& image, int tile_width) {
   Image out(tile_width, tile_height, 3);
   std::copy_n(scaled.ptr<float>(), out.data.size(), out.data.data());
   return out;
+}
+
+// The caption strip above a tile: `text` in black on white, as large as fits the tile's width
+// (OpenCV's Hershey font, scaled with the tile).
+Image caption(const std::string& text, int width) {
+  constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+  double scale = std::clamp(width / 400.0, 0.3, 0.8);
+  int baseline = 0;
+  cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
+  if (size.width > width - 4) {  // shrink to fit, down to the smallest legible size
+    scale = std::max(0.25, scale * (width - 4) / size.width);
+    size = cv::getTextSize(text, kFont, scale, 1, &baseline);
+  }
+  Image strip(width, size.height + baseline + 6, 3, 1.0f);
+  cv::Mat view(strip.height, strip.width, CV_32FC3, strip.data.data());
+  cv::putText(view, text, cv::Point(2, 3 + size.height), kFont, scale, cv::Scalar(0, 0, 0), 1,
+              cv::LINE_AA);
+  return strip;
 }
 
 void paste(Image& sheet, const Image& tile, int x0, int y0) {
@@ -76,25 +96,37 @@ Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
     if (k < 0 || k >= scene.num_frames)
       fail("contact sheet: frame {} is outside 0..{}", k, scene.num_frames - 1);
 
+  // Each tile with its caption (camera, frame, and what it shows) above it.
   std::vector<std::vector<Image>> rows;
   for (int c : cameras) {
     std::vector<Image> row;
+    const std::string& name = scene.cameras[c].name;
+    const auto add = [&](const Image& image, const std::string& what) {
+      Image tile = to_rgb_tile(image, options.tile_width);
+      if (options.labels) {
+        const Image strip = caption(name + " " + what, options.tile_width);
+        Image captioned(tile.width, strip.height + tile.height, 3);
+        std::copy(strip.data.begin(), strip.data.end(), captioned.data.begin());
+        std::copy(tile.data.begin(), tile.data.end(), captioned.data.begin() + strip.data.size());
+        tile = std::move(captioned);
+      }
+      row.push_back(std::move(tile));
+    };
     for (int k : frames) {
-      row.push_back(to_rgb_tile(io::load_image(scene, c, k), options.tile_width));
+      add(io::load_image(scene, c, k), fmt::format("frame {}: ground truth", k));
       for (const auto& dir : options.renders)
-        row.push_back(
-            to_rgb_tile(io::read_image(dir / scene.cameras[c].name / fmt::format("{:05d}.png", k)),
-                        options.tile_width));
+        add(io::read_image(dir / name / fmt::format("{:05d}.png", k)),
+            fmt::format("frame {}: {}", k, output_path(dir).filename().string()));
     }
     if (!options.renders.empty()) {
       rows.push_back(std::move(row));
       continue;
     }
     if (auto mask = io::load_mask(scene, c, frames[0]))
-      row.push_back(to_rgb_tile(*mask, options.tile_width));
+      add(*mask, fmt::format("frame {}: mask", frames[0]));
     if (frames[0] + 1 < scene.num_frames)
       if (auto flow = io::load_flow(scene, c, frames[0], frames[0] + 1))
-        row.push_back(to_rgb_tile(flow_to_color(*flow), options.tile_width));
+        add(flow_to_color(*flow), fmt::format("flow {} to {}", frames[0], frames[0] + 1));
     rows.push_back(std::move(row));
   }
   std::size_t columns = 0;

@@ -3,6 +3,8 @@
 // colour-coded flow (hue = direction, saturation = speed, black = unknown) of the first frame.
 // With render folders (eval --save-renders): per frame the ground truth, then each folder's
 // DIR/<camera>/<frame:05d>.png beside it (no mask / flow columns) — ground truth vs renders.
+// Each tile has a caption above it: camera, frame and what it shows ("ground truth", the render
+// folder's name, "mask", "flow 0 to 1").
 #include <filesystem>
 #include <vector>
 
@@ -17,6 +19,7 @@ struct SheetOptions {
   int tile_width = 256;      // every tile is scaled to this width
   int gap = 4;               // pixels between tiles (white)
   std::vector<std::filesystem::path> renders;  // folders of renders to compare, in column order
+  bool labels = true;                          // a caption strip above each tile
 };
 
 Image contact_sheet(const io::Scene& scene, const SheetOptions& options);
