@@ -14,16 +14,16 @@ bin="$root/build/apps/retimegs"
 mkdir -p "$out"
 "$bin" synth --preset default --out "$out/scene" --force
 "$bin" prepare --scene "$out/scene" --train-frames even
-"$bin" sheet --scene "$out/scene" --out "$out/contact_sheet.png"
-rm -rf "$out/run"
-"$bin" train --scene "$out/scene" --out "$out/run" --train-frames even --iters "$iters" --cap 60000
+"$bin" sheet --scene "$out/scene" --out "$out/contact_sheet.png" --force
+"$bin" train --scene "$out/scene" --out "$out/run" --train-frames even --iters "$iters" --cap 60000 \
+  --force
 "$bin" render --model "$out/run/model.rgs" --scene "$out/scene" --camera cam00 --slowmo 8 \
   --out "$out/slowmo_8x.mp4" --force
 "$bin" eval --model "$out/run/model.rgs" --scene "$out/scene" --frames odd --stability \
-  --out "$out/metrics.json"
+  --out "$out/metrics.json" --force
 for baseline in crossfade flow; do
   "$bin" eval --baseline "$baseline" --scene "$out/scene" --frames odd --stability \
-    --out "$out/$baseline.json"
+    --out "$out/$baseline.json" --force
 done
 echo
 echo "scene:             $out/scene (contact sheet $out/contact_sheet.png)"

@@ -91,10 +91,11 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
   return times;
 }
 
-std::vector<double> slowmo_times(int num_frames, int factor) {
+std::vector<double> slowmo_times(double first, double last, int factor) {
   if (factor < 1) fail("--slowmo: must be >= 1, got {}", factor);
   std::vector<double> times;
-  for (long k = 0; k <= long(num_frames - 1) * factor; ++k) times.push_back(double(k) / factor);
+  const long count = std::lround((last - first) * factor);
+  for (long k = 0; k <= count; ++k) times.push_back(first + double(k) / factor);
   return times;
 }
 

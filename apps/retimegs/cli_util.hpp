@@ -31,8 +31,8 @@ std::vector<float> parse_float_list(const std::string& text, const std::string& 
 // "A:B:STEP" -> A, A + STEP, ... up to B (inclusive, with a 1e-9 tolerance); STEP > 0.
 std::vector<double> parse_time_range(const std::string& text, const std::string& flag);
 
-// F frames per scene-frame interval over frames 0 .. num_frames - 1: t = k / F, k = 0 .. (K-1) F.
-std::vector<double> slowmo_times(int num_frames, int factor);
+// F frames per scene-frame interval from time `first` to `last`: t = first + k / F.
+std::vector<double> slowmo_times(double first, double last, int factor);
 
 // --near D: the near plane of a command's model renders, in scene units, into `near` (empty:
 // the scene's own, io::scene_near_plane). Resolve it with near_plane().

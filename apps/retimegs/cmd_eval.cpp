@@ -8,6 +8,7 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
@@ -23,7 +24,7 @@ void add_eval_command(CLI::App& app) {
                                         train_frames = "even";
     int threads = 0;
     std::optional<double> near;
-    bool stability = false;
+    bool stability = false, force = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -60,8 +61,11 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "metrics JSON to write")->required();
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
+  cmd->add_flag("--force", args->force, "replace an existing --out file and --save-renders folder");
   cmd->callback([args, near] {
     set_threads(args->threads);
+    check_output_free(args->out, args->force);
+    if (!args->save.empty()) check_output_free(output_path(args->save), args->force);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
     if (!args->baseline.empty() && near->count() > 0)
       fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);

@@ -11,6 +11,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
+#include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
 
@@ -38,14 +39,15 @@ void add_export_command(CLI::App& app) {
     if (args->time) {
       if (out.extension() != ".ply")
         fail("--out: a single time is written to a .ply file, got '{}'", args->out);
-      if (std::filesystem::exists(out) && !args->force)
-        fail("{}: output already exists (pass --force to replace it)", args->out);
+      check_output_free(out, args->force);
+      model::check_times(m, {*args->time}, "export");
       const Splats s = model::export_splats(m, *args->time);
       io::write_splat_ply(out, s);
       spdlog::info("exported {} Gaussians at t = {} to {}", s.size(), *args->time, args->out);
       return;
     }
     const std::vector<double> ts = parse_time_range(args->times, "--times");
+    model::check_times(m, ts, "export");
     AtomicDirectory dir(out, args->force);
     std::ofstream csv(dir.temp_path() / "times.csv");
     csv << "file,t\n";

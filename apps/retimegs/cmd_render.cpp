@@ -3,6 +3,7 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <variant>
 
 #include <spdlog/spdlog.h>
 
@@ -13,6 +14,7 @@
 #include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/model/model_file.hpp"
 
 namespace retimegs::app {
 
@@ -41,11 +43,12 @@ void add_render_command(CLI::App& app) {
                       "cameras CAM,CAM,... to move through (bullet time with --time), with the "
                       "model's colours");
   camera->excludes(path_option);
-  auto* time = cmd->add_option("--time", args->time, "one time, in scene frame units");
+  auto* time = cmd->add_option("--time", args->time,
+                               "one time, in scene frame units, within the model's time range");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
   auto* slowmo = cmd->add_option("--slowmo", args->slowmo,
-                                 "F frames per scene-frame interval over the whole clip "
-                                 "(F x slow motion)");
+                                 "F frames per scene-frame interval over the model's time "
+                                 "range, its first to last training frame (F x slow motion)");
   auto* retime = cmd->add_option("--retime", args->retime,
                                  "speed ramp: CSV rows output_frame,t (keyframes, linearly "
                                  "interpolated)");
@@ -71,17 +74,22 @@ void add_render_command(CLI::App& app) {
     const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));
     if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
 
+    const eval::LoadedModel model = eval::load_model(args->model);
+    const auto* model_4d = std::get_if<model::Model>(&model);
     std::vector<double> frame_times;
     if (args->time)
       frame_times = {*args->time};
     else if (!args->times.empty())
       frame_times = parse_time_range(args->times, "--times");
-    else if (args->slowmo)
-      frame_times = slowmo_times(scene.num_frames, *args->slowmo);
+    else if (args->slowmo && model_4d)
+      frame_times = slowmo_times(model_4d->grid.first, model_4d->grid.last(), *args->slowmo);
+    else if (args->slowmo)  // a static model: the scene's clip
+      frame_times = slowmo_times(0, scene.num_frames - 1, *args->slowmo);
     else if (!args->retime.empty())
       frame_times = io::read_retime_csv(args->retime);
     else
       fail("render: give one of --time, --times, --slowmo or --retime");
+    if (model_4d) model::check_times(*model_4d, frame_times, "render");
     std::vector<Camera> path;
     if (!args->path.empty()) {
       for (const auto& name : split_list(args->path, "--path"))
@@ -94,7 +102,6 @@ void add_render_command(CLI::App& app) {
       path = {scene.cameras[scene.camera_index(args->camera)]};
     }
 
-    const eval::LoadedModel model = eval::load_model(args->model);
     const int frames = int(frame_times.size());
     io::FrameWriter writer(args->out, frames, scene.fps, args->force);
     eval::render_frames(model, path, frame_times, background.data(), writer, render_options);

@@ -5,6 +5,7 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/eval/contact_sheet.hpp"
 #include "retimegs/io/image_io.hpp"
 
@@ -14,6 +15,7 @@ void add_sheet_command(CLI::App& app) {
   struct Args {
     std::string scene, out, cameras, frames, renders;
     int tile_width = 256;
+    bool force = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -29,7 +31,9 @@ void add_sheet_command(CLI::App& app) {
                   "truth is followed by DIR/<camera>/<frame:05d>.png of each");
   cmd->add_option("--tile-width", args->tile_width, "width of each tile in pixels")
       ->capture_default_str();
+  cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
+    check_output_free(args->out, args->force);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     eval::SheetOptions options;
     options.tile_width = args->tile_width;

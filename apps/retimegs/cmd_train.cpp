@@ -22,7 +22,7 @@ void add_train_command(CLI::App& app) {
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
     int threads = 0;
-    bool resume = false;
+    bool resume = false, force = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -47,15 +47,20 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--baseline", args->baseline, "stgs: the SpacetimeGaussians representation")
       ->check(CLI::IsMember({"stgs"}));
   cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap)");
-  cmd->add_option("--seed", args->seed, "random seed (default 0)");
+  cmd->add_option("--seed", args->seed, "random seed")->default_str("0");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
-  cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
+  auto* resume = cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
+  cmd->add_flag("--force", args->force,
+                "start afresh over an existing run (its model, config, log and checkpoints are "
+                "removed first)")
+      ->excludes(resume);
   cmd->callback([args] {
     set_threads(args->threads);
     train::TrainRun run;
     run.out = args->out;
     run.resume = args->resume;
+    run.force = args->force;
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     train::TrainConfig& config = run.config;
     config = train::with_preset(config, args->preset, "--preset");

@@ -27,8 +27,18 @@ void ensure_parent(const fs::path& path) {
 }
 }  // namespace
 
+fs::path output_path(fs::path path) {
+  while (!path.has_filename() && path.has_relative_path()) path = path.parent_path();
+  return path;
+}
+
+void check_output_free(const fs::path& path, bool force) {
+  if (!force && fs::exists(path))
+    fail("{}: output already exists (pass --force to replace it)", path.string());
+}
+
 AtomicFile::AtomicFile(fs::path final_path)
-    : final_(std::move(final_path)), temp_(temp_sibling(final_)) {
+    : final_(output_path(std::move(final_path))), temp_(temp_sibling(final_)) {
   ensure_parent(final_);
 }
 
@@ -58,9 +68,8 @@ void write_text_file(const fs::path& path, std::string_view text) {
 }
 
 AtomicDirectory::AtomicDirectory(fs::path final_path, bool replace)
-    : final_(std::move(final_path)), temp_(temp_sibling(final_)), replace_(replace) {
-  if (fs::exists(final_) && !replace_)
-    fail("{}: output already exists (pass --force to replace it)", final_.string());
+    : final_(output_path(std::move(final_path))), temp_(temp_sibling(final_)), replace_(replace) {
+  check_output_free(final_, replace_);
   ensure_parent(final_);
   std::error_code ec;
   fs::remove_all(temp_, ec);

@@ -26,11 +26,14 @@ bool is_video(const fs::path& path) {
 }  // namespace
 
 FrameWriter::FrameWriter(fs::path out, int frames, double fps, bool force)
-    : out_(std::move(out)), frames_(frames), fps_(fps) {
+    : out_(output_path(out)), frames_(frames), fps_(fps) {
   if (frames < 1) fail("{}: nothing to render (0 frames)", out_.string());
-  if (fs::exists(out_) && !force)
-    fail("{}: output already exists (pass --force to replace it)", out_.string());
-  if (out_.extension() == ".png") {
+  check_output_free(out_, force);
+  const std::string ext = out_.extension().string();
+  if (!out.has_filename() || ext.empty()) {  // `x/` is a folder whatever its name
+    kind_ = Kind::kFolder;
+    folder_ = std::make_unique<AtomicDirectory>(out_, force);
+  } else if (ext == ".png") {
     if (frames != 1)
       fail("{}: a .png output holds one frame but {} were requested; give a folder or an .mp4",
            out_.string(), frames);
@@ -42,8 +45,10 @@ FrameWriter::FrameWriter(fs::path out, int frames, double fps, bool force)
     file_ = std::make_unique<AtomicFile>(out_);
     video_ = std::make_unique<Video>();
   } else {
-    kind_ = Kind::kFolder;
-    folder_ = std::make_unique<AtomicDirectory>(out_, force);
+    fail(
+        "{}: unknown output type '{}': give x.png (one frame), a video (.mp4, .avi, .mkv, .mov) "
+        "or a folder (a name ending in '/' is always one)",
+        out_.string(), ext);
   }
 }
 
@@ -111,8 +116,10 @@ std::vector<double> read_retime_csv(const fs::path& path) {
     if (!std::isfinite(t) || frame < 0 || frame != std::floor(frame) || frame > 1e7)
       fail("{}:{}: output_frame must be a non-negative integer and t finite", path.string(),
            number);
-    if (!keys.emplace(int(frame), t).second)
-      fail("{}:{}: output frame {} appears twice", path.string(), number, int(frame));
+    if (!keys.empty() && int(frame) <= keys.rbegin()->first)
+      fail("{}:{}: output frame {} after {}: rows must be in increasing output_frame order",
+           path.string(), number, int(frame), keys.rbegin()->first);
+    keys.emplace(int(frame), t);
   }
   if (keys.empty()) fail("{}: no keyframes", path.string());
   std::vector<double> times;

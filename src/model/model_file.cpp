@@ -76,6 +76,17 @@ const CameraColor* find_camera_color(const Model& model, const std::string& came
   return it == model.camera_colors.end() ? nullptr : &it->second;
 }
 
+void check_times(const Model& model, const std::vector<double>& times, std::string_view what) {
+  const double first = model.grid.first, last = model.grid.last();
+  const double slack = 1e-6 * std::max(1.0, last - first);  // A:B:STEP sums may overshoot B
+  for (const double t : times)
+    if (!(t >= first - slack && t <= last + slack))
+      fail(
+          "{}: time {} is outside the model's time range [{}, {}] (its first and last training "
+          "frames)",
+          what, t, first, last);
+}
+
 void write_model(const fs::path& path, const Model& model) {
   check_primitives(model.primitives, path.string());
   const std::size_t n = model.primitives.size();

@@ -397,14 +397,17 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
         if (e.is_directory() && e.path().filename().string().rfind("iter_", 0) == 0 &&
             (latest.empty() || e.path().filename() > latest.filename()))
           latest = e.path();
-  } else if (fs::exists(run.out / "model.rgs") || fs::exists(checkpoints)) {
+  } else if (!run.force && (fs::exists(run.out / "model.rgs") || fs::exists(checkpoints))) {
     fail(
-        "{}: a training run is already there (pass --resume to continue it, or choose another "
-        "folder)",
+        "{}: a training run is already there (pass --resume to continue it, --force to start "
+        "afresh, or choose another folder)",
         run.out.string());
   }
-  fs::create_directories(run.out);
   const TrainingSet set = load_training_set(scene, run.frames);
+  if (run.force && !run.resume)  // only once the scene has loaded: a bad scene keeps the old run
+    for (const char* name : {"model.rgs", "config.json", "log.jsonl", "checkpoints"})
+      fs::remove_all(run.out / name);
+  fs::create_directories(run.out);
   Trainer trainer(set, config);
   if (!latest.empty()) {
     trainer.load_checkpoint(latest);

@@ -156,6 +156,8 @@ TEST(ModelCli, BadInputExitsTwoWithoutOutput) {
   const std::string bytes = test::read_text(dir / "model.rgs");
   test::write_text(dir / "cut.rgs", bytes.substr(0, bytes.size() - 50));
   test::write_text(dir / "ramp.csv", "0,0\n3,abc\n");
+  test::write_text(dir / "unordered.csv", "0,0\n4,1\n2,3\n");
+  test::write_text(dir / "beyond.csv", "0,0\n4,20\n");
   const std::string scene = " --scene " + f.scene.root.string();
   const std::string model = " --model " + (dir / "model.rgs").string();
   struct Case {
@@ -180,13 +182,64 @@ TEST(ModelCli, BadInputExitsTwoWithoutOutput) {
            Case{"export --model " + (dir / "cut.rgs").string() + " --time 1 --out " +
                     (dir / "o.ply").string(),
                 "cut.rgs"},
+           // The model's time range is [0, 8]: beyond it the trajectories fly apart.
+           Case{"render" + model + scene + " --camera cam00 --time 40 --out " +
+                    (dir / "o.png").string(),
+                "time 40 is outside the model's time range [0, 8]"},
+           Case{"render" + model + scene + " --camera cam00 --time -3 --out " +
+                    (dir / "o.png").string(),
+                "time -3 is outside"},
+           Case{"render" + model + scene + " --camera cam00 --times 6:9:1 --out " +
+                    (dir / "o").string(),
+                "time 9 is outside"},
+           Case{"render" + model + scene + " --camera cam00 --retime " +
+                    (dir / "beyond.csv").string() + " --out " + (dir / "o").string(),
+                "is outside the model's time range"},
+           Case{"render" + model + scene + " --camera cam00 --retime " +
+                    (dir / "unordered.csv").string() + " --out " + (dir / "o").string(),
+                "unordered.csv:3: output frame 2 after 4"},
+           Case{"export" + model + " --time 8.5 --out " + (dir / "o.ply").string(),
+                "time 8.5 is outside"},
+           Case{"export" + model + " --times 0:12:4 --out " + (dir / "o").string(),
+                "time 12 is outside"},
+           // An extension that is neither an image nor a video is an error, not a folder.
+           Case{"render" + model + scene + " --camera cam00 --time 1 --out " +
+                    (dir / "o.jpg").string(),
+                "unknown output type '.jpg'"},
        }) {
     const auto r = test::run_cli(c.args);
     EXPECT_EQ(r.status, 2) << c.args;
     EXPECT_NE(r.err.find(c.fragment), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }
-  for (const char* name : {"o.png", "o", "o.ply"}) EXPECT_FALSE(fs::exists(dir / name)) << name;
+  for (const char* name : {"o.png", "o", "o.ply", "o.jpg"})
+    EXPECT_FALSE(fs::exists(dir / name)) << name;
+}
+
+// An output named with a trailing '/' is that folder, for every command that writes folders (the
+// README's own examples); it failed after all the work with "Directory not empty". A name ending
+// in '/' is a folder even with a dot in it.
+TEST(ModelCli, FolderOutputsWithATrailingSlash) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string model = " --model " + (dir / "model.rgs").string();
+  const std::string render = "render" + model + " --scene " + f.scene.root.string();
+  run(render + " --camera cam00 --times 1.5:2.5:0.5 --out " + (dir / "frames").string() + "/");
+  for (const char* name : {"00000.png", "00001.png", "00002.png"})
+    EXPECT_TRUE(fs::exists(dir / "frames" / name)) << name;
+  run(render + " --camera cam00 --time 1 --out " + (dir / "take.v2").string() + "/");
+  EXPECT_TRUE(fs::exists(dir / "take.v2" / "00000.png"));
+  run("export" + model + " --times 0:2:1 --out " + (dir / "sequence").string() + "/");
+  EXPECT_TRUE(fs::exists(dir / "sequence" / "00002.ply"));
+  EXPECT_TRUE(fs::exists(dir / "sequence" / "times.csv"));
+  // The 4x slow motion covers the model's range, [0, 8].
+  run(render + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string() + "/");
+  EXPECT_TRUE(fs::exists(dir / "slow" / "00032.png"));
+  EXPECT_FALSE(fs::exists(dir / "slow" / "00033.png"));
+  std::size_t entries = 0;
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    entries += !e.path().filename().string().starts_with(".");
+  EXPECT_EQ(entries, 6u) << "scene, model.rgs and the four outputs, no temporary left";
 }
 
 }  // namespace

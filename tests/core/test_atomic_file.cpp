@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -64,6 +65,25 @@ TEST(AtomicDirectory, RefusesExistingUnlessReplacing) {
   }
   EXPECT_FALSE(fs::exists(dir / "other"));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
+// `out/` names the folder `out`: its temporary sibling lies beside it, so the commit's rename
+// does not move a folder into itself (it failed with "Directory not empty" after all the work).
+TEST(AtomicDirectory, TrailingSeparatorsNameTheFolderItself) {
+  test::TempDir dir;
+  for (const std::string suffix : {"/", "//"}) {
+    const std::string name = "frames" + std::to_string(suffix.size());
+    AtomicDirectory out(dir.path().string() + "/" + name + suffix);
+    EXPECT_EQ(out.final_path(), dir / name);
+    EXPECT_EQ(out.temp_path().parent_path(), dir.path());
+    std::ofstream(out.temp_path() / "00000.png") << "x";
+    out.commit();
+    EXPECT_EQ(test::read_text(dir / name / "00000.png"), "x");
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 2);
+  EXPECT_EQ(output_path("a/b/"), fs::path("a/b"));
+  EXPECT_EQ(output_path("a/b"), fs::path("a/b"));
+  EXPECT_EQ(output_path("/"), fs::path("/"));
 }
 
 }  // namespace

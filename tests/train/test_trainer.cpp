@@ -256,6 +256,17 @@ TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {
   train(scene, run);
   EXPECT_NE(test::read_text(dir / "full" / "model.rgs"),
             test::read_text(dir / "other" / "model.rgs"));
+  // An existing run is refused; force starts it afresh: the same model, a log of one run only.
+  run.out = dir / "again";
+  run.config.seed = 0;
+  const std::string log = test::read_text(dir / "again" / "log.jsonl");
+  EXPECT_NE(test::message_of([&] { train(scene, run); }).find("--force to start afresh"),
+            std::string::npos);
+  run.force = true;
+  train(scene, run);
+  EXPECT_EQ(test::read_text(dir / "full" / "model.rgs"),
+            test::read_text(dir / "again" / "model.rgs"));
+  EXPECT_EQ(test::read_text(dir / "again" / "log.jsonl"), log);
 }
 
 // One camera's images darkened by a known gain: its learned correction, relative to the other

@@ -5,6 +5,14 @@
 
 namespace retimegs {
 
+// The path an output is written to: `out/` (trailing separators) names the entry `out`, whose
+// temporary sibling must lie beside it, not inside it.
+std::filesystem::path output_path(std::filesystem::path path);
+
+// Throws Error naming `path` when it exists and `force` is not set: a command never overwrites an
+// output unless told to (--force).
+void check_output_free(const std::filesystem::path& path, bool force);
+
 // A file written through temp_path() becomes `final_path` on commit(); if the object is destroyed
 // before commit() (an error was thrown), the temporary file is removed.
 class AtomicFile {

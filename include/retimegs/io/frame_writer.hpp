@@ -1,8 +1,9 @@
 #pragma once
 // Where rendered frames go, chosen by the output path: `x.png` (exactly one frame), `x.mp4` /
-// `x.avi` / `x.mkv` (a video through OpenCV's FFmpeg backend), anything else a folder of
-// `<frame:05d>.png`. Every kind appears atomically when finish() is called; an unfinished writer
-// leaves nothing behind.
+// `x.avi` / `x.mkv` / `x.mov` (a video through OpenCV's FFmpeg backend), a name without extension
+// or ending in '/' a folder of `<frame:05d>.png`; any other extension (`x.jpg`) is an error rather
+// than a folder of that name. Every kind appears atomically when finish() is called; an unfinished
+// writer leaves nothing behind.
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -38,9 +39,10 @@ class FrameWriter {
   std::unique_ptr<Video> video_;
 };
 
-// A speed-ramp file: CSV rows `output_frame,t` (a header line and blank lines are allowed), the
-// keyframes of a time remap. Returns one time per output frame from the first to the last
-// keyframe, linearly interpolated between keyframes. Throws Error naming the file and line.
+// A speed-ramp file: CSV rows `output_frame,t` in increasing output_frame order (a header line and
+// blank lines are allowed), the keyframes of a time remap. Returns one time per output frame from
+// the first to the last keyframe, linearly interpolated between keyframes. Throws Error naming the
+// file and line.
 std::vector<double> read_retime_csv(const std::filesystem::path& path);
 
 }  // namespace retimegs::io

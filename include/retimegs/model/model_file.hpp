@@ -16,6 +16,8 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/primitives.hpp"
@@ -34,6 +36,11 @@ struct Model {
 
 // The stored correction of the camera named `camera`, or nullptr when the model has none for it.
 const CameraColor* find_camera_color(const Model& model, const std::string& camera);
+
+// Throws Error, naming `what` and the first offending time, unless every time lies in the model's
+// time range, its first to its last training frame: a trajectory is defined between its control
+// points only, and beyond the range the last ones fly apart.
+void check_times(const Model& model, const std::vector<double>& times, std::string_view what);
 
 void write_model(const std::filesystem::path& path, const Model& model);
 

@@ -149,6 +149,7 @@ struct TrainRun {
   TrainConfig config;
   io::FrameSelection frames = io::FrameSelection::kEven;
   bool resume = false;
+  bool force = false;  // replace an existing run's outputs (not with resume)
   bool progress = true;
 };
 
