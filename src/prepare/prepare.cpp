@@ -27,18 +27,15 @@ struct FlowJob {
   bool write_forward = false, write_backward = false;
 };
 
-// COLMAP's points of frame k, triangulated in a temporary folder that is removed afterwards.
+// COLMAP's points of frame k, triangulated in a temporary folder that is removed once they are
+// read. A failure keeps the folder: its error names the log in it.
 io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions& options) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
-  struct Remove {
-    fs::path path;
-    ~Remove() {
-      std::error_code ignored;
-      fs::remove_all(path, ignored);
-    }
-  } remove{work};
-  return triangulate_with_colmap(scene, k, work, options);
+  io::PointCloud points = triangulate_with_colmap(scene, k, work, options);
+  std::error_code ignored;
+  fs::remove_all(work, ignored);
+  return points;
 }
 
 // Appends b to a. When either has colours the result has them, grey where a source had none.

@@ -198,6 +198,25 @@ TEST(Prepare, DefaultsToRandomPointsWithoutMasksAndHullNeedsThem) {
   EXPECT_EQ(prepare_scene(scene, o).points_source, "random");
 }
 
+// A COLMAP failure names its log, which is still there to read (the temporary folder is kept).
+TEST(Prepare, AColmapFailureNamesALogThatExists) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact", 3);
+  const fs::path fake = dir / "fake-colmap";
+  test::write_text(fake, "#!/bin/sh\necho \"E0101 error: out of cheese in $1\" >&2\nexit 3\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  PrepareOptions o = quiet();
+  o.points = {PointsSource::kColmap};
+  o.colmap.executable = fake.string();
+  const std::string message = test::message_of([&] { prepare_scene(scene, o); });
+  EXPECT_NE(message.find("out of cheese in feature_extractor"), std::string::npos) << message;
+  const std::size_t at = message.find("(log: ");
+  ASSERT_NE(at, std::string::npos) << message;
+  const fs::path log = message.substr(at + 6, message.find(')', at) - at - 6);
+  EXPECT_TRUE(fs::exists(log)) << log;
+  fs::remove_all(log.parent_path().parent_path());
+}
+
 // The default covers the whole scene: the hull's foreground plus COLMAP's background with masks,
 // COLMAP alone without; random stands in for a missing COLMAP, with a note saying so.
 TEST(Prepare, DefaultPointsCoverForegroundAndBackground) {

@@ -36,7 +36,7 @@ struct PrepareOptions {
   // the masks and COLMAP's static background). Empty: default_points().
   std::vector<PointsSource> points;
   std::filesystem::path points_dir;  // for kPly
-  ColmapOptions colmap;              // kColmap; it works in a temporary folder, removed afterwards
+  ColmapOptions colmap;  // kColmap; it works in a temporary folder, removed unless it failed
   HullOptions hull;
   // kRandom's points in all, spread over the training frames (at least kMinRandomPointsPerFrame
   // each) as training's fallback seeds the same number at once.
