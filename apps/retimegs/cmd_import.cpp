@@ -10,45 +10,63 @@ namespace retimegs::app {
 
 void add_import_command(CLI::App& app) {
   struct Args {
-    std::string format, in, out, frames;
+    std::string in, out, frames;
     double downscale = 1.0;
     int threads = 0;
     bool force = false;
   };
-  auto args = std::make_shared<Args>();
+  using Importer = void (*)(const std::filesystem::path&, const std::filesystem::path&,
+                            const ingest::ImportOptions&);
+  struct Format {
+    const char* name;
+    const char* description;
+    Importer run;
+  };
+  static const Format kFormats[] = {
+      {"panoptic",
+       "CMU Panoptic in the Dynamic3DGaussians layout: train_meta.json / test_meta.json, ims/, "
+       "seg/ (masks); the test_meta cameras become test cameras.",
+       ingest::import_panoptic},
+      {"n3dv",
+       "Neural3DV / DyNeRF: poses_bounds.npy and cam00.mp4, cam01.mp4, ...; cam00 becomes the "
+       "test camera.",
+       ingest::import_n3dv},
+      {"colmap",
+       "A COLMAP sparse model (SRC, SRC/sparse/0 or SRC/sparse; .bin or .txt) with SRC/images: one "
+       "static frame, undistorted to pinhole.",
+       ingest::import_colmap},
+      {"nerfstudio",
+       "A nerfstudio transforms.json (SRC or the file itself), with optional per-frame time and "
+       "camera.",
+       ingest::import_nerfstudio},
+  };
   CLI::App* cmd = app.add_subcommand(
       "import", "Convert a public dataset layout into the scene format (DESIGN.md §4).");
-  cmd->add_option("format", args->format,
-                  "source layout: panoptic (Dynamic3DGaussians train_meta.json/test_meta.json, "
-                  "ims/, seg/), n3dv (Neural3DV/DyNeRF poses_bounds.npy + cam00.mp4 ...; cam00 "
-                  "becomes the test camera), colmap (sparse model in SRC, SRC/sparse/0 or "
-                  "SRC/sparse, .bin or .txt, + SRC/images; one static frame, undistorted to "
-                  "pinhole), nerfstudio (transforms.json, optional per-frame time and camera)")
-      ->required()
-      ->check(CLI::IsMember({"panoptic", "n3dv", "colmap", "nerfstudio"}));
-  cmd->add_option("--in", args->in, "source folder (nerfstudio: or its transforms.json)")
-      ->required();
-  cmd->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
-      ->required();
-  cmd->add_option("--frames", args->frames,
-                  "inclusive frame range A:B of the source (default: all)");
-  cmd->add_option("--downscale", args->downscale, "divide the image size by F (intrinsics follow)")
-      ->capture_default_str();
-  cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
-      ->capture_default_str();
-  cmd->add_flag("--force", args->force, "replace an existing output folder");
-  cmd->callback([args] {
-    set_threads(args->threads);
-    ingest::ImportOptions options;
-    if (!args->frames.empty())
-      std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
-    options.downscale = args->downscale;
-    options.force = args->force;
-    if (args->format == "panoptic") ingest::import_panoptic(args->in, args->out, options);
-    if (args->format == "n3dv") ingest::import_n3dv(args->in, args->out, options);
-    if (args->format == "colmap") ingest::import_colmap(args->in, args->out, options);
-    if (args->format == "nerfstudio") ingest::import_nerfstudio(args->in, args->out, options);
-  });
+  cmd->require_subcommand(1);
+  for (const Format& format : kFormats) {
+    auto args = std::make_shared<Args>();
+    CLI::App* sub = cmd->add_subcommand(format.name, format.description);
+    sub->add_option("--in", args->in, "source folder")->required();
+    sub->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
+        ->required();
+    sub->add_option("--frames", args->frames,
+                    "inclusive frame range A:B of the source (default: all)");
+    sub->add_option("--downscale", args->downscale,
+                    "divide the image size by F (intrinsics follow)")
+        ->capture_default_str();
+    sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+        ->capture_default_str();
+    sub->add_flag("--force", args->force, "replace an existing output folder");
+    sub->callback([args, run = format.run] {
+      set_threads(args->threads);
+      ingest::ImportOptions options;
+      if (!args->frames.empty())
+        std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
+      options.downscale = args->downscale;
+      options.force = args->force;
+      run(args->in, args->out, options);
+    });
+  }
 }
 
 }  // namespace retimegs::app

@@ -1,4 +1,6 @@
+#include <cstdio>
 #include <filesystem>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -225,6 +227,29 @@ TEST_F(PanopticBadInput, FrameRangeOutside) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+// `import panoptic --help` describes this format and its options, not every format's layout.
+TEST(ImportCli, EachFormatHasItsOwnHelp) {
+  const auto help = [](const std::string& format) {
+    const std::string command = std::string(RETIMEGS_BINARY) + " import " + format + " --help";
+    std::string out;
+    if (FILE* pipe = ::popen(command.c_str(), "r")) {
+      char buffer[4096];
+      while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) out.append(buffer, n);
+      EXPECT_EQ(::pclose(pipe), 0) << command;
+    }
+    return out;
+  };
+  const std::string panoptic = help("panoptic"), n3dv = help("n3dv");
+  EXPECT_NE(panoptic.find("train_meta.json"), std::string::npos) << panoptic;
+  EXPECT_EQ(panoptic.find("poses_bounds.npy"), std::string::npos) << panoptic;
+  EXPECT_NE(panoptic.find("--downscale"), std::string::npos) << panoptic;
+  EXPECT_NE(n3dv.find("poses_bounds.npy"), std::string::npos) << n3dv;
+  EXPECT_EQ(n3dv.find("train_meta.json"), std::string::npos) << n3dv;
+  const std::string all = help("");
+  for (const char* format : {"panoptic", "n3dv", "colmap", "nerfstudio"})
+    EXPECT_NE(all.find(format), std::string::npos) << all;
 }
 
 }  // namespace
