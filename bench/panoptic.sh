@@ -37,7 +37,8 @@ num_frames=$(grep -o '"num_frames": *[0-9]*' "$scene/scene.json" | grep -o '[0-9
 train_frames=$(seq -s, 0 2 $((num_frames - 1)))
 start=$(date +%s)
 "$bin" prepare --scene "$scene" ${points:+--points "$points"}
-echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
+# A rerun resumes a prepared scene in a second: keep the first run's time.
+[ -f "$work/prepare_seconds" ] || echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
 
 models=(full stgs)
 methods=(full stgs flow crossfade nearest)
@@ -74,7 +75,7 @@ for v in "${methods[@]}"; do
         flags+=(--save-renders "$work/renders/$v-$split") ;;
     esac
     [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" "${flags[@]}" \
-      --out "$work/${v}_$split.json"
+      --out "$work/${v}_$split.json" --force
   done
 done
 for split in train test; do
@@ -82,7 +83,7 @@ for split in train test; do
   [ "$split" = test ] && cams=0,30
   "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 \
     --renders "$work/renders/full-$split,$work/renders/flow-$split,$work/renders/crossfade-$split" \
-    --out "$root/bench/results/panoptic_sheet_$split.png"
+    --out "$root/bench/results/panoptic_sheet_$split.png" --force
 done
 
 # cell FILE KEY SECTION DIGITS: one formatted figure, "–" when the file does not exist.
@@ -91,6 +92,9 @@ cell() {
 }
 {
   echo "# CMU Panoptic basketball: train even frames, score odd frames"
+  echo
+  echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" \
+    "with \`PRESET=$preset bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
   echo
   echo "Preset $preset, points: ${points:-the default of prepare}; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
   echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
