@@ -1,5 +1,6 @@
 // retimegs prepare --scene SCENE [--train-frames even|all] [--flow dis|deepflow|tvl1]
-//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--force] [--threads T]
+//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks[=mog2|knn]]
+//                  [--force] [--threads T]
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,7 +19,7 @@ namespace retimegs::app {
 
 void add_prepare_command(CLI::App& app) {
   struct Args {
-    std::string scene, frames = "even", flow = "dis", flow_dir;
+    std::string scene, frames = "even", flow = "dis", flow_dir, masks;
     std::vector<std::string> points;
     int threads = 0;
     bool force = false;
@@ -53,6 +54,12 @@ void add_prepare_command(CLI::App& app) {
                   "colmap when COLMAP is not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
+  cmd->add_flag("--masks{mog2}", args->masks,
+                "write approximate foreground masks for a capture without them, from a background "
+                "model of each (static) camera's training frames: --masks or --masks=mog2 "
+                "(OpenCV MOG2), --masks=knn; what stays put for most of the clip counts as "
+                "background")
+      ->check(CLI::IsMember({"mog2", "knn"}));
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
@@ -63,6 +70,10 @@ void add_prepare_command(CLI::App& app) {
     options.flow_method = prepare::parse_flow_method(args->flow);
     options.flow_dir = args->flow_dir;
     options.force = args->force;
+    if (!args->masks.empty()) {
+      options.masks.emplace();
+      options.masks->method = prepare::parse_mask_method(args->masks);
+    }
     if (!args->points.empty()) {
       const std::string& kinds = args->points[0];
       bool needs_dir = false;
@@ -91,6 +102,12 @@ void add_prepare_command(CLI::App& app) {
     const io::Scene scene = io::read_scene(args->scene);
     const prepare::PrepareReport r = prepare::prepare_scene(scene, options);
 
+    if (options.masks)
+      spdlog::info(
+          "masks ({}, approximate): {} file{} written ({:.1f} % foreground), {} kept, "
+          "{:.1f} s",
+          args->masks, r.masks_written, r.masks_written == 1 ? "" : "s", 100 * r.mask_coverage,
+          r.masks_kept, r.masks_seconds);
     if (!r.points_note.empty()) spdlog::warn("points: {}", r.points_note);
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)

@@ -14,6 +14,7 @@
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/image_io.hpp"
 
 namespace retimegs::prepare {
 
@@ -129,6 +130,47 @@ bool has_every_mask(const io::Scene& scene, const std::vector<int>& cameras,
   return true;
 }
 
+// Background-model masks of every camera with a missing mask (prepare/masks.hpp), one camera per
+// worker, each file atomic.
+void write_masks(const io::Scene& scene, const std::vector<int>& train_frames,
+                 const MaskOptions& mask_options, const PrepareOptions& options,
+                 PrepareReport& report) {
+  std::vector<int> cameras;
+  for (int c = 0; c < int(scene.cameras.size()); ++c) {
+    bool missing = false;
+    for (int k = 0; k < scene.num_frames; ++k)
+      if (options.force || !fs::exists(scene.mask_path(c, k)))
+        missing = true;
+      else
+        ++report.masks_kept;
+    if (missing) cameras.push_back(c);
+  }
+  const std::vector<std::size_t> learn(train_frames.begin(), train_frames.end());
+  Progress progress("masks", cameras.size(), options.progress);
+  const OpenCvThreads single(max_threads() > 1 ? 1 : cv::getNumThreads());
+  double foreground = 0;
+  parallel_for(cameras.size(), [&](std::size_t i) {
+    const int c = cameras[i];
+    std::vector<Image> clip;
+    for (int k = 0; k < scene.num_frames; ++k) clip.push_back(io::load_image(scene, c, k));
+    const std::vector<Image> masks = background_masks(clip, learn, mask_options);
+    std::size_t written = 0;
+    double share = 0;
+    for (int k = 0; k < scene.num_frames; ++k) {
+      const fs::path path = scene.mask_path(c, k);
+      if (!options.force && fs::exists(path)) continue;
+      io::write_png(path, masks[k]);
+      share +=
+          std::count(masks[k].data.begin(), masks[k].data.end(), 1.0f) / double(masks[k].pixels());
+      ++written;
+    }
+#pragma omp critical(prepare_stats)
+    report.masks_written += written, foreground += share;
+    progress.tick();
+  });
+  report.mask_coverage = report.masks_written ? foreground / double(report.masks_written) : 0.0;
+}
+
 }  // namespace
 
 std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
@@ -152,6 +194,10 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   const std::vector<int>& frames = views.frames;
   if (cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
 
+  Stopwatch clock;
+  if (options.masks) write_masks(scene, frames, *options.masks, options, report);
+  report.masks_seconds = clock.lap();
+
   // What is missing.
   std::vector<FlowJob> jobs;
   for (int c : cameras)
@@ -171,7 +217,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
 
   std::vector<PointsSource> sources = options.points;
   if (sources.empty() && !point_frames.empty())
-    sources = default_points(has_every_mask(scene, cameras, frames),
+    // Masks made by --masks miss what moves little over the clip: no hull from them unless asked.
+    sources = default_points(!options.masks && has_every_mask(scene, cameras, frames),
                              colmap_available(options.colmap), report.points_note);
 
   // Check every input before writing anything.
@@ -205,7 +252,6 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   }
 
   // Flows.
-  Stopwatch clock;
   if (!jobs.empty()) {
     Progress progress(report.flows_imported ? "flow import" : "flow", jobs.size(),
                       options.progress);

@@ -2,10 +2,13 @@
 // `retimegs prepare`: fills in what training needs that a scene lacks (DESIGN.md §1):
 //  - flow/<camera>/<from:05d>_<to:05d>.flo in both directions for every training camera and every
 //    pair of io::training_views() (the flows training reads). Test cameras get none;
-//  - points/<frame:05d>.ply at every training frame.
+//  - points/<frame:05d>.ply at every training frame;
+//  - with `masks` set, first masks/<camera>/<frame:05d>.png (approximate, prepare/masks.hpp) for
+//    every camera at every frame, so that the points and the evaluation see a scene with masks.
 // Existing files are kept unless `force`, so a re-run resumes; every file is written atomically.
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +16,7 @@
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 #include "retimegs/prepare/flow_estimate.hpp"
+#include "retimegs/prepare/masks.hpp"
 #include "retimegs/prepare/points.hpp"
 
 namespace retimegs::prepare {
@@ -38,6 +42,10 @@ struct PrepareOptions {
   std::filesystem::path points_dir;  // for kPly
   ColmapOptions colmap;  // kColmap; it works in a temporary folder, removed unless it failed
   HullOptions hull;
+  // Set: background-model masks for the cameras missing one, learnt from the training frames.
+  // They are approximate (they miss what moves little over the clip), so the default points then
+  // stay those of a scene without masks; --points hull,... uses them.
+  std::optional<MaskOptions> masks;
   // kRandom's points in all, spread over the training frames (at least kMinRandomPointsPerFrame
   // each) as training's fallback seeds the same number at once.
   std::size_t random_points_total = io::kRandomPointsTotal;
@@ -57,6 +65,8 @@ std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_f
                                          std::string& note);
 
 struct PrepareReport {
+  std::size_t masks_written = 0, masks_kept = 0;  // files
+  double mask_coverage = 0;                       // mean foreground share of the masks written
   std::size_t flows_written = 0, flows_kept = 0;  // files
   bool flows_imported = false;
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
@@ -65,7 +75,7 @@ struct PrepareReport {
   std::string points_note;      // why the default points are what they are, when not as planned
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
-  double flow_seconds = 0, points_seconds = 0;
+  double masks_seconds = 0, flow_seconds = 0, points_seconds = 0;
 };
 
 // Checks every input first (flow_dir files, PLY files, masks for the hull) so that bad input
