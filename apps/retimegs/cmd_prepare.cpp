@@ -1,5 +1,5 @@
 // retimegs prepare --scene SCENE [--train-frames even|all] [--flow dis|deepflow|tvl1]
-//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks[=mog2|knn]]
+//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks]
 //                  [--force] [--threads T]
 #include <memory>
 #include <string>
@@ -19,10 +19,10 @@ namespace retimegs::app {
 
 void add_prepare_command(CLI::App& app) {
   struct Args {
-    std::string scene, frames = "even", flow = "dis", flow_dir, masks;
+    std::string scene, frames = "even", flow = "dis", flow_dir;
     std::vector<std::string> points;
     int threads = 0;
-    bool force = false;
+    bool force = false, masks = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -54,12 +54,10 @@ void add_prepare_command(CLI::App& app) {
                   "colmap when COLMAP is not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
-  cmd->add_flag("--masks{mog2}", args->masks,
-                "write approximate foreground masks for a capture without them, from a background "
-                "model of each (static) camera's training frames: --masks or --masks=mog2 "
-                "(OpenCV MOG2), --masks=knn; what stays put for most of the clip counts as "
-                "background")
-      ->check(CLI::IsMember({"mog2", "knn"}));
+  cmd->add_flag("--masks", args->masks,
+                "write approximate foreground masks for a capture without them, from a MOG2 "
+                "background model of each (static) camera's training frames; what stays put for "
+                "most of them counts as background");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
@@ -70,10 +68,7 @@ void add_prepare_command(CLI::App& app) {
     options.flow_method = prepare::parse_flow_method(args->flow);
     options.flow_dir = args->flow_dir;
     options.force = args->force;
-    if (!args->masks.empty()) {
-      options.masks.emplace();
-      options.masks->method = prepare::parse_mask_method(args->masks);
-    }
+    if (args->masks) options.masks.emplace();
     if (!args->points.empty()) {
       const std::string& kinds = args->points[0];
       bool needs_dir = false;
@@ -104,10 +99,9 @@ void add_prepare_command(CLI::App& app) {
 
     if (options.masks)
       spdlog::info(
-          "masks ({}, approximate): {} file{} written ({:.1f} % foreground), {} kept, "
-          "{:.1f} s",
-          args->masks, r.masks_written, r.masks_written == 1 ? "" : "s", 100 * r.mask_coverage,
-          r.masks_kept, r.masks_seconds);
+          "masks (approximate): {} file{} written ({:.1f} % foreground), {} kept, {:.1f} s",
+          r.masks_written, r.masks_written == 1 ? "" : "s", 100 * r.mask_coverage, r.masks_kept,
+          r.masks_seconds);
     if (!r.points_note.empty()) spdlog::warn("points: {}", r.points_note);
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)

@@ -12,7 +12,7 @@ namespace retimegs::prepare {
 
 namespace {
 
-// MOG2 and KNN mark foreground 255 and shadows 127; shadows belong to the background here.
+// MOG2 marks foreground 255 and shadows 127; shadows belong to the background here.
 constexpr unsigned char kForeground = 255;
 
 cv::Mat to_bgr8(const Image& image) {
@@ -26,14 +26,6 @@ cv::Mat to_bgr8(const Image& image) {
   cv::Mat bgr;
   cv::cvtColor(rgb, bgr, image.channels == 1 ? cv::COLOR_GRAY2BGR : cv::COLOR_RGB2BGR);
   return bgr;
-}
-
-cv::Ptr<cv::BackgroundSubtractor> make_model(const MaskOptions& options, int frames) {
-  if (options.method == MaskMethod::kKnn)
-    return cv::createBackgroundSubtractorKNN(frames, options.knn_threshold, true);
-  auto mog2 = cv::createBackgroundSubtractorMOG2(frames, options.var_threshold, true);
-  mog2->setBackgroundRatio(options.background_ratio);
-  return mog2;
 }
 
 // Opening removes specks, closing joins the pieces of one body, then components below the
@@ -66,16 +58,6 @@ cv::Mat clean(const cv::Mat& raw, const MaskOptions& options) {
 
 }  // namespace
 
-MaskMethod parse_mask_method(const std::string& name) {
-  if (name == "mog2") return MaskMethod::kMog2;
-  if (name == "knn") return MaskMethod::kKnn;
-  fail("--masks: unknown method '{}' (mog2 or knn)", name);
-}
-
-const char* mask_method_name(MaskMethod method) {
-  return method == MaskMethod::kKnn ? "knn" : "mog2";
-}
-
 std::vector<Image> background_masks(const std::vector<Image>& frames,
                                     const std::vector<std::size_t>& learn,
                                     const MaskOptions& options) {
@@ -94,7 +76,9 @@ std::vector<Image> background_masks(const std::vector<Image>& frames,
     bgr.push_back(to_bgr8(frames[k]));
   }
 
-  const cv::Ptr<cv::BackgroundSubtractor> model = make_model(options, int(learn.size()));
+  const cv::Ptr<cv::BackgroundSubtractorMOG2> model =
+      cv::createBackgroundSubtractorMOG2(int(learn.size()), options.var_threshold, true);
+  model->setBackgroundRatio(options.background_ratio);
   cv::Mat raw;
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t k : learn) model->apply(bgr[k], raw, -1);  // at rate 1 / min(2 n, history)

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "retimegs/io/flow_io.hpp"
@@ -113,6 +114,22 @@ TEST(PrepareCli, RejectsBadPointsArguments) {
   r = test::run_cli(cmd + " --flow dis --flow-dir " + (dir / "exact-flow").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_FALSE(fs::exists(scene / "flow"));
+}
+
+// A capture without masks: --masks writes one per camera and frame and says so in one line.
+TEST(PrepareCli, MasksForACaptureWithoutThem) {
+  test::TempDir dir;
+  const fs::path scene = bare_scene(dir);
+  fs::remove_all(scene / "masks");
+  int status = 0;
+  const std::string log =
+      run_stdout("prepare --scene " + scene.string() + " --masks --points random", dir, status);
+  EXPECT_EQ(status, 0) << log;
+  EXPECT_NE(log.find("masks (approximate): 15 files written"), std::string::npos) << log;
+  for (const char* camera : {"cam00", "cam01", "cam02"})
+    for (int k = 0; k < 5; ++k)
+      EXPECT_TRUE(fs::exists(scene / "masks" / camera / fmt::format("{:05d}.png", k)))
+          << camera << " " << k;
 }
 
 }  // namespace

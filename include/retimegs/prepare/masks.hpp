@@ -1,32 +1,24 @@
 #pragma once
 // Approximate foreground masks for captures that have none (`retimegs prepare --masks`), from a
-// background model of each static camera's own clip (OpenCV's MOG2 or KNN background
-// subtractors), cleaned morphologically. What moves during the clip is foreground; what stays in
-// place for most of it (a person standing still, a parked ball) is background, and shadows are
-// background. The hull, the masked metrics and the stability figure read these masks as they read
-// a capture's own.
-#include <string>
+// background model of each static camera's own clip (OpenCV's MOG2 background subtractor),
+// cleaned morphologically. (OpenCV's KNN subtractor counts a colour seen in two frames as
+// background, which on a capture's short clips is most of what moves.) What moves during the clip
+// is foreground; what stays in place for most of it (a person standing still, a parked ball) is
+// background, and shadows are background. The hull, the masked metrics and the stability figure
+// read these masks as they read a capture's own.
 #include <vector>
 
 #include "retimegs/core/image.hpp"
 
 namespace retimegs::prepare {
 
-enum class MaskMethod { kMog2, kKnn };
-
-// "mog2" or "knn"; throws Error naming --masks otherwise.
-MaskMethod parse_mask_method(const std::string& name);
-const char* mask_method_name(MaskMethod method);
-
 struct MaskOptions {
-  MaskMethod method = MaskMethod::kMog2;
-  // MOG2: a pixel is background when its colour matches the Gaussians that together hold this
-  // share of its clip. Below one half, content that covers a pixel for less than half of the
-  // clip (people walking through it) stays foreground on the short clips of a capture, where
-  // OpenCV's 0.9 makes everything seen in two frames out of seventeen background.
+  // A pixel is background when its colour matches the Gaussians that together hold this share of
+  // its frames. At one half, content that covers a pixel in fewer than half of the frames (people
+  // walking through it) stays foreground; OpenCV's 0.9 makes everything seen in two frames out of
+  // seventeen background, most of what moves on a capture's short clip.
   double background_ratio = 0.5;
-  double var_threshold = 16;   // MOG2: squared Mahalanobis distance of a match (4 sigma)
-  double knn_threshold = 400;  // KNN: squared distance (8-bit RGB) of a match
+  double var_threshold = 16;  // MOG2: squared Mahalanobis distance of a match (4 sigma)
   // Cleaning: specks smaller than this share of the image are dropped, and gaps narrower than
   // this share of the image's larger side are closed.
   double min_area = 5e-4;
