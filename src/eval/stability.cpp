@@ -1,5 +1,5 @@
 // Temporal stability of a slow-motion render over the pixels static in the ground truth
-// (protocol.hpp, DESIGN.md §5).
+// (protocol.hpp, docs/method.md, evaluation).
 #include <algorithm>
 #include <cmath>
 

@@ -66,8 +66,8 @@ T temporal_opacity(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& co
   return retime_window(p, i, config, grid)(t);
 }
 
-// Flow rule of DESIGN.md §2: at t >= μ_τ the primitive sits at p2 (L rule: forward to p3,
-// backward to p1); before, at p1 (R rule: forward to p2, backward to p0).
+// Flow rule (docs/method.md, triple rendering): at t >= μ_τ the primitive sits at p2 (L rule:
+// forward to p3, backward to p1); before, at p1 (R rule: forward to p2, backward to p0).
 struct FlowRule {
   int base, forward, backward;
 };

@@ -238,7 +238,7 @@ void synthesize_scene(const SynthOptions& options, const std::filesystem::path& 
   std::vector<Posed> posed;  // [K]
   for (int k = 0; k < frames; ++k) posed.push_back(synth::pose_world(world, k));
 
-  // Flows of strides 1 and 2 in both directions (DESIGN.md §4 file names).
+  // Flows of strides 1 and 2 in both directions (docs/formats.md file names).
   constexpr int kStrides[] = {-2, -1, 1, 2};
   Progress progress("synth", std::size_t(cameras) * frames, options.progress);
   for (int c = 0; c < cameras; ++c) {

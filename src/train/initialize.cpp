@@ -152,7 +152,7 @@ std::vector<PointMotion> point_motion(const TrainingSet& set, int slot,
   return motion;
 }
 
-// The velocities of a trajectory's control points, per frame (DESIGN.md §2): v1 carries p0 to
+// The velocities of a trajectory's control points, per frame (docs/method.md): v1 carries p0 to
 // p1, v2 p1 to p2 (the primitive's own interval), v3 p2 to p3.
 struct Velocities {
   Eigen::Vector3d v1 = Eigen::Vector3d::Zero(), v2 = Eigen::Vector3d::Zero(),
@@ -219,13 +219,13 @@ std::pair<int, int> unchanged_frames(const TrainingSet& set, int slot,
   return {first, last};
 }
 
-// Static content once (paper §3.3.3's stretching criterion applied to the points; DESIGN.md §2
-// "Flow-aware initialisation" departs here): a still point becomes one unmoving primitive over its
-// run of frames, instead of one copy per interval that meet (and are drawn differently) at every
-// training frame. Its mu_tau is the centre of the interval in the middle of the run, as for a
-// stretched primitive. A point repeated verbatim with the same run (a static cloud written at
-// every frame) is one primitive; points found at different frames are kept apart even when close:
-// they are samples of the surface, and the initial density follows them.
+// Static content once (paper §3.3.3's stretching criterion applied to the points, a departure from
+// the paper's flow-aware initialisation; docs/method.md): a still point becomes one unmoving
+// primitive over its run of frames, instead of one copy per interval that meet (and are drawn
+// differently) at every training frame. Its mu_tau is the centre of the interval in the middle of
+// the run, as for a stretched primitive. A point repeated verbatim with the same run (a static
+// cloud written at every frame) is one primitive; points found at different frames are kept apart
+// even when close: they are samples of the surface, and the initial density follows them.
 void add_still_points(const std::vector<StillPoint>& still, const model::TimeGrid& grid,
                       Seeds& seeds) {
   std::set<std::tuple<float, float, float, int, int>> taken;
@@ -334,9 +334,9 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         // the flows put the point: p0 at x + backward displacement (t_{i-1}), x itself at t_i, and
         // x + forward displacement (t_{i+1}); a point no flow measures in one direction moves at
         // v both ways, and the control point beyond the measured ones continues the last chord
-        // (DESIGN.md §2's fallback at the clip ends). DESIGN.md §2 sets v1 = v2 = v3 = v, the mean
-        // of both displacements: on a curved or accelerating path that straight line misses the
-        // point's position at the interval's far end by the path's bend (the fast synthetic
+        // (the fallback at the clip ends). The paper's initialisation sets v1 = v2 = v3 = v, the
+        // mean of both displacements: on a curved or accelerating path that straight line misses
+        // the point's position at the interval's far end by the path's bend (the fast synthetic
         // ball, turning 1 rad per interval, lands 0.7 m off), so the two seeds of an interval draw
         // two objects.
         const Eigen::Vector3d into = m.backward_views ? Eigen::Vector3d(-m.backward / step) : v;

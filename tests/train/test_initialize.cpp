@@ -88,7 +88,7 @@ bool on_object(const Eigen::Vector3d& x) {
 // Each moving point of frame t_i seeds both intervals around it with the control points where
 // the flows put it: p0 = x + backward displacement, p1 = x, p2 = x + forward displacement for
 // [t_i, t_{i+1}]; p1 = x + backward, p2 = x, p3 = x + forward for [t_{i-1}, t_i]. (A straight line
-// at the mean of both displacements, DESIGN.md §2's v1 = v2 = v3, misses the far frame of a
+// at the mean of both displacements, the paper's v1 = v2 = v3, misses the far frame of a
 // curved path by its bend.)
 TEST(Initialize, MovingSeedsPassWhereTheFlowsPutThePoint) {
   test::TempDir dir;

@@ -1,7 +1,8 @@
 #pragma once
-// A batch of 3D Gaussians as the renderer consumes them (DESIGN.md §3: model produces it for a
-// time and a camera, render draws it), and the gradient of a loss with respect to it. Structures
-// of arrays, row-major, templated on the scalar so that tests can run the pipeline in double.
+// A batch of 3D Gaussians as the renderer consumes them (README.md, Architecture: model produces it
+// for a time and a camera, render draws it), and the gradient of a loss with respect to it.
+// Structures of arrays, row-major, templated on the scalar so that tests can run the pipeline in
+// double.
 #include <cstddef>
 #include <vector>
 

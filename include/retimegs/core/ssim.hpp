@@ -1,9 +1,9 @@
 #pragma once
-// Structural similarity as 3DGS trains and evaluates it (DESIGN.md §2 image loss, §5): an 11×11
-// Gaussian window (σ = 1.5, normalised to sum 1) applied per channel as a zero-padded "same"
-// correlation (conv2d with padding 5), C1 = 0.01², C2 = 0.03² for values in [0, 1], and the SSIM
-// map averaged over all H×W×C, borders included. Cropping the map by 5 px gives the Gaussian SSIM
-// of Wang et al. 2004 over valid windows (scikit-image gaussian_weights=True).
+// Structural similarity as 3DGS trains and evaluates it (docs/method.md: image loss, evaluation):
+// an 11×11 Gaussian window (σ = 1.5, normalised to sum 1) applied per channel as a zero-padded
+// "same" correlation (conv2d with padding 5), C1 = 0.01², C2 = 0.03² for values in [0, 1], and the
+// SSIM map averaged over all H×W×C, borders included. Cropping the map by 5 px gives the Gaussian
+// SSIM of Wang et al. 2004 over valid windows (scikit-image gaussian_weights=True).
 //
 // Moments, the map and the gradient are accumulated in double: σ² = E[x²] − μ² cancels badly in
 // float (3DGS's float32 value differs by ~1.3e-5 from the exact one).

@@ -1,9 +1,9 @@
 #pragma once
-// The held-out evaluation protocol (DESIGN.md §5): render every listed camera at every listed
-// frame, compare with the ground truth — PSNR inside the mask, SSIM on the mask's bounding box,
-// LPIPS-squeeze on both images with the background outside the mask set to black (whole images
-// when the scene has no masks), and the same three on the whole image — and average over views.
-// Optionally also the temporal stability of an 8x slow-motion render.
+// The held-out evaluation protocol (docs/method.md, evaluation): render every listed camera at
+// every listed frame, compare with the ground truth — PSNR inside the mask, SSIM on the mask's
+// bounding box, LPIPS-squeeze on both images with the background outside the mask set to black
+// (whole images when the scene has no masks), and the same three on the whole image — and average
+// over views. Optionally also the temporal stability of an 8x slow-motion render.
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -44,8 +44,8 @@ struct ViewScore {
   Scores whole;  // the whole image (the same as above when not masked)
 };
 
-// Temporal stability (DESIGN.md §5) of one camera: the largest mean absolute change between
-// consecutive frames of the slow-motion render over its static pixels, in 8-bit levels.
+// Temporal stability (docs/method.md, evaluation) of one camera: the largest mean absolute change
+// between consecutive frames of the slow-motion render over its static pixels, in 8-bit levels.
 struct CameraStability {
   std::string camera;
   std::optional<double> max_change;  // none when the camera has no static pixel
@@ -79,9 +79,9 @@ struct EvalResult {
 EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options);
 
-// The JSON of DESIGN.md §5: {"psnr", "ssim", "lpips" (or null), "masked", "whole": {"psnr",
-// "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")}, and
-// "stability": {"steps", "max", "mean", "per_camera": [{"camera", "max_change",
+// The JSON of docs/method.md, evaluation: {"psnr", "ssim", "lpips" (or null), "masked", "whole":
+// {"psnr", "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")},
+// and "stability": {"steps", "max", "mean", "per_camera": [{"camera", "max_change",
 // "static_fraction", "masked", "swept"}]} when measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.

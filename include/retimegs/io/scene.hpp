@@ -1,5 +1,5 @@
 #pragma once
-// The scene format of DESIGN.md §4, the contract every command and test uses:
+// The scene format of docs/formats.md, the contract every command and test uses:
 //   scene/scene.json
 //   scene/images/<camera>/<frame:05d>.png
 //   scene/masks/<camera>/<frame:05d>.png                 optional, foreground > 127

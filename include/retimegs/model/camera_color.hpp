@@ -1,5 +1,5 @@
 #pragma once
-// Per-camera colour correction (Dynamic 3D Gaussians' cam_m, cam_c; DESIGN.md §7): a real rig's
+// Per-camera colour correction (Dynamic 3D Gaussians' cam_m, cam_c; docs/method.md): a real rig's
 // cameras differ in gain and white balance, so training learns for each training camera an affine
 // map per channel, rgb' = exp(m) ⊙ rgb + c, applied to the render before the image loss. The
 // model's own colours are then those of the average camera; a render from a training camera

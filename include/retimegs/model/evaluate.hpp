@@ -1,8 +1,8 @@
 #pragma once
 // evaluate(t, camera): the 4D primitives at time t as a batch of ordinary 3D Gaussians for the
 // renderer (core/gaussians.hpp), with colours from the SH at each view direction and, on request,
-// the per-primitive flow features and group membership of triple rendering (DESIGN.md §2), and the
-// backward pass: the chain rule from the Gaussians' gradient into every optimised parameter.
+// the per-primitive flow features and group membership of triple rendering (docs/method.md), and
+// the backward pass: the chain rule from the Gaussians' gradient into every optimised parameter.
 #include <cstdint>
 #include <vector>
 
@@ -13,8 +13,8 @@
 
 namespace retimegs::model {
 
-// Which primitives take part (DESIGN.md §2 "Groups"). kLeft / kRight need t = t_i, a training
-// time: kLeft = active on [t_{i-1}, t_i], kRight = active on [t_i, t_{i+1}].
+// Which primitives take part (docs/method.md, triple rendering). kLeft / kRight need t = t_i, a
+// training time: kLeft = active on [t_{i-1}, t_i], kRight = active on [t_i, t_{i+1}].
 enum class Group { kAll, kLeft, kRight };
 
 constexpr int kFlowChannels = 4;  // forward (u, v), backward (u, v) in pixels

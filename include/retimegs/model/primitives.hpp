@@ -1,5 +1,5 @@
 #pragma once
-// The 4D primitives of RetimeGS (DESIGN.md §2) in a structure of arrays, the training time grid,
+// The 4D primitives of RetimeGS (docs/method.md) in a structure of arrays, the training time grid,
 // and the model-level settings that fix how a primitive becomes a 3D Gaussian at time t.
 #include <algorithm>
 #include <array>
@@ -20,7 +20,7 @@ struct TimeGrid {
 
   double last() const { return first + step * (count - 1); }
   double at(int i) const { return first + step * i; }
-  // γ is given in normalised clip time (DESIGN.md §2): γ_frames = γ (t_T - t_1).
+  // γ is given in normalised clip time (docs/method.md): γ_frames = γ (t_T - t_1).
   double to_frames(double normalised) const { return normalised * (last() - first); }
 };
 
@@ -45,7 +45,7 @@ template <typename T>
 void reorder_rows(std::vector<T>& values, int width, const std::vector<std::int32_t>& old_from_new);
 
 // One row per primitive. Optimised fields first, then the window that only stretching changes.
-//   Retime: x(t) from μ and v1, v2, v3 (Catmull-Rom control points, DESIGN.md §2),
+//   Retime: x(t) from μ and v1, v2, v3 (Catmull-Rom control points, docs/method.md),
 //           σ_τ(t) from (μ_τ, τ_l, τ_r).
 //   STGS:   x(t) = μ + b1 Δ + b2 Δ² + b3 Δ³ with Δ = t - μ_τ and (b1, b2, b3) stored in
 //           `velocity`; σ_τ(t) = exp(-((t - μ_τ) / exp(temporal_log_scale))²) with μ_τ learnable.

@@ -1,5 +1,5 @@
 #pragma once
-// Temporal opacity σ_τ(t) (DESIGN.md §2, paper Eq. 4-5) and the STGS baseline's Gaussian window.
+// Temporal opacity σ_τ(t) (docs/method.md, paper Eq. 4-5) and the STGS baseline's Gaussian window.
 // Times in scene frame units.
 #include <cmath>
 
@@ -21,7 +21,7 @@ struct RetimeWindow {
 
   bool open_left() const { return mu_tau - tau_l <= t_first + epsilon; }
   bool open_right() const { return mu_tau + tau_r >= t_last - epsilon; }
-  // Whether the support covers [a, b] (up to ε): the group membership test of DESIGN.md §2.
+  // Whether the support covers [a, b] (up to ε): the group membership test of docs/method.md.
   bool covers(T a, T b) const {
     return mu_tau - tau_l <= a + epsilon && mu_tau + tau_r >= b - epsilon;
   }

@@ -1,5 +1,5 @@
 #pragma once
-// Primitive trajectories as linear maps of the parameters (DESIGN.md §2). For a fixed time every
+// Primitive trajectories as linear maps of the parameters (docs/method.md). For a fixed time every
 // trajectory is x(t) = μ + Σ_j c_j v_j (plus, for STGS, a dependence on μ_τ), so one set of
 // coefficients gives the position and its vector-Jacobian product alike.
 #include "retimegs/model/primitives.hpp"

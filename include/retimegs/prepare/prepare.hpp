@@ -1,5 +1,5 @@
 #pragma once
-// `retimegs prepare`: fills in what training needs that a scene lacks (DESIGN.md §1):
+// `retimegs prepare`: fills in what training needs that a scene lacks (docs/cli.md):
 //  - flow/<camera>/<from:05d>_<to:05d>.flo in both directions for every training camera and every
 //    pair of io::training_views() (the flows training reads). Test cameras get none;
 //  - points/<frame:05d>.ply at every training frame;

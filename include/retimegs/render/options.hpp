@@ -1,6 +1,6 @@
 #pragma once
-// Settings shared by every stage of the rasteriser (DESIGN.md §3). Defaults are gsplat v1 / 3DGS;
-// the gsplat v0.1.13 reference renders in data/gsplat-reference use `gsplat_v0_1_13()`.
+// Settings shared by every stage of the rasteriser (README.md, Architecture). Defaults are gsplat
+// v1 / 3DGS; the gsplat v0.1.13 reference renders in data/gsplat-reference use `gsplat_v0_1_13()`.
 namespace retimegs::render {
 
 constexpr int kTileSize = 16;  // pixels per tile side (gsplat BLOCK_X = BLOCK_Y = 16)

@@ -1,8 +1,8 @@
 #pragma once
-// The differentiable CPU rasteriser (DESIGN.md §3): 3D Gaussians + camera -> image of C channels,
-// alpha and (optionally) depth over a background, and the gradient with respect to every input.
-// Stages: project.hpp (EWA projection, culling), bin_tiles.hpp (16x16 tiles, radix + counting
-// sort), blend.hpp (front-to-back compositing). Threads: OpenMP (core/parallel.hpp).
+// The differentiable CPU rasteriser (README.md, Architecture): 3D Gaussians + camera -> image of C
+// channels, alpha and (optionally) depth over a background, and the gradient with respect to every
+// input. Stages: project.hpp (EWA projection, culling), bin_tiles.hpp (16x16 tiles, radix +
+// counting sort), blend.hpp (front-to-back compositing). Threads: OpenMP (core/parallel.hpp).
 //
 //   auto out = render::rasterize_forward(gaussians, camera, background, options);
 //   use out.blend.image, out.blend.alpha, out.blend.depth

@@ -1,5 +1,5 @@
 #pragma once
-// Every hyper-parameter of training, with the paper's values as defaults (DESIGN.md §2, §7; paper
+// Every hyper-parameter of training, with the paper's values as defaults (docs/method.md; paper
 // appendix A). `--config FILE` overrides any subset; RUN/config.json records the full set.
 #include <cstdint>
 #include <string>

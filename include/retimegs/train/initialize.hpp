@@ -1,5 +1,5 @@
 #pragma once
-// Flow-aware initialisation (DESIGN.md §2, paper §3.3.4) of the 4D primitives from the training
+// Flow-aware initialisation (docs/method.md, paper §3.3.4) of the 4D primitives from the training
 // set's per-frame point clouds and flows, the STGS baseline's initialisation, and the random
 // fallback for scenes without points.
 #include <cstdint>
@@ -29,8 +29,8 @@ struct InitOptions {
 // 3-D forward / backward displacement of point X (frame slot i) from the flows of every camera
 // that sees it unoccluded (z-test against the cloud's own depth map): the flow is sampled at X's
 // projection and the displacement is the least-squares fit of X + d to every camera's displaced
-// pixel. DESIGN.md §2 lifts each displaced pixel at X's depth and averages; that plain average
-// underestimates motion along each view's depth axis (about half of a horizontal motion for
+// pixel. The paper's recipe lifts each displaced pixel at X's depth and averages; that plain
+// average underestimates motion along each view's depth axis (about half of a horizontal motion for
 // cameras on a ring), so the average is only the fallback for a single or ill-conditioned view.
 struct PointMotion {
   Eigen::Vector3d forward = Eigen::Vector3d::Zero(), backward = Eigen::Vector3d::Zero();

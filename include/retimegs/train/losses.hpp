@@ -1,5 +1,5 @@
 #pragma once
-// Training losses (DESIGN.md §2). On rendered images: the image loss (1 − λ)·L1 + λ·(1 − SSIM)
+// Training losses (docs/method.md). On rendered images: the image loss (1 − λ)·L1 + λ·(1 − SSIM)
 // and the per-pixel L1 flow loss that skips unknown flow pixels; each returns its value and adds
 // weight · d loss / d render into v_render (same layout as the render: [H, W, C], RGB first). On
 // the primitives: the 3DGS-MCMC regulariser, as a forward / backward pair.

@@ -1,11 +1,11 @@
 #pragma once
-// MCMC relocation and growth (3DGS-MCMC Eq. 9 as gsplat's MCMCStrategy implements it, DESIGN.md
-// §7) adapted to 4D primitives: dead slots (σ <= min_opacity) take copies of live primitives drawn
-// ∝ the sampling score σ · (τ_l + τ_r), the primitive's opacity mass over time (σ for the STGS
-// baseline), with the opacity / scale correction that keeps the rendered image unchanged to first
-// order; every parameter is copied, the temporal ones too.
+// MCMC relocation and growth (3DGS-MCMC Eq. 9 as gsplat's MCMCStrategy implements it;
+// docs/method.md) adapted to 4D primitives: dead slots (σ <= min_opacity) take copies of live
+// primitives drawn ∝ the sampling score σ · (τ_l + τ_r), the primitive's opacity mass over time (σ
+// for the STGS baseline), with the opacity / scale correction that keeps the rendered image
+// unchanged to first order; every parameter is copied, the temporal ones too.
 //
-// The score departs from DESIGN.md §2 and the paper (σ / (τ_l + τ_r)). 3DGS-MCMC treats the
+// The score departs from the paper (σ / (τ_l + τ_r)). 3DGS-MCMC treats the
 // primitives as samples of the scene's opacity and draws new ones where that mass is; in space-time
 // a primitive's mass is σ times the time it is visible, and a slot spent on static content serves
 // every frame it spans while a slot spent on one interval serves that interval only. Dividing by
@@ -27,7 +27,7 @@ struct Relocation {
   std::size_t added = 0;              // rows appended by growth
 };
 
-// σ_new = 1 - (1 - σ)^(1/n) and the scale factor σ / D (DESIGN.md §7) for a source drawn so that
+// σ_new = 1 - (1 - σ)^(1/n) and the scale factor σ / D (docs/method.md) for a source drawn so that
 // it and its copies number n in total.
 void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_factor);
 

@@ -29,7 +29,7 @@ class DensityStrategy {
                                     Optimizers& optimizers, std::mt19937_64& rng) = 0;
 };
 
-// The MCMC schedule of RetimeGS (DESIGN.md §2, §7), milestones in TrainConfig::scaled units:
+// The MCMC schedule of RetimeGS (docs/method.md), milestones in TrainConfig::scaled units:
 //   every step: noise on the step's faint active primitives (inject_noise), scaled by the means'
 //     learning rate;
 //   every relocate_every steps strictly between relocate_start and relocate_stop: relocation of

@@ -1,5 +1,5 @@
 #pragma once
-// Dynamic stretching (DESIGN.md §2, paper §3.3.3): at every training frame t_b, primitives whose
+// Dynamic stretching (docs/method.md, paper §3.3.3): at every training frame t_b, primitives whose
 // support ends at t_b are matched with their nearest neighbour (position at t_b) among those whose
 // support starts there. A pair with similar base colour (SH degree 0) and near-zero velocity gets
 // the union of both supports (μ_τ stays; τ_l, τ_r grow), so static content ends up represented by

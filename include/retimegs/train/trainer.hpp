@@ -1,6 +1,6 @@
 #pragma once
-// The RetimeGS optimisation loop (DESIGN.md §2): one (camera, frame) per step, triple rendering at
-// interior training frames with flow supervision of each group, L1 + SSIM and regularisers, Adam
+// The RetimeGS optimisation loop (docs/method.md): one (camera, frame) per step, triple rendering
+// at interior training frames with flow supervision of each group, L1 + SSIM and regularisers, Adam
 // per parameter group, SH degree schedule; MCMC relocation and growth, noise and dynamic
 // stretching in the density strategy; checkpoints that resume bit-identically.
 //
