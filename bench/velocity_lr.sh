@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Velocity learning-rate sweep (DESIGN.md §2 asks for it to be tuned): trains the full recipe on
+# Velocity learning-rate sweep (docs/method.md, "Optimiser"): trains the full recipe on
 # the quality benchmark's scenes (bench/quality.sh makes them) with `lr_velocity` scaled by each
 # factor, scores the odd frames, and writes bench/results/velocity_lr.md.
 #
