@@ -54,8 +54,8 @@ void add_eval_command(CLI::App& app) {
                 "levels, between consecutive frames of an 8x slow-motion render through the "
                 "training frames, over pixels static in the ground truth");
   cmd->add_option("--lpips-weights", args->lpips,
-                  "LPIPS-squeeze weights folder (default: ../shared/data/metrics/lpips_squeeze/"
-                  "weights when present; otherwise lpips is null)");
+                  "LPIPS-squeeze weights folder (default: the repository's "
+                  "data/lpips_squeeze/weights; without weights lpips is null)");
   cmd->add_option("--save-renders", args->save, "also write DIR/<camera>/<frame:05d>.png");
   auto* near = add_near_option(*cmd, args->near);
   cmd->add_option("--out", args->out, "metrics JSON to write")->required();

@@ -1,6 +1,6 @@
 #pragma once
 // LPIPS v0.1 (Zhang et al. 2018, "net='squeeze'", spatial average) with the SqueezeNet 1.1 trunk,
-// exactly as data/metrics/lpips_squeeze/manifest.json defines it:
+// exactly as data/lpips_squeeze/manifest.json defines it:
 //   x = (2v − 1 − shift) / scale per channel (v: RGB in [0, 1]);
 //   conv 3→64 k3 s2 + ReLU → tap0; max-pool k3 s2 ceil_mode, Fire 3, Fire 4 → tap1;
 //   max-pool, Fire 6, Fire 7 → tap2; max-pool, Fire 9 → tap3; Fire 10 → tap4; Fire 11 → tap5;
@@ -29,8 +29,8 @@ class Lpips {
   // 11 → 5 → 2, too small for the last 3×3 pool.
   static constexpr int kMinSide = 25;
 
-  // Reads `<dir>/<key>.npy` for the 57 keys of the manifest (the shared copy:
-  // /work/shared/data/metrics/lpips_squeeze/weights); throws Error naming the folder when it is
+  // Reads `<dir>/<key>.npy` for the 57 keys of the manifest (the repository's copy:
+  // data/lpips_squeeze/weights); throws Error naming the folder when it is
   // missing, or the file when one is missing, malformed or of the wrong shape.
   static Lpips load(const std::filesystem::path& dir);
 
