@@ -1,5 +1,4 @@
 // retimegs export --model MODEL (--time T --out SPLAT.ply | --times A:B:STEP --out DIR)
-#include <fstream>
 #include <memory>
 #include <optional>
 
@@ -9,6 +8,7 @@
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -49,15 +49,10 @@ void add_export_command(CLI::App& app) {
     const std::vector<double> ts = parse_time_range(args->times, "--times");
     model::check_times(m, ts, "export");
     AtomicDirectory dir(out, args->force);
-    std::ofstream csv(dir.temp_path() / "times.csv");
-    csv << "file,t\n";
-    for (std::size_t k = 0; k < ts.size(); ++k) {
-      const std::string name = fmt::format("{:05d}.ply", k);
-      io::write_splat_ply(dir.temp_path() / name, model::export_splats(m, ts[k]));
-      csv << name << "," << ts[k] << "\n";
-    }
-    csv.close();
-    if (!csv) fail("{}: cannot write times.csv", args->out);
+    for (std::size_t k = 0; k < ts.size(); ++k)
+      io::write_splat_ply(dir.temp_path() / fmt::format("{:05d}.ply", k),
+                          model::export_splats(m, ts[k]));
+    io::write_times_csv(dir.temp_path() / "times.csv", ts);
     dir.commit();
     spdlog::info("exported {} times to {}", ts.size(), args->out);
   });

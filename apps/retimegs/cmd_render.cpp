@@ -1,5 +1,7 @@
 // retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
 //                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
+// retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
+//   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--force]
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -11,7 +13,9 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/eval/output_size.hpp"
 #include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -26,6 +30,11 @@ void add_render_command(CLI::App& app) {
     int path_frames = 60, threads = 0;
     std::optional<double> near;
     bool force = false;
+    std::string camera_path;  // nerfstudio camera_path.json
+    std::string size;         // --size WxH
+    std::optional<double> scale, fps;
+    bool alpha = false;
+    int bit_depth = 8;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -43,6 +52,12 @@ void add_render_command(CLI::App& app) {
                       "cameras CAM,CAM,... to move through (bullet time with --time), with the "
                       "model's colours");
   camera->excludes(path_option);
+  auto* camera_path = cmd->add_option(
+      "--camera-path", args->camera_path,
+      "nerfstudio camera_path.json (ns-render camera-path): one camera per frame, its render_time "
+      "over the model's time range (or --time T for every frame), the file's size and fps, the "
+      "model's colours");
+  camera_path->excludes(camera)->excludes(path_option);
   auto* time = cmd->add_option("--time", args->time,
                                "one time, in scene frame units, within the model's time range");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
@@ -55,12 +70,27 @@ void add_render_command(CLI::App& app) {
   time->excludes(times)->excludes(slowmo)->excludes(retime);
   times->excludes(slowmo)->excludes(retime);
   slowmo->excludes(retime);
+  camera_path->excludes(times)->excludes(slowmo)->excludes(retime);
   cmd->add_option("--path-frames", args->path_frames,
                   "frames of a --path move at a fixed --time (bullet time)")
       ->capture_default_str();
   cmd->add_option("--out", args->out,
-                  "output: x.png (one frame), x.mp4 / x.avi (video at the scene's fps) or a folder")
+                  "output: x.png (one frame), x.mp4 / x.mov / x.mkv (H.264), x.avi (Motion-JPEG) "
+                  "or a folder of PNGs with times.csv")
       ->required();
+  cmd->add_option("--fps", args->fps,
+                  "frame rate of a video (default: the scene's; a --camera-path file's own)");
+  auto* size = cmd->add_option("--size", args->size,
+                               "render at WxH, the camera's aspect ratio (intrinsics scaled; "
+                               "default: the camera's size)");
+  auto* scale = cmd->add_option("--scale", args->scale,
+                                "render at the camera's size times S, rounded (intrinsics scaled)");
+  size->excludes(scale);
+  cmd->add_flag("--alpha", args->alpha,
+                "PNG outputs: RGBA, straight colour and alpha = the render's opacity");
+  cmd->add_option("--bit-depth", args->bit_depth, "PNG outputs: 8 or 16 bits per channel")
+      ->check(CLI::IsMember({8, 16}))
+      ->capture_default_str();
   cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
       ->capture_default_str();
   add_near_option(*cmd, args->near);
@@ -72,10 +102,47 @@ void add_render_command(CLI::App& app) {
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));
-    if (args->camera.empty() && args->path.empty()) fail("render: give --camera or --path");
+    if (args->camera.empty() && args->path.empty() && args->camera_path.empty())
+      fail("render: give --camera, --path or --camera-path");
+    eval::OutputSize output_size;
+    if (!args->size.empty()) output_size = eval::parse_output_size(args->size);
+    output_size.scale = args->scale;
+    if (args->fps && !(std::isfinite(*args->fps) && *args->fps > 0))
+      fail("--fps: must be a finite number > 0, got {}", *args->fps);
+    // The output options of every render source; a video's fps defaults to the source's.
+    const auto writer_options = [&](double source_fps, std::vector<double> frame_times) {
+      io::FrameWriterOptions o;
+      o.fps = args->fps.value_or(source_fps);
+      o.alpha = args->alpha;
+      o.bit_depth = args->bit_depth;
+      o.times = std::move(frame_times);
+      o.force = args->force;
+      return o;
+    };
+    std::optional<io::CameraPathFile> path_file;  // read before the model: fail fast
+    if (!args->camera_path.empty()) path_file = io::read_camera_path_json(args->camera_path);
 
     const eval::LoadedModel model = eval::load_model(args->model);
     const auto* model_4d = std::get_if<model::Model>(&model);
+    if (path_file) {
+      const std::size_t n = path_file->frames.size();
+      std::vector<double> path_times(n, args->time.value_or(0.0));  // a static model ignores time
+      if (model_4d && !args->time) {
+        if (!path_file->timed)
+          fail("{}: camera_path entries have no 'render_time'; give --time T for every frame",
+               args->camera_path);
+        path_times = io::camera_path_times(*path_file, model_4d->grid.first, model_4d->grid.last());
+      }
+      if (model_4d) model::check_times(*model_4d, path_times, "render");
+      std::vector<Camera> cameras;
+      for (const auto& frame : path_file->frames)
+        cameras.push_back(eval::at_output_size(frame.camera, output_size));
+      io::FrameWriter writer(args->out, int(n), writer_options(path_file->fps, path_times));
+      eval::render_camera_frames(model, cameras, path_times, background.data(), writer,
+                                 render_options);
+      spdlog::info("rendered {} frame{} to {}", n, n > 1 ? "s" : "", args->out);
+      return;
+    }
     std::vector<double> frame_times;
     if (args->time)
       frame_times = {*args->time};
@@ -102,8 +169,10 @@ void add_render_command(CLI::App& app) {
       path = {scene.cameras[scene.camera_index(args->camera)]};
     }
 
+    for (Camera& c : path) c = eval::at_output_size(c, output_size);
+
     const int frames = int(frame_times.size());
-    io::FrameWriter writer(args->out, frames, scene.fps, args->force);
+    io::FrameWriter writer(args->out, frames, writer_options(scene.fps, frame_times));
     eval::render_frames(model, path, frame_times, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });

@@ -6,6 +6,16 @@
 
 namespace retimegs {
 
+Camera resized(Camera camera, int width, int height) {
+  if (width <= 0 || height <= 0 || camera.width <= 0 || camera.height <= 0)
+    fail("camera '{}': cannot resize {}x{} to {}x{}", camera.name, camera.width, camera.height,
+         width, height);
+  const double sx = double(width) / camera.width, sy = double(height) / camera.height;
+  camera.fx *= sx, camera.cx *= sx, camera.fy *= sy, camera.cy *= sy;
+  camera.width = width, camera.height = height;
+  return camera;
+}
+
 Eigen::Matrix4d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                         const Eigen::Vector3d& up) {
   const Eigen::Vector3d z = (target - eye).normalized();  // forward
@@ -35,6 +45,16 @@ void check_rigid(const Eigen::Matrix4d& m, const std::string& what, double toler
   const Eigen::RowVector4d last = m.row(3);
   if ((last - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9)
     fail("{}: last row is not (0, 0, 0, 1)", what);
+}
+
+Eigen::Matrix4d world_to_camera_from_opengl(const Eigen::Matrix4d& camera_to_world) {
+  Eigen::Matrix3d r = camera_to_world.topLeftCorner<3, 3>();
+  r.col(1) *= -1;  // y up -> y down
+  r.col(2) *= -1;  // z backward -> z forward
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = r.transpose();
+  m.topRightCorner<3, 1>() = -r.transpose() * camera_to_world.topRightCorner<3, 1>();
+  return m;
 }
 
 }  // namespace retimegs

@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "retimegs/core/camera_path.hpp"
+#include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/evaluate.hpp"
@@ -42,6 +43,50 @@ Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
   return render_model(std::get<model::Model>(model), camera, t, background, options, colors);
 }
 
+Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double t,
+                         const render::RenderOptions& options, Colors colors) {
+  const float black[3] = {0, 0, 0};
+  render::RenderOutput out;
+  const model::CameraColor* color = nullptr;
+  if (const auto* splats = std::get_if<Splats>(&model)) {
+    render::rasterize_forward(model::splats_to_gaussians(*splats, camera), camera, black, options,
+                              out);
+  } else {
+    const model::Model& m = std::get<model::Model>(model);
+    const model::Evaluated evaluated =
+        model::evaluate(m.primitives, m.config, m.grid, t, camera, {});
+    render::rasterize_forward(evaluated.gaussians, camera, black, options, out);
+    if (colors == Colors::kCamera) color = model::find_camera_color(m, camera.name);
+  }
+  // Over black the image is the premultiplied colour sum_i c_i alpha_i T_i: divided by alpha it
+  // is the straight colour. The colour map is affine per channel, so it maps a composite as
+  // map(C + T b) = alpha map(C / alpha) + T map(b): it applies to the straight colour.
+  Image rgb = std::move(out.blend.image);
+  const std::size_t n = rgb.pixels();
+  for (std::size_t i = 0; i < n; ++i) {
+    const float a = out.blend.alpha[i];
+    for (int c = 0; c < 3; ++c) rgb.data[3 * i + c] = a > 0 ? rgb.data[3 * i + c] / a : 0.0f;
+  }
+  if (color) model::apply_camera_color(rgb, *color, rgb);
+  Image rgba(rgb.width, rgb.height, 4);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float a = out.blend.alpha[i];
+    for (int c = 0; c < 3; ++c) rgba.data[4 * i + c] = a > 0 ? rgb.data[3 * i + c] : 0.0f;
+    rgba.data[4 * i + 3] = a;
+  }
+  return rgba;
+}
+
+namespace {
+// One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
+Image frame_for(const io::FrameWriter& writer, const LoadedModel& model, const Camera& camera,
+                double t, const float* background, const render::RenderOptions& options,
+                Colors colors) {
+  if (writer.alpha()) return render_loaded_rgba(model, camera, t, options, colors);
+  return render_loaded(model, camera, t, background, options, colors);
+}
+}  // namespace
+
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    const std::vector<double>& times, const float* background,
                    io::FrameWriter& writer, const render::RenderOptions& options) {
@@ -50,8 +95,24 @@ void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
   const Colors colors = path.size() == 1 ? Colors::kCamera : Colors::kModel;
   for (int f = 0; f < frames; ++f) {
     const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
+    writer.write(frame_for(writer, model, camera_along_path(path, s), times[f], background, options,
+                           colors));
+    progress.tick();
+  }
+  progress.finish();
+  writer.finish();
+}
+
+void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& cameras,
+                          const std::vector<double>& times, const float* background,
+                          io::FrameWriter& writer, const render::RenderOptions& options) {
+  if (cameras.size() != times.size())
+    fail("render: {} cameras for {} times", cameras.size(), times.size());
+  const int frames = int(times.size());
+  Progress progress("render", frames, frames > 1);
+  for (int f = 0; f < frames; ++f) {
     writer.write(
-        render_loaded(model, camera_along_path(path, s), times[f], background, options, colors));
+        frame_for(writer, model, cameras[f], times[f], background, options, Colors::kModel));
     progress.tick();
   }
   progress.finish();

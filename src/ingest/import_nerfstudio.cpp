@@ -214,9 +214,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
                                           fmt::format("{}.transform_matrix[{}][{}]", where, r, c));
     }
     check_rigid(c2w, fmt::format("{}: {}.transform_matrix", file, where));
-    c2w.col(1) *= -1;  // OpenGL (y up, z back) -> OpenCV (y down, z forward)
-    c2w.col(2) *= -1;
-    e.world_to_camera = c2w.inverse();
+    e.world_to_camera = world_to_camera_from_opengl(c2w);
     if (f.contains("time")) {
       e.has_time = true;
       e.time = detail::finite_number(f["time"], file, where + ".time");

@@ -16,37 +16,64 @@ namespace fs = std::filesystem;
 
 struct FrameWriter::Video {
   cv::VideoWriter writer;
+  int width = 0, height = 0;
 };
 
 namespace {
-bool is_video(const fs::path& path) {
+// H.264 in the containers browsers, players and editors open it in; .avi keeps Motion-JPEG,
+// which AVI tools expect.
+bool is_h264(const fs::path& path) {
   const std::string ext = path.extension().string();
-  return ext == ".mp4" || ext == ".avi" || ext == ".mkv" || ext == ".mov";
+  return ext == ".mp4" || ext == ".mov" || ext == ".mkv";
+}
+
+bool is_video(const fs::path& path) {
+  return is_h264(path) || path.extension() == ".avi";
+}
+
+FrameWriterOptions video_options(double fps, bool force) {
+  FrameWriterOptions options;
+  options.fps = fps;
+  options.force = force;
+  return options;
 }
 }  // namespace
 
 FrameWriter::FrameWriter(fs::path out, int frames, double fps, bool force)
-    : out_(output_path(out)), frames_(frames), fps_(fps) {
+    : FrameWriter(std::move(out), frames, video_options(fps, force)) {}
+
+FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& options)
+    : out_(output_path(out)), frames_(frames), options_(options) {
   if (frames < 1) fail("{}: nothing to render (0 frames)", out_.string());
-  check_output_free(out_, force);
+  if (!options.times.empty() && int(options.times.size()) != frames)
+    fail("{}: {} frame times for {} frames", out_.string(), options.times.size(), frames);
+  if (options.bit_depth != 8 && options.bit_depth != 16)
+    fail("{}: bit depth must be 8 or 16, not {}", out_.string(), options.bit_depth);
+  check_output_free(out_, options.force);
   const std::string ext = out_.extension().string();
   if (!out.has_filename() || ext.empty()) {  // `x/` is a folder whatever its name
     kind_ = Kind::kFolder;
-    folder_ = std::make_unique<AtomicDirectory>(out_, force);
+    folder_ = std::make_unique<AtomicDirectory>(out_, options.force);
   } else if (ext == ".png") {
     if (frames != 1)
       fail("{}: a .png output holds one frame but {} were requested; give a folder or an .mp4",
            out_.string(), frames);
     kind_ = Kind::kPng;
   } else if (is_video(out_)) {
-    if (!(fps > 0) || !std::isfinite(fps))
-      fail("{}: invalid video frame rate {}", out_.string(), fps);
+    if (!(options.fps > 0) || !std::isfinite(options.fps))
+      fail("{}: invalid video frame rate {}", out_.string(), options.fps);
+    if (options.alpha)
+      fail("{}: a video has no alpha channel (--alpha): write a .png or a folder of PNGs",
+           out_.string());
+    if (options.bit_depth != 8)
+      fail("{}: a video is 8-bit; {} bits per channel (--bit-depth) need a .png or a folder",
+           out_.string(), options.bit_depth);
     kind_ = Kind::kVideo;
     file_ = std::make_unique<AtomicFile>(out_);
     video_ = std::make_unique<Video>();
   } else {
     fail(
-        "{}: unknown output type '{}': give x.png (one frame), a video (.mp4, .avi, .mkv, .mov) "
+        "{}: unknown output type '{}': give x.png (one frame), a video (.mp4, .mov, .mkv, .avi) "
         "or a folder (a name ending in '/' is always one)",
         out_.string(), ext);
   }
@@ -54,25 +81,45 @@ FrameWriter::FrameWriter(fs::path out, int frames, double fps, bool force)
 
 FrameWriter::~FrameWriter() = default;
 
-void FrameWriter::write(const Image& rgb) {
+void FrameWriter::write(const Image& image) {
   if (written_ >= frames_) fail("{}: more frames than announced ({})", out_.string(), frames_);
+  const int channels = options_.alpha ? 4 : 3;
+  if (image.channels != channels || image.width <= 0 || image.height <= 0 ||
+      image.data.size() != image.pixels() * channels)
+    fail("{}: frame {} is {}x{}x{}, expected {} channels", out_.string(), written_, image.width,
+         image.height, image.channels, channels);
   switch (kind_) {
     case Kind::kPng:
-      write_png(out_, rgb);
+      write_png(out_, image, options_.bit_depth);
       break;
     case Kind::kFolder:
-      write_png(folder_->temp_path() / fmt::format("{:05d}.png", written_), rgb);
+      write_png(folder_->temp_path() / fmt::format("{:05d}.png", written_), image,
+                options_.bit_depth);
       break;
     case Kind::kVideo: {
       if (!video_->writer.isOpened()) {
-        const int fourcc = out_.extension() == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
-                                                      : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
-        video_->writer.open(file_->temp_path().string(), cv::CAP_FFMPEG, fourcc, fps_,
-                            cv::Size(rgb.width, rgb.height));
+        const bool h264 = is_h264(out_);
+        if (image.width % 2 != 0 || image.height % 2 != 0)
+          fail(
+              "{}: a video needs an even width and height (4:2:0 chroma), the frames are {}x{}: "
+              "render at an even size (--size, --scale) or write PNGs",
+              out_.string(), image.width, image.height);
+        const int fourcc = h264 ? cv::VideoWriter::fourcc('a', 'v', 'c', '1')
+                                : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+        // Software encoding: the codec and its settings do not depend on the machine's GPU.
+        const std::vector<int> params = {cv::VIDEOWRITER_PROP_HW_ACCELERATION,
+                                         cv::VIDEO_ACCELERATION_NONE};
+        video_->writer.open(file_->temp_path().string(), cv::CAP_FFMPEG, fourcc, options_.fps,
+                            cv::Size(image.width, image.height), params);
         if (!video_->writer.isOpened())
-          fail("{}: cannot open a video writer (OpenCV built without FFmpeg?)", out_.string());
+          fail("{}: cannot open a {} video writer (OpenCV's FFmpeg backend without {}?)",
+               out_.string(), h264 ? "H.264" : "Motion-JPEG", h264 ? "libx264" : "mjpeg");
+        video_->width = image.width, video_->height = image.height;
       }
-      cv::Mat f(rgb.height, rgb.width, CV_32FC3, const_cast<float*>(rgb.data.data())), bgr8;
+      if (image.width != video_->width || image.height != video_->height)
+        fail("{}: frame {} is {}x{} but the video is {}x{}", out_.string(), written_, image.width,
+             image.height, video_->width, video_->height);
+      cv::Mat f(image.height, image.width, CV_32FC3, const_cast<float*>(image.data.data())), bgr8;
       f.convertTo(bgr8, CV_8UC3, 255.0);
       cv::cvtColor(bgr8, bgr8, cv::COLOR_RGB2BGR);
       video_->writer.write(bgr8);
@@ -92,8 +139,19 @@ void FrameWriter::finish() {
     if (fs::exists(out_)) fs::remove(out_);
     file_->commit();
   } else if (kind_ == Kind::kFolder) {
+    if (!options_.times.empty())
+      write_times_csv(folder_->temp_path() / "times.csv", options_.times);
     folder_->commit();
   }
+}
+
+void write_times_csv(const fs::path& path, const std::vector<double>& times) {
+  std::string text = "frame,time\n";
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    if (!std::isfinite(times[k])) fail("{}: frame {} has time {}", path.string(), k, times[k]);
+    text += fmt::format("{},{}\n", k, times[k]);  // {}: the shortest exact round trip
+  }
+  write_text_file(path, text);
 }
 
 std::vector<double> read_retime_csv(const fs::path& path) {

@@ -98,8 +98,7 @@ TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
   // A sequence: DIR/00000.ply ... and times.csv.
   run("export --model " + model + " --times 0:1:0.5 --out " + (dir / "seq").string());
   EXPECT_TRUE(fs::exists(dir / "seq" / "00002.ply"));
-  EXPECT_EQ(test::read_text(dir / "seq" / "times.csv"),
-            "file,t\n00000.ply,0\n00001.ply,0.5\n00002.ply,1\n");
+  EXPECT_EQ(test::read_text(dir / "seq" / "times.csv"), "frame,time\n0,0\n1,0.5\n2,1\n");
 }
 
 TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {

@@ -50,6 +50,11 @@ struct Camera {
   }
 };
 
+// The same view at another image size: focal lengths and principal point scaled per axis by
+// width / camera.width and height / camera.height, so the image spans the same field of view
+// (continuous image coordinates scale with the grid). Throws Error unless both sizes are > 0.
+Camera resized(Camera camera, int width, int height);
+
 // A camera at `eye` looking at `target` with the given world "up" direction (OpenCV axes:
 // the camera's -y axis is as close to `up` as possible).
 Eigen::Matrix4d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
@@ -58,5 +63,11 @@ Eigen::Matrix4d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& targe
 // Throws Error naming `what` unless m is finite with an orthonormal, det +1 rotation block and
 // last row (0, 0, 0, 1). Tolerance on R^T R - I and det - 1.
 void check_rigid(const Eigen::Matrix4d& m, const std::string& what, double tolerance = 1e-4);
+
+// The world-to-camera matrix (OpenCV axes) of a camera-to-world matrix with OpenGL / Blender
+// camera axes (x right, y up, z backward), as nerfstudio, instant-ngp and Blender write them:
+// OpenCV's camera-to-world is camera_to_world * diag(1, -1, -1, 1). The rotation block must be
+// orthonormal (check_rigid first); the result is its exact rigid inverse.
+Eigen::Matrix4d world_to_camera_from_opengl(const Eigen::Matrix4d& camera_to_world);
 
 }  // namespace retimegs

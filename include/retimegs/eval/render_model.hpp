@@ -41,14 +41,29 @@ Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
                     const float* background, const render::RenderOptions& options = {},
                     Colors colors = Colors::kModel);
 
+// render_loaded as straight (unassociated) RGBA, the alpha PNG defines: alpha is the accumulated
+// opacity 1 - T (T: the transmittance left behind the last Gaussian), RGB the colour of what the
+// pixel sees, its render over black divided by alpha (0 where alpha is 0), through the camera's
+// colour map as in render_loaded. Compositing it over a background b gives render_loaded's image
+// over b (over the map's image of b for a camera with a colour map).
+Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double t,
+                         const render::RenderOptions& options = {}, Colors colors = Colors::kModel);
+
 // The frames of `retimegs render`: frame f at times[f], seen from the camera at s = f / (F - 1)
 // along `path` (camera_along_path; one camera stays put), written to `writer`, which is then
 // finished. One camera renders with its colours (Colors::kCamera), a path with the model's (its
 // cameras between the named ones have none). A progress bar is shown when there is more than one
-// frame. Every frame renders with `options`.
+// frame. Every frame renders with `options`; a writer that writes alpha gets render_loaded_rgba.
 void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
                    const std::vector<double>& times, const float* background,
                    io::FrameWriter& writer, const render::RenderOptions& options = {});
+
+// The frames of `retimegs render --camera-path`: frame f from cameras[f] at times[f] (as many
+// cameras as times), with the model's colours, written to `writer`, which is then finished; a
+// progress bar as render_frames.
+void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& cameras,
+                          const std::vector<double>& times, const float* background,
+                          io::FrameWriter& writer, const render::RenderOptions& options = {});
 
 // The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `time` on black,
 // with that camera's colours (Colors::kCamera), every render with `options`.

@@ -1,9 +1,19 @@
 #pragma once
-// Where rendered frames go, chosen by the output path: `x.png` (exactly one frame), `x.mp4` /
-// `x.avi` / `x.mkv` / `x.mov` (a video through OpenCV's FFmpeg backend), a name without extension
-// or ending in '/' a folder of `<frame:05d>.png`; any other extension (`x.jpg`) is an error rather
-// than a folder of that name. Every kind appears atomically when finish() is called; an unfinished
-// writer leaves nothing behind.
+// Where rendered frames go, chosen by the output path:
+//   x.png                  exactly one frame
+//   x.mp4, x.mov, x.mkv    H.264 video (libx264 through OpenCV's FFmpeg backend; 8-bit yuv420p,
+//                          x264's constant quality CRF 23): what browsers, players and editors
+//                          open
+//   x.avi                  Motion-JPEG video (every frame a JPEG, 4:2:0): intra-only frames for
+//                          tools that scrub or cut frame by frame
+// Both videos halve the chroma in each direction, so their frames must have an even width and
+// height: an odd size is refused (the encoders would drop the last column and row).
+//   x/, or no extension    a folder of <frame:05d>.png (frame 0 first), with times.csv
+//                          (write_times_csv) when the frames' times are given
+// Any other extension (x.jpg) is an error rather than a folder of that name. PNG outputs hold 8- or
+// 16-bit RGB, or RGBA with straight (unassociated) alpha as PNG defines it; videos hold 8-bit RGB.
+// Every kind appears atomically when finish() is called; an unfinished writer leaves nothing
+// behind.
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -15,16 +25,29 @@
 
 namespace retimegs::io {
 
+struct FrameWriterOptions {
+  double fps = 0;             // frame rate of a video, finite and > 0; PNG outputs ignore it
+  bool alpha = false;         // PNG outputs only: write() takes RGBA, written with its alpha
+  int bit_depth = 8;          // PNG outputs: 8 or 16 bits per channel; videos are 8-bit only
+  std::vector<double> times;  // scene time of each frame (empty: unknown): a folder's times.csv
+  bool force = false;         // replace an existing output folder or file
+};
+
 class FrameWriter {
  public:
-  // `frames`: how many will be written (checked); `fps` for videos; `force` replaces an existing
-  // output folder or file.
+  // `frames`: how many will be written (checked; so is times.size() when times are given). Throws
+  // Error naming the output when the options do not fit its kind (alpha or 16 bits for a video).
+  FrameWriter(std::filesystem::path out, int frames, const FrameWriterOptions& options);
   FrameWriter(std::filesystem::path out, int frames, double fps, bool force = false);
   ~FrameWriter();
   FrameWriter(const FrameWriter&) = delete;
   FrameWriter& operator=(const FrameWriter&) = delete;
 
-  void write(const Image& rgb);  // RGB in [0, 1], clamped
+  // Whether write() takes RGBA (options.alpha) rather than RGB.
+  bool alpha() const { return options_.alpha; }
+  // Values in [0, 1], clamped: RGB, or RGBA with straight alpha when alpha(). Every frame of a
+  // video has the first one's size.
+  void write(const Image& image);
   void finish();
 
  private:
@@ -33,11 +56,18 @@ class FrameWriter {
   std::filesystem::path out_;
   Kind kind_;
   int frames_, written_ = 0;
-  double fps_;
+  FrameWriterOptions options_;
   std::unique_ptr<AtomicFile> file_;
   std::unique_ptr<AtomicDirectory> folder_;
   std::unique_ptr<Video> video_;
 };
+
+// The times of a sequence of frames, as render (a folder output) and export (--times) write them
+// beside the frames: CSV with the header `frame,time`, then per frame its index k (the k of the
+// file <k:05d>.png / .ply) and its time in scene frame units, printed in the shortest form that
+// reads back as the same double. Written atomically; throws Error naming `path` on a non-finite
+// time or a failed write.
+void write_times_csv(const std::filesystem::path& path, const std::vector<double>& times);
 
 // A speed-ramp file: CSV rows `output_frame,t` in increasing output_frame order (a header line and
 // blank lines are allowed), the keyframes of a time remap. Returns one time per output frame from

@@ -1,0 +1,195 @@
+// `retimegs render` outputs for a VFX pipeline: --size / --scale render at another size (the
+// camera's intrinsics scaled, not a resampled image), --alpha writes straight RGBA PNGs,
+// --bit-depth 16 16-bit PNGs, --fps the video's rate (the scene's by default), a folder gets
+// times.csv; options that do not fit the output are refused with one line and status 2.
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "retimegs/eval/render_model.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/model/model_file.hpp"
+#include "test_util.hpp"
+
+namespace retimegs {
+namespace {
+namespace fs = std::filesystem;
+
+// A 3-frame scene at 24 fps with one 64x48 camera, and a model of a few soft primitives around
+// the origin that leave the image border empty.
+struct Fixture {
+  io::Scene scene;
+  model::Model model;
+  fs::path root;
+  explicit Fixture(const fs::path& dir) : root(dir) {
+    scene.root = dir / "scene";
+    scene.num_frames = 3;
+    scene.fps = 24;
+    scene.cameras.push_back(test::small_camera("cam00", {0, 0, -4.0}));
+    for (int k = 0; k < scene.num_frames; ++k)
+      io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
+    io::write_scene_json(scene);
+
+    model.grid = {0.0, 2.0, 2};
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1, 1);
+    model::Primitives& p = model.primitives;
+    const int n = 10;
+    p.resize(n);
+    for (int i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.5f * u(rng);
+      for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.15f);
+      p.q0[4 * i] = 1;
+      p.velocity[9 * i] = 0.2f;
+      for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
+      p.opacity_logit[i] = 0.5f * u(rng);
+      p.mu_tau[i] = 1.0f;
+      p.tau_l[i] = p.tau_r[i] = 2.0f;
+    }
+    model::write_model(dir / "model.rgs", model);
+  }
+  // `retimegs render` of this model and scene from cam00 with the near plane the library uses.
+  test::CommandResult render(const std::string& args) const {
+    return test::run_cli("render --model " + (root / "model.rgs").string() + " --scene " +
+                         scene.root.string() + " --camera cam00 --near 0.01 " + args);
+  }
+};
+
+render::RenderOptions near_001() {
+  render::RenderOptions options;
+  options.near_plane = 0.01f;
+  return options;
+}
+
+double max_abs_diff(const Image& a, const Image& b) {
+  EXPECT_EQ(a.data.size(), b.data.size());
+  double d = 0;
+  for (std::size_t i = 0; i < std::min(a.data.size(), b.data.size()); ++i)
+    d = std::max(
+        d, double(std::abs(std::clamp(a.data[i], 0.0f, 1.0f) - std::clamp(b.data[i], 0.0f, 1.0f))));
+  return d;
+}
+
+TEST(RenderOutputsCli, SizeAndScaleRenderAtTheNewSize) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string at = " --time 1 --out ";
+  ASSERT_EQ(f.render("--size 32x24" + at + (dir / "size.png").string()).status, 0);
+  ASSERT_EQ(f.render("--scale 0.5" + at + (dir / "scale.png").string()).status, 0);
+  const Image size = io::read_image(dir / "size.png"), scale = io::read_image(dir / "scale.png");
+  ASSERT_EQ(size.width, 32);
+  ASSERT_EQ(size.height, 24);
+  EXPECT_EQ(size.data, scale.data);
+  // Rendered at 32x24 through the scaled intrinsics (8-bit rounding apart).
+  const float black[3] = {0, 0, 0};
+  const Image lib =
+      eval::render_model(f.model, resized(f.scene.cameras[0], 32, 24), 1.0, black, near_001());
+  EXPECT_LT(max_abs_diff(size, lib), 0.5 / 255 + 1e-6);
+}
+
+TEST(RenderOutputsCli, AlphaWritesStraightRgbaThatCompositesToTheRender) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string at = " --time 1 --background 1,1,1 --out ";
+  ASSERT_EQ(f.render("--alpha" + at + (dir / "rgba.png").string()).status, 0);
+  ASSERT_EQ(f.render(at + (dir / "rgb.png").string()).status, 0);
+  const cv::Mat rgba = cv::imread((dir / "rgba.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(rgba.type(), CV_8UC4);
+  const Image rgb = io::read_image(dir / "rgb.png");
+  const Image lib = eval::render_loaded_rgba(f.model, f.scene.cameras[0], 1.0, near_001());
+  int empty = 0, partial = 0;
+  for (int y = 0; y < rgba.rows; ++y)
+    for (int x = 0; x < rgba.cols; ++x) {
+      const cv::Vec4b v = rgba.at<cv::Vec4b>(y, x);
+      const double a = v[3] / 255.0;
+      EXPECT_NEAR(a, lib.at(y, x, 3), 0.5 / 255 + 1e-6);
+      empty += v[3] == 0;
+      partial += v[3] > 10 && v[3] < 245;
+      for (int c = 0; c < 3; ++c)  // over the white background: the render without --alpha
+        EXPECT_NEAR(a * v[2 - c] / 255.0 + (1 - a), rgb.at(y, x, c), 2.5 / 255)
+            << x << "," << y << "," << c;
+    }
+  EXPECT_GT(empty, 0);
+  EXPECT_GT(partial, 20);
+}
+
+TEST(RenderOutputsCli, SixteenBitPngs) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  ASSERT_EQ(f.render("--bit-depth 16 --times 0:1:1 --out " + (dir / "deep/").string()).status, 0);
+  const cv::Mat codes = cv::imread((dir / "deep" / "00001.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(codes.type(), CV_16UC3);
+  const float black[3] = {0, 0, 0};
+  const Image lib = eval::render_model(f.model, f.scene.cameras[0], 1.0, black, near_001());
+  int between_8_bit_codes = 0;
+  for (int y = 0; y < codes.rows; ++y)
+    for (int x = 0; x < codes.cols; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const int code = codes.at<cv::Vec<std::uint16_t, 3>>(y, x)[2 - c];
+        EXPECT_NEAR(code / 65535.0, std::clamp(lib.at(y, x, c), 0.0f, 1.0f), 1e-4);
+        between_8_bit_codes += code % 257 != 0;
+      }
+  EXPECT_GT(between_8_bit_codes, 100);
+}
+
+TEST(RenderOutputsCli, FpsSetsTheVideoRateAndTheSceneGivesTheDefault) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  ASSERT_EQ(f.render("--times 0:2:0.25 --fps 12.5 --out " + (dir / "a.mp4").string()).status, 0);
+  ASSERT_EQ(f.render("--times 0:2:0.5 --out " + (dir / "b.mp4").string()).status, 0);
+  for (const auto& [name, fps, frames] : {std::tuple{"a.mp4", 12.5, 9}, {"b.mp4", 24.0, 5}}) {
+    cv::VideoCapture cap((dir / name).string(), cv::CAP_FFMPEG);
+    ASSERT_TRUE(cap.isOpened()) << name;
+    EXPECT_NEAR(cap.get(cv::CAP_PROP_FPS), fps, 1e-6) << name;
+    const int fourcc = int(cap.get(cv::CAP_PROP_FOURCC));
+    EXPECT_EQ(fourcc, cv::VideoWriter::fourcc('a', 'v', 'c', '1')) << name;
+    int read = 0;
+    for (cv::Mat frame; cap.read(frame);) ++read;
+    EXPECT_EQ(read, frames) << name;
+  }
+}
+
+TEST(RenderOutputsCli, AFolderGetsTimesCsv) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  ASSERT_EQ(f.render("--times 0:2:0.5 --out " + (dir / "frames/").string()).status, 0);
+  EXPECT_EQ(test::read_text(dir / "frames" / "times.csv"),
+            "frame,time\n0,0\n1,0.5\n2,1\n3,1.5\n4,2\n");
+  EXPECT_TRUE(fs::exists(dir / "frames" / "00004.png"));
+}
+
+TEST(RenderOutputsCli, OptionsThatDoNotFitExitTwoWithOneLine) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string mp4 = " --times 0:1:0.5 --out " + (dir / "out.mp4").string();
+  const std::string png = " --time 1 --out " + (dir / "out.png").string();
+  struct Case {
+    std::string args, fragment;
+  };
+  for (const Case& c :
+       {Case{"--alpha" + mp4, "--alpha"}, Case{"--bit-depth 16" + mp4, "--bit-depth"},
+        Case{"--bit-depth 12" + png, "--bit-depth"}, Case{"--size 40x40" + png, "--size"},
+        Case{"--size 640x480x2" + png, "--size"}, Case{"--size 32x24 --scale 0.5" + png, "--scale"},
+        Case{"--scale 0" + png, "--scale"}, Case{"--scale -2" + png, "--scale"},
+        Case{"--size 33x25" + mp4, "even"}, Case{"--fps 0" + mp4, "--fps"},
+        Case{"--fps -3" + mp4, "--fps"}, Case{"--fps nan" + mp4, "--fps"},
+        Case{"--fps inf" + mp4, "--fps"}}) {
+    const auto r = f.render(c.args);
+    EXPECT_EQ(r.status, 2) << c.args;
+    EXPECT_NE(r.err.find(c.fragment), std::string::npos) << c.args << ": " << r.err;
+    EXPECT_TRUE(test::is_one_error_line(r.err)) << c.args << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out.mp4")) << c.args;
+    EXPECT_FALSE(fs::exists(dir / "out.png")) << c.args;
+  }
+}
+
+}  // namespace
+}  // namespace retimegs

@@ -1,0 +1,88 @@
+// render_loaded_rgba: alpha is the rasteriser's accumulated opacity and RGB the straight colour,
+// so compositing over any background gives the render over that background, through a training
+// camera's colour map too.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "retimegs/core/camera.hpp"
+#include "retimegs/eval/render_model.hpp"
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/render/rasterize.hpp"
+
+namespace retimegs::eval {
+namespace {
+
+// A few soft primitives in the middle of a 40x30 view (the border stays empty); camera cam00 has
+// a stored colour correction.
+model::Model cloud() {
+  model::Model model;
+  model.grid = {0.0, 2.0, 2};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1, 1);
+  model::Primitives& p = model.primitives;
+  const int n = 12;
+  p.resize(n);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.4f * u(rng);
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.12f);
+    p.q0[4 * i] = 1;
+    for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
+    p.opacity_logit[i] = 0.5f * u(rng);
+    p.mu_tau[i] = 1.0f;
+    p.tau_l[i] = p.tau_r[i] = 2.0f;
+  }
+  model.camera_colors["cam00"] = {{0.3f, -0.2f, 0.1f}, {0.05f, -0.02f, 0.03f}};
+  return model;
+}
+
+Camera view(const std::string& name) {
+  Camera cam;
+  cam.name = name;
+  cam.width = 40, cam.height = 30;
+  cam.fx = cam.fy = 40, cam.cx = 20, cam.cy = 15;
+  cam.world_to_camera = look_at({0.3, 0, -4.0}, {0, 0, 0}, {0, -1, 0});
+  return cam;
+}
+
+TEST(RenderAlpha, CompositingTheStraightRgbaGivesTheRender) {
+  const LoadedModel model = cloud();
+  const model::Model& m = std::get<model::Model>(model);
+  const float bg[3] = {0.9f, 0.4f, 0.1f};
+  for (const char* name : {"cam00", "cam01"}) {  // with and without a colour map
+    const Camera cam = view(name);
+    const Image rgba = render_loaded_rgba(model, cam, 1.0, {}, Colors::kCamera);
+    const Image over_bg = render_loaded(model, cam, 1.0, bg, {}, Colors::kCamera);
+    ASSERT_EQ(rgba.channels, 4);
+    // The alpha channel is the rasteriser's.
+    const auto raster = render::rasterize_forward(
+        model::evaluate(m.primitives, m.config, m.grid, 1.0, cam, {}).gaussians, cam, bg);
+    // The background as the camera's map shows it.
+    float mapped[3];
+    for (int c = 0; c < 3; ++c) {
+      const model::CameraColor* color = model::find_camera_color(m, name);
+      mapped[c] = color ? std::exp(color->m[c]) * bg[c] + color->c[c] : bg[c];
+    }
+    int empty = 0, partial = 0;
+    for (std::size_t i = 0; i < rgba.pixels(); ++i) {
+      const float a = rgba.data[4 * i + 3];
+      EXPECT_EQ(a, raster.blend.alpha[i]);
+      empty += a == 0;
+      partial += a > 0.05f && a < 0.95f;
+      for (int c = 0; c < 3; ++c) {
+        const float straight = rgba.data[4 * i + c];
+        if (a == 0) {
+          EXPECT_EQ(straight, 0.0f);
+        }
+        EXPECT_NEAR(a * straight + (1 - a) * mapped[c], over_bg.data[3 * i + c], 1e-5)
+            << name << " pixel " << i << " channel " << c;
+      }
+    }
+    EXPECT_GT(empty, 0) << name;  // the test sees transparent and partly covered pixels
+    EXPECT_GT(partial, 20) << name;
+  }
+}
+
+}  // namespace
+}  // namespace retimegs::eval

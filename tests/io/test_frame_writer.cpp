@@ -1,0 +1,279 @@
+// FrameWriter's outputs as a VFX pipeline reads them: .mp4 / .mov / .mkv are H.264 (libx264,
+// 4:2:0, 8-bit) that decodes close to what was written, .avi Motion-JPEG at any size; PNGs hold
+// straight RGBA and 16-bit codes exactly; a folder has times.csv; options that do not fit the
+// output are refused before anything is written.
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/io/frame_writer.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::io {
+namespace {
+namespace fs = std::filesystem;
+using test::expect_error;
+using test::TempDir;
+
+// Options with the given fields set (the rest default).
+FrameWriterOptions options(double fps = 0, bool alpha = false, int bit_depth = 8,
+                           std::vector<double> times = {}) {
+  FrameWriterOptions o;
+  o.fps = fps, o.alpha = alpha, o.bit_depth = bit_depth, o.times = std::move(times);
+  return o;
+}
+
+using Rgb16 = cv::Vec<std::uint16_t, 3>;
+using Rgba16 = cv::Vec<std::uint16_t, 4>;
+
+// A smooth frame that moves with k (what a render looks like to an encoder).
+Image moving_frame(int width, int height, int k) {
+  Image image(width, height, 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      image.at(y, x, 0) = float(x) / width;
+      image.at(y, x, 1) = float(y) / height;
+      image.at(y, x, 2) = 0.5f + 0.4f * float(std::sin((x + 6.0 * k) / 6.0));
+    }
+  return image;
+}
+
+// PSNR in dB of a decoded BGR 8-bit frame against the RGB frame written.
+double psnr(const cv::Mat& bgr, const Image& rgb) {
+  double se = 0;
+  for (int y = 0; y < rgb.height; ++y)
+    for (int x = 0; x < rgb.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double d = bgr.at<cv::Vec3b>(y, x)[2 - c] - std::round(rgb.at(y, x, c) * 255.0);
+        se += d * d;
+      }
+  return 10 * std::log10(255.0 * 255.0 / (se / (3.0 * rgb.pixels())));
+}
+
+void write_video(const fs::path& path, int width, int height, int frames, double fps) {
+  FrameWriter writer(path, frames, fps);
+  for (int k = 0; k < frames; ++k) writer.write(moving_frame(width, height, k));
+  writer.finish();
+}
+
+std::string fourcc_text(double fourcc) {
+  const int v = int(fourcc);
+  return {char(v & 255), char((v >> 8) & 255), char((v >> 16) & 255), char((v >> 24) & 255)};
+}
+
+// Exp-Golomb reader over an H.264 RBSP.
+struct Bits {
+  std::vector<std::uint8_t> bytes;
+  std::size_t pos = 0;
+  int bit() {
+    const int b = (bytes.at(pos / 8) >> (7 - pos % 8)) & 1;
+    ++pos;
+    return b;
+  }
+  unsigned ue() {
+    int zeros = 0;
+    while (bit() == 0) ++zeros;
+    unsigned v = 1;
+    for (int i = 0; i < zeros; ++i) v = (v << 1) | bit();
+    return v - 1;
+  }
+};
+
+struct SpsInfo {
+  int profile = -1, chroma_format = -1, bit_depth_luma = -1;
+};
+
+// The first SPS of an MP4's avcC box (ISO 14496-15): profile, chroma format (1 = 4:2:0) and luma
+// bit depth.
+SpsInfo sps_of_mp4(const std::string& file) {
+  const std::size_t at = file.find("avcC");
+  if (at == std::string::npos) return {};
+  const auto* p = reinterpret_cast<const std::uint8_t*>(file.data()) + at + 4;
+  const int sps_length = (p[6] << 8) | p[7];
+  const std::uint8_t* nal = p + 8;
+  Bits rbsp;
+  for (int i = 1; i < sps_length; ++i) {  // skip the NAL header, drop emulation prevention bytes
+    if (i >= 3 && nal[i] == 3 && nal[i - 1] == 0 && nal[i - 2] == 0) continue;
+    rbsp.bytes.push_back(nal[i]);
+  }
+  SpsInfo info;
+  info.profile = rbsp.bytes.at(0);
+  rbsp.pos = 24;                                    // profile_idc, constraint flags, level_idc
+  rbsp.ue();                                        // seq_parameter_set_id
+  info.chroma_format = 1, info.bit_depth_luma = 8;  // implied below the High profiles
+  if (info.profile == 100 || info.profile == 110 || info.profile == 122 || info.profile == 244) {
+    info.chroma_format = int(rbsp.ue());
+    if (info.chroma_format == 3) rbsp.bit();
+    info.bit_depth_luma = 8 + int(rbsp.ue());
+  }
+  return info;
+}
+
+TEST(FrameWriter, Mp4IsH264Yuv420FromLibx264AndDecodesClose) {
+  TempDir dir;
+  const fs::path mp4 = dir / "clip.mp4";
+  write_video(mp4, 64, 48, 6, 12.5);
+  const std::string bytes = test::read_text(mp4);
+  // libx264 signs its stream with its settings (an SEI message): the encoder was libx264.
+  EXPECT_NE(bytes.find("x264 - core"), std::string::npos);
+  const SpsInfo sps = sps_of_mp4(bytes);
+  EXPECT_EQ(sps.chroma_format, 1) << "profile " << sps.profile;  // 4:2:0
+  EXPECT_EQ(sps.bit_depth_luma, 8);
+
+  cv::VideoCapture cap(mp4.string(), cv::CAP_FFMPEG);
+  ASSERT_TRUE(cap.isOpened());
+  EXPECT_EQ(fourcc_text(cap.get(cv::CAP_PROP_FOURCC)), "avc1");
+  EXPECT_NEAR(cap.get(cv::CAP_PROP_FPS), 12.5, 1e-6);
+  EXPECT_EQ(fourcc_text(cap.get(cv::CAP_PROP_CODEC_PIXEL_FORMAT)), "I420");  // yuv420p
+  int frames = 0;
+  for (cv::Mat bgr; cap.read(bgr); ++frames) {
+    ASSERT_EQ(bgr.cols, 64);
+    ASSERT_EQ(bgr.rows, 48);
+    // x264 at CRF 23 gives about 34 dB here; the frame before or after is under 25 dB.
+    EXPECT_GT(psnr(bgr, moving_frame(64, 48, frames)), 30.0) << "frame " << frames;
+    EXPECT_LT(psnr(bgr, moving_frame(64, 48, frames + 1)), 25.0) << "frame " << frames;
+  }
+  EXPECT_EQ(frames, 6);
+}
+
+TEST(FrameWriter, MovAndMkvAreH264Too) {
+  TempDir dir;
+  for (const char* name : {"clip.mov", "clip.mkv"}) {
+    write_video(dir / name, 64, 48, 3, 24);
+    EXPECT_NE(test::read_text(dir / name).find("x264 - core"), std::string::npos) << name;
+    cv::VideoCapture cap((dir / name).string(), cv::CAP_FFMPEG);
+    ASSERT_TRUE(cap.isOpened()) << name;
+    const std::string codec = fourcc_text(cap.get(cv::CAP_PROP_FOURCC));
+    EXPECT_TRUE(codec == "avc1" || codec == "h264" || codec == "H264") << name << ": " << codec;
+    cv::Mat bgr;
+    ASSERT_TRUE(cap.read(bgr)) << name;
+    EXPECT_GT(psnr(bgr, moving_frame(64, 48, 0)), 30.0) << name;
+  }
+}
+
+TEST(FrameWriter, AviIsMotionJpeg) {
+  TempDir dir;
+  write_video(dir / "clip.avi", 64, 48, 3, 24);
+  cv::VideoCapture cap((dir / "clip.avi").string(), cv::CAP_FFMPEG);
+  ASSERT_TRUE(cap.isOpened());
+  EXPECT_EQ(fourcc_text(cap.get(cv::CAP_PROP_FOURCC)), "MJPG");
+  cv::Mat bgr;
+  ASSERT_TRUE(cap.read(bgr));
+  EXPECT_EQ(bgr.cols, 64);
+  EXPECT_EQ(bgr.rows, 48);
+  EXPECT_GT(psnr(bgr, moving_frame(64, 48, 0)), 30.0);
+}
+
+TEST(FrameWriter, VideosRefuseAnOddSizeAndLeaveNothing) {
+  TempDir dir;
+  for (const char* name : {"odd.mp4", "odd.avi"}) {
+    FrameWriter writer(dir / name, 2, 24);
+    expect_error([&] { writer.write(moving_frame(64, 47, 0)); }, {name, "even", "64x47"});
+  }
+  {
+    FrameWriter writer(dir / "changes.mp4", 2, 24);
+    writer.write(moving_frame(64, 48, 0));
+    expect_error([&] { writer.write(moving_frame(32, 24, 1)); }, {"changes.mp4", "32x24"});
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
+TEST(FrameWriter, AlphaPngsHoldStraightRgbaCodes) {
+  TempDir dir;
+  Image rgba(3, 2, 4);
+  for (std::size_t i = 0; i < rgba.data.size(); ++i) rgba.data[i] = float(i * 37 % 256) / 255.0f;
+  rgba.at(0, 0, 3) = 0.0f;  // a transparent pixel keeps its colour codes
+  for (const int bits : {8, 16}) {
+    const fs::path png = dir / fmt::format("one{}.png", bits);
+    FrameWriter writer(png, 1, options(0, true, bits));
+    EXPECT_TRUE(writer.alpha());
+    writer.write(rgba);
+    writer.finish();
+    const cv::Mat read = cv::imread(png.string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(read.type(), bits == 8 ? CV_8UC4 : CV_16UC4);
+    const double max_code = bits == 8 ? 255.0 : 65535.0;
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 3; ++x)
+        for (int c = 0; c < 4; ++c) {
+          const int bgra = c == 3 ? 3 : 2 - c;
+          const double code =
+              bits == 8 ? read.at<cv::Vec4b>(y, x)[bgra] : read.at<Rgba16>(y, x)[bgra];
+          EXPECT_EQ(code, std::round(rgba.at(y, x, c) * max_code)) << x << "," << y << "," << c;
+        }
+  }
+  // A folder of RGBA frames.
+  FrameWriter folder(dir / "seq/", 2, options(0, true));
+  folder.write(rgba);
+  folder.write(rgba);
+  folder.finish();
+  EXPECT_EQ(cv::imread((dir / "seq" / "00001.png").string(), cv::IMREAD_UNCHANGED).type(), CV_8UC4);
+}
+
+TEST(FrameWriter, SixteenBitPngsKeepEveryCode) {
+  TempDir dir;
+  Image rgb(4, 3, 3);
+  for (std::size_t i = 0; i < rgb.data.size(); ++i)
+    rgb.data[i] = float((i * 7919 + 1) % 65536) / 65535.0f;  // not multiples of 257 (8-bit codes)
+  FrameWriter writer(dir / "deep", 1, options(0, false, 16));
+  writer.write(rgb);
+  writer.finish();
+  const cv::Mat read = cv::imread((dir / "deep" / "00000.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(read.type(), CV_16UC3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(read.at<Rgb16>(y, x)[2 - c], std::lround(rgb.at(y, x, c) * 65535.0))
+            << x << "," << y << "," << c;
+}
+
+TEST(FrameWriter, AFolderGetsItsFramesTimes) {
+  TempDir dir;
+  const std::vector<double> times = {0.0, 0.1, 1.0 / 3.0, 2.5};
+  FrameWriter writer(dir / "frames", 4, options(0, false, 8, times));
+  for (int k = 0; k < 4; ++k) writer.write(moving_frame(8, 6, k));
+  writer.finish();
+  const std::string csv = test::read_text(dir / "frames" / "times.csv");
+  EXPECT_EQ(csv, "frame,time\n0,0\n1,0.1\n2,0.3333333333333333\n3,2.5\n");
+  EXPECT_EQ(std::stod(csv.substr(csv.find("\n2,") + 3)), 1.0 / 3.0);  // reads back exactly
+  EXPECT_TRUE(fs::exists(dir / "frames" / "00003.png"));
+  // Without times there is no times.csv.
+  write_video(dir / "plain/", 8, 6, 1, 24);
+  EXPECT_TRUE(fs::exists(dir / "plain" / "00000.png"));
+  EXPECT_FALSE(fs::exists(dir / "plain" / "times.csv"));
+  expect_error(
+      [&] {
+        write_times_csv(dir / "bad.csv", {0.0, std::nan("")});
+      },
+      {"bad.csv", "frame 1"});
+  EXPECT_FALSE(fs::exists(dir / "bad.csv"));
+}
+
+TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
+  TempDir dir;
+  expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(24, true)); },
+               {"v.mp4", "alpha", "--alpha"});
+  expect_error([&] { FrameWriter(dir / "v.mov", 2, options(24, false, 16)); },
+               {"v.mov", "--bit-depth", "16"});
+  expect_error([&] { FrameWriter(dir / "v.png", 1, options(0, false, 12)); }, {"v.png", "12"});
+  expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(0)); }, {"v.mp4", "frame rate"});
+  expect_error([&] { FrameWriter(dir / "f", 2, options(0, false, 8, {0.0})); },
+               {"1 frame times for 2 frames"});
+  expect_error([&] { FrameWriter(dir / "v.exr", 1, options()); }, {"'.exr'"});
+  {
+    FrameWriter rgba(dir / "a.png", 1, options(0, true));
+    expect_error([&] { rgba.write(moving_frame(4, 4, 0)); }, {"a.png", "4 channels"});
+    FrameWriter rgb(dir / "b.png", 1, options());
+    expect_error([&] { rgb.write(Image(4, 4, 4)); }, {"b.png", "3 channels"});
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
+}  // namespace
+}  // namespace retimegs::io
