@@ -1,20 +1,132 @@
 // retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
+// retimegs import videos --in DIR --calib PATH --out SCENE [--test-cameras ...] [--offsets ...]
+#include <charconv>
+#include <map>
 #include <memory>
+#include <optional>
+
+#include <spdlog/spdlog.h>
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/ingest/import.hpp"
 
 namespace retimegs::app {
 
-void add_import_command(CLI::App& app) {
-  struct Args {
-    std::string in, out, frames;
-    double downscale = 1.0;
-    int threads = 0;
-    bool force = false;
+namespace {
+
+// The options every format has.
+struct Args {
+  std::string in, out, frames;
+  double downscale = 1.0;
+  int threads = 0;
+  bool force = false;
+};
+
+void add_common_options(CLI::App* sub, Args& args, const std::string& in_help) {
+  sub->add_option("--in", args.in, in_help)->required();
+  sub->add_option("--out", args.out, "scene folder to write (must not exist unless --force)")
+      ->required();
+  sub->add_option("--frames", args.frames,
+                  "inclusive frame range A:B of the source (default: all)");
+  sub->add_option("--downscale", args.downscale, "divide the image size by F (intrinsics follow)")
+      ->capture_default_str();
+  sub->add_option("--threads", args.threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
+  sub->add_flag("--force", args.force, "replace an existing output folder");
+}
+
+ingest::ImportOptions import_options(const Args& args) {
+  set_threads(args.threads);
+  ingest::ImportOptions options;
+  if (!args.frames.empty())
+    std::tie(options.first_frame, options.last_frame) = parse_range(args.frames, "--frames");
+  options.downscale = args.downscale;
+  options.force = args.force;
+  return options;
+}
+
+// "cam07:3,cam12:-1" -> {cam07: 3, cam12: -1}; the last ':' separates (names may hold ':').
+std::map<std::string, int> parse_offsets(const std::string& text) {
+  std::map<std::string, int> offsets;
+  for (const std::string& item : split_list(text, "--offsets")) {
+    const std::size_t colon = item.rfind(':');
+    int value = 0;
+    const char* end = item.data() + item.size();
+    const auto parsed = colon == std::string::npos
+                            ? std::from_chars_result{nullptr, std::errc::invalid_argument}
+                            : std::from_chars(item.data() + colon + 1, end, value);
+    if (colon == std::string::npos || colon == 0 || parsed.ec != std::errc() || parsed.ptr != end ||
+        colon + 1 == item.size())
+      fail("--offsets: expected CAMERA:N (N an integer number of frames), got '{}'", item);
+    if (!offsets.emplace(item.substr(0, colon), value).second)
+      fail("--offsets: camera '{}' is given twice", item.substr(0, colon));
+  }
+  return offsets;
+}
+
+void add_videos_command(CLI::App* cmd) {
+  struct VideoArgs : Args {
+    std::string calib, test_cameras, offsets;
+    std::optional<double> fps;
   };
+  auto args = std::make_shared<VideoArgs>();
+  CLI::App* sub = cmd->add_subcommand(
+      "videos",
+      "Your own capture: DIR/<camera>.mp4 (.mov, .mkv, .avi) or DIR/<camera>/ image folders, "
+      "calibrated by a COLMAP model or an OpenCV-style rig file (docs/cli.md).");
+  add_common_options(sub, *args,
+                     "folder of <camera>.mp4 / .mov / .mkv / .avi videos or <camera>/ folders of "
+                     "PNG / JPEG images (sorted by name)");
+  sub->add_option("--calib", args->calib,
+                  "COLMAP sparse model folder (image stem = camera), or a rig file .yaml / .yml / "
+                  ".json (per camera K, dist, R, t world-to-camera)")
+      ->required();
+  sub->add_option("--test-cameras", args->test_cameras,
+                  "comma-separated cameras held out for evaluation (split test)");
+  sub->add_option("--offsets", args->offsets,
+                  "sync offsets CAM:N,...: scene frame k of CAM is its source frame k + N");
+  sub->add_option("--fps", args->fps,
+                  "frame rate (default: the videos', which must agree within 0.1 %; 30 for image "
+                  "folders); overrides the videos'");
+  sub->callback([args] {
+    const ingest::ImportOptions options = import_options(*args);
+    ingest::VideosOptions videos;
+    videos.calibration = args->calib;
+    if (!args->test_cameras.empty())
+      videos.test_cameras = split_list(args->test_cameras, "--test-cameras");
+    if (!args->offsets.empty()) videos.offsets = parse_offsets(args->offsets);
+    videos.fps = args->fps;
+    const ingest::VideosReport r = ingest::import_videos(args->in, args->out, options, videos);
+    const std::string start =
+        videos.offsets.empty() && r.first_frame == 0
+            ? std::string()
+            : fmt::format("; scene frame 0 is source frame {} (+ each camera's offset)",
+                          r.first_frame);
+    spdlog::info("import videos: {} camera{} ({} test) x {} frame{} at {:.6g} fps ({}){}",
+                 r.cameras, r.cameras == 1 ? "" : "s", r.test_cameras, r.frames,
+                 r.frames == 1 ? "" : "s", r.fps, r.fps_source, start);
+    spdlog::info(
+        "calibration: {}; {} camera{} undistorted to pinhole; no masks (prepare works without "
+        "them)",
+        r.calibration, r.undistorted, r.undistorted == 1 ? "" : "s");
+    if (!r.without_footage.empty()) {
+      constexpr std::size_t kListed = 10;
+      const std::size_t n = r.without_footage.size();
+      const std::vector<std::string> listed(r.without_footage.begin(),
+                                            r.without_footage.begin() + std::min(n, kListed));
+      spdlog::warn("{} calibrated camera{} without footage left out: {}{}", n, n == 1 ? "" : "s",
+                   fmt::join(listed, ", "),
+                   n > kListed ? fmt::format(" (+{} more)", n - kListed) : std::string());
+    }
+  });
+}
+
+}  // namespace
+
+void add_import_command(CLI::App& app) {
   using Importer = void (*)(const std::filesystem::path&, const std::filesystem::path&,
                             const ingest::ImportOptions&);
   struct Format {
@@ -41,32 +153,15 @@ void add_import_command(CLI::App& app) {
        ingest::import_nerfstudio},
   };
   CLI::App* cmd = app.add_subcommand(
-      "import", "Convert a public dataset layout into the scene format (DESIGN.md §4).");
+      "import", "Convert a public dataset layout or your own capture into the scene format.");
   cmd->require_subcommand(1);
   for (const Format& format : kFormats) {
     auto args = std::make_shared<Args>();
     CLI::App* sub = cmd->add_subcommand(format.name, format.description);
-    sub->add_option("--in", args->in, "source folder")->required();
-    sub->add_option("--out", args->out, "scene folder to write (must not exist unless --force)")
-        ->required();
-    sub->add_option("--frames", args->frames,
-                    "inclusive frame range A:B of the source (default: all)");
-    sub->add_option("--downscale", args->downscale,
-                    "divide the image size by F (intrinsics follow)")
-        ->capture_default_str();
-    sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
-        ->capture_default_str();
-    sub->add_flag("--force", args->force, "replace an existing output folder");
-    sub->callback([args, run = format.run] {
-      set_threads(args->threads);
-      ingest::ImportOptions options;
-      if (!args->frames.empty())
-        std::tie(options.first_frame, options.last_frame) = parse_range(args->frames, "--frames");
-      options.downscale = args->downscale;
-      options.force = args->force;
-      run(args->in, args->out, options);
-    });
+    add_common_options(sub, *args, "source folder");
+    sub->callback([args, run = format.run] { run(args->in, args->out, import_options(*args)); });
   }
+  add_videos_command(cmd);
 }
 
 }  // namespace retimegs::app

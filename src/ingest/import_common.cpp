@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
@@ -35,10 +37,7 @@ void check_downscale(double downscale) {
 Camera downscaled(Camera cam, double downscale) {
   const int width = std::max(1, int(std::lround(cam.width / downscale)));
   const int height = std::max(1, int(std::lround(cam.height / downscale)));
-  const double sx = double(width) / cam.width, sy = double(height) / cam.height;
-  cam.fx *= sx, cam.cx *= sx, cam.fy *= sy, cam.cy *= sy;
-  cam.width = width, cam.height = height;
-  return cam;
+  return resized(std::move(cam), width, height);
 }
 
 Image resize_area(const Image& image, int width, int height) {
@@ -100,7 +99,9 @@ Undistorter::Undistorter(const io::ColmapCamera& source, const std::string& what
   pinhole_.cy = simple ? p[2] : p[3];
   if (!(pinhole_.fx > 0 && pinhole_.fy > 0))
     fail("{}: focal length must be positive, got {} {}", what, pinhole_.fx, pinhole_.fy);
-  identity_ = true;
+  // Zero coefficients leave a pinhole, except for OPENCV_FISHEYE: its projection is equidistant
+  // (radius proportional to the angle) even then.
+  identity_ = m != "OPENCV_FISHEYE";
   for (std::size_t i = simple ? 3 : 4; i < p.size(); ++i) identity_ &= p[i] == 0.0;
   if (identity_) return;
 
@@ -190,6 +191,29 @@ Image Undistorter::apply(const Image& image) const {
 }
 
 // ---------------------------------------------------------------------------------------------
+
+VideoInfo probe_video(const std::filesystem::path& path) {
+  // FFmpeg prints its own complaints ("moov atom not found") on stderr, which would double the
+  // one-line error; OpenCV reads this variable once, when its FFmpeg backend starts. A value the
+  // user set wins.
+  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+  cv::VideoCapture cap(path.string(), cv::CAP_FFMPEG);
+  if (!cap.isOpened()) fail("{}: cannot open video (FFmpeg could not decode it)", path.string());
+  VideoInfo v;
+  v.path = path;
+  v.width = int(cap.get(cv::CAP_PROP_FRAME_WIDTH));
+  v.height = int(cap.get(cv::CAP_PROP_FRAME_HEIGHT));
+  v.frames = int(cap.get(cv::CAP_PROP_FRAME_COUNT));
+  v.fps = cap.get(cv::CAP_PROP_FPS);
+  cv::Mat first;
+  if (!cap.read(first) || first.empty())
+    fail("{}: cannot decode the first frame of the video", path.string());
+  if (v.width < 1 || v.height < 1) v.width = first.cols, v.height = first.rows;
+  if (v.frames < 1) fail("{}: video reports no frames", path.string());
+  if (!(v.fps > 0) || !std::isfinite(v.fps))
+    fail("{}: video reports an invalid frame rate ({})", path.string(), v.fps);
+  return v;
+}
 
 void parallel_jobs(std::size_t count, std::size_t ticks, const std::string& label,
                    bool progress_enabled, const std::function<void(std::size_t, Progress&)>& job) {

@@ -1,6 +1,7 @@
 #pragma once
 // Pieces the importers share (import_*.cpp): JSON number checks, downscaling, undistortion into a
 // pinhole camera, and the parallel write loop with its progress bar.
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <utility>
@@ -60,6 +61,18 @@ class Undistorter {
   bool identity_ = true;
   cv::Mat map_x_, map_y_;  // [H, W] float source coordinates, OpenCV convention (centres at .0)
 };
+
+// A video's header as OpenCV's FFmpeg backend reports it. `frames` is the container's count,
+// which some containers only estimate: decoding checks it frame by frame.
+struct VideoInfo {
+  std::filesystem::path path;
+  int width = 0, height = 0, frames = 0;
+  double fps = 0;
+};
+
+// Opens a video, reads its header and decodes its first frame; one error naming the file when
+// OpenCV cannot.
+VideoInfo probe_video(const std::filesystem::path& path);
 
 // Runs job(i, progress) for i in [0, count) in parallel under a progress bar of `ticks` steps
 // (the jobs tick it); errors as in parallel_for (core/parallel.hpp): the first is rethrown.

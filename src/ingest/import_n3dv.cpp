@@ -27,36 +27,6 @@ namespace {
 
 constexpr int kPoseColumns = 17;  // 3x5 matrix + near + far
 
-struct Video {
-  fs::path path;
-  int width = 0, height = 0, frames = 0;
-  double fps = 0;
-};
-
-// Opens a video and reads its header; one clear error when OpenCV cannot decode it.
-Video probe(const fs::path& path) {
-  // FFmpeg prints its own complaints ("moov atom not found") on stderr, which would double the
-  // one-line error; OpenCV reads this variable once, when its FFmpeg backend starts. A value the
-  // user set wins.
-  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
-  cv::VideoCapture cap(path.string(), cv::CAP_FFMPEG);
-  if (!cap.isOpened()) fail("{}: cannot open video (FFmpeg could not decode it)", path.string());
-  Video v;
-  v.path = path;
-  v.width = int(cap.get(cv::CAP_PROP_FRAME_WIDTH));
-  v.height = int(cap.get(cv::CAP_PROP_FRAME_HEIGHT));
-  v.frames = int(cap.get(cv::CAP_PROP_FRAME_COUNT));
-  v.fps = cap.get(cv::CAP_PROP_FPS);
-  cv::Mat first;
-  if (!cap.read(first) || first.empty())
-    fail("{}: cannot decode the first frame of the video", path.string());
-  if (v.width < 1 || v.height < 1) v.width = first.cols, v.height = first.rows;
-  if (v.frames < 1) fail("{}: video reports no frames", path.string());
-  if (!(v.fps > 0) || !std::isfinite(v.fps))
-    fail("{}: video reports an invalid frame rate ({})", path.string(), v.fps);
-  return v;
-}
-
 }  // namespace
 
 void import_n3dv(const fs::path& source, const fs::path& out, const ImportOptions& options) {
@@ -86,8 +56,8 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
     fail("{}: {} camera videos (cam*.mp4) but {} has {} pose rows", source.string(), videos.size(),
          poses_file, count);
 
-  std::vector<Video> probed;
-  for (const auto& path : videos) probed.push_back(probe(path));
+  std::vector<detail::VideoInfo> probed;
+  for (const auto& path : videos) probed.push_back(detail::probe_video(path));
   int steps = probed[0].frames;
   for (const auto& v : probed) steps = std::min(steps, v.frames);
   const auto [first, last] = detail::frame_range(options, steps, "the videos");
@@ -115,7 +85,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
     cam.name = probed[c].path.stem().string();
     cam.world_to_camera = c2w.inverse();
     // The video may be stored at another resolution than (w, h) of the poses: scale.
-    const Video& v = probed[c];
+    const detail::VideoInfo& v = probed[c];
     const double sx = v.width / w, sy = v.height / h;
     if (std::abs(sx - sy) > 0.01 * std::max(sx, sy))
       fail("{}: video is {}x{} but the poses say {}x{} (different aspect ratio)", v.path.string(),
@@ -133,7 +103,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
   const std::size_t total = std::size_t(count) * scene.num_frames;
   detail::parallel_jobs(
       count, total, "import n3dv", options.progress, [&](std::size_t c, Progress& progress) {
-        const Video& v = probed[c];
+        const detail::VideoInfo& v = probed[c];
         const Camera& cam = scene.cameras[c];
         cv::VideoCapture cap(v.path.string(), cv::CAP_FFMPEG);
         if (!cap.isOpened()) fail("{}: cannot open video", v.path.string());

@@ -19,7 +19,7 @@ TEST(CameraResized, PointsKeepTheirPlaceInTheImage) {
   EXPECT_EQ(big.width, 160);
   EXPECT_EQ(big.height, 120);
   EXPECT_EQ(big.world_to_camera, cam.world_to_camera);
-  for (const Eigen::Vector3d x : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.5, -0.3, 1.0)}) {
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.5, -0.3, 1.0)}) {
     const Eigen::Vector2d a = cam.project(x), b = big.project(x);
     EXPECT_NEAR(b.x(), a.x() * 160 / 64, 1e-9);
     EXPECT_NEAR(b.y(), a.y() * 120 / 48, 1e-9);

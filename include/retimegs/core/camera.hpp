@@ -1,5 +1,5 @@
 #pragma once
-// Pinhole camera in the OpenCV convention (DESIGN.md §4): x right, y down, z forward;
+// Pinhole camera in the OpenCV convention (docs/formats.md): x right, y down, z forward;
 // world_to_camera is a rigid 4x4 transform; the centre of pixel (row i, column j) is at
 // continuous image coordinates (j + 0.5, i + 0.5).
 #include <string>

@@ -1,6 +1,11 @@
 #pragma once
-// Importers from public dataset layouts into the scene format (DESIGN.md §1 `retimegs import`).
+// Importers from public dataset layouts and from your own capture into the scene format
+// (docs/cli.md, `retimegs import`; docs/formats.md).
 #include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace retimegs::ingest {
 
@@ -40,5 +45,38 @@ void import_colmap(const std::filesystem::path& source, const std::filesystem::p
 // frames into scene frames and cameras).
 void import_nerfstudio(const std::filesystem::path& source, const std::filesystem::path& out,
                        const ImportOptions& options);
+
+// A user's own capture (`retimegs import videos`; docs/cli.md gives the rig file format). Source:
+// one video per camera (<camera>.mp4 / .mov / .mkv / .avi, decoded with OpenCV's FFmpeg backend)
+// or one folder of images per camera (<camera>/, PNG / JPEG sorted by name); folders without
+// images are skipped (a COLMAP model may sit beside the footage). Camera names are the stems /
+// folder names, sorted. The calibration is a COLMAP sparse model (the COLMAP image whose file
+// stem is the camera's name) or an OpenCV-style rig file (.yaml / .yml / .json: per camera K,
+// dist, R, t, world-to-camera); intrinsics follow the footage size when it differs (same aspect
+// ratio), distorted cameras are resampled into pinhole ones as `import colmap` does. Every
+// camera needs a calibration; calibrated cameras without footage are left out (listed in the
+// report). No masks are written.
+struct VideosOptions {
+  std::filesystem::path calibration;      // COLMAP model folder, or rig .yaml / .yml / .json
+  std::vector<std::string> test_cameras;  // get split "test"
+  // Synchronisation: scene frame k of camera c is source frame k + offsets[c] (0 when absent).
+  // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
+  // every camera has.
+  std::map<std::string, int> offsets;
+  std::optional<double> fps;  // overrides the videos' rate; image folders alone: 30 when absent
+};
+
+struct VideosReport {
+  int cameras = 0, test_cameras = 0, frames = 0;
+  int first_frame = 0;  // k of scene frame 0 (source frame k + offset of each camera)
+  double fps = 0;
+  std::string fps_source;   // how fps was chosen, for the log
+  std::string calibration;  // "COLMAP model <dir>" or "rig file <file>"
+  int undistorted = 0;      // cameras resampled from a distorted model into pinhole ones
+  std::vector<std::string> without_footage;  // calibrated cameras without footage (left out)
+};
+
+VideosReport import_videos(const std::filesystem::path& source, const std::filesystem::path& out,
+                           const ImportOptions& options, const VideosOptions& videos);
 
 }  // namespace retimegs::ingest

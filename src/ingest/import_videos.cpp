@@ -1,0 +1,288 @@
+// A user's own capture (a video or an image folder per camera, and a COLMAP model or a rig file)
+// -> scene format (import.hpp: import_videos).
+#include <algorithm>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include <fmt/format.h>
+#include <opencv2/videoio.hpp>
+
+#include "calibration.hpp"
+#include "import_common.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/ingest/import.hpp"
+#include "retimegs/io/image_io.hpp"
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::ingest {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDefaultFps = 30.0;    // image folders carry no frame rate
+constexpr double kFpsTolerance = 1e-3;  // one capture's videos agree on the rate within 0.1 %
+
+// One camera's footage: a video, or a folder of images.
+struct Footage {
+  std::string name;
+  fs::path path;                 // the video file or the image folder
+  std::vector<fs::path> images;  // a folder's frames, sorted by name; empty for a video
+  int width = 0, height = 0, frames = 0;
+  double fps = 0;  // a video's
+  bool video() const { return images.empty(); }
+};
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+bool is_video(const fs::path& p) {
+  const std::string e = lower(p.extension().string());
+  return e == ".mp4" || e == ".mov" || e == ".mkv" || e == ".avi";
+}
+
+bool is_image(const fs::path& p) {
+  const std::string e = lower(p.extension().string());
+  return e == ".png" || e == ".jpg" || e == ".jpeg";
+}
+
+// The cameras of `source`, sorted by name. Folders without images are not footage (a COLMAP
+// model or other material may sit beside the videos).
+std::vector<Footage> find_footage(const fs::path& source) {
+  if (!fs::is_directory(source)) fail("{}: footage folder does not exist", source.string());
+  std::vector<Footage> out;
+  std::map<std::string, fs::path> seen;
+  for (const auto& entry : fs::directory_iterator(source)) {
+    const fs::path& p = entry.path();
+    Footage f;
+    f.path = p;
+    if (entry.is_regular_file() && is_video(p)) {
+      f.name = p.stem().string();
+    } else if (entry.is_directory()) {
+      for (const auto& e : fs::directory_iterator(p))
+        if (e.is_regular_file() && is_image(e.path())) f.images.push_back(e.path());
+      if (f.images.empty()) continue;
+      std::sort(f.images.begin(), f.images.end());
+      f.name = p.filename().string();
+    } else {
+      continue;
+    }
+    if (const auto it = seen.find(f.name); it != seen.end())
+      fail("{}: camera '{}' has two sources, {} and {}", source.string(), f.name,
+           std::min(it->second, p).filename().string(),
+           std::max(it->second, p).filename().string());
+    seen[f.name] = p;
+    out.push_back(std::move(f));
+  }
+  if (out.empty())
+    fail(
+        "{}: no footage (<camera>.mp4 / .mov / .mkv / .avi videos, or <camera>/ folders of PNG / "
+        "JPEG images)",
+        source.string());
+  std::sort(out.begin(), out.end(),
+            [](const Footage& a, const Footage& b) { return a.name < b.name; });
+  return out;
+}
+
+void probe(Footage& f) {
+  if (f.video()) {
+    const detail::VideoInfo v = detail::probe_video(f.path);
+    f.width = v.width, f.height = v.height, f.frames = v.frames, f.fps = v.fps;
+  } else {
+    const io::ImageSize size = io::read_image_size(f.images.front());
+    f.width = size.width, f.height = size.height, f.frames = int(f.images.size());
+  }
+}
+
+// The frame rate and how it was chosen (for the log).
+std::pair<double, std::string> choose_fps(const fs::path& source,
+                                          const std::vector<Footage>& footage,
+                                          const std::optional<double>& fps) {
+  double first = 0, lo = 0, hi = 0;
+  std::string rates;
+  bool any = false;
+  for (const Footage& f : footage) {
+    if (!f.video()) continue;
+    if (!any) first = lo = hi = f.fps;
+    lo = std::min(lo, f.fps), hi = std::max(hi, f.fps);
+    rates += fmt::format("{}{} {:.6g}", any ? ", " : "", f.path.filename().string(), f.fps);
+    any = true;
+  }
+  if (fps) {
+    if (!(*fps > 0) || !std::isfinite(*fps))
+      fail("--fps: must be a finite number > 0, got {}", *fps);
+    if (!any) return {*fps, "--fps"};
+    return {*fps, lo == hi ? fmt::format("--fps; the videos say {:.6g}", lo)
+                           : fmt::format("--fps; the videos say {:.6g} to {:.6g}", lo, hi)};
+  }
+  if (!any) return {kDefaultFps, "the default for image folders; --fps sets it"};
+  if (hi - lo > kFpsTolerance * hi)
+    fail(
+        "{}: the videos disagree on the frame rate (they must agree within 0.1 %; --fps F "
+        "overrides): {}",
+        source.string(), rates);
+  return {first, "from the videos"};
+}
+
+// The first and last k that every camera has (source frame k + offset within its frames).
+std::pair<int, int> common_frames(const std::vector<Footage>& footage,
+                                  const std::vector<int>& offsets) {
+  int lo = 0, hi = INT_MAX, lo_camera = -1, hi_camera = -1;
+  for (std::size_t c = 0; c < footage.size(); ++c) {
+    if (-offsets[c] > lo) lo = -offsets[c], lo_camera = int(c);
+    if (footage[c].frames - 1 - offsets[c] < hi)
+      hi = footage[c].frames - 1 - offsets[c], hi_camera = int(c);
+  }
+  if (hi >= lo) return {lo, hi};
+  const Footage& h = footage[hi_camera];
+  if (lo_camera < 0 || lo_camera == hi_camera || h.frames - 1 - offsets[hi_camera] < 0)
+    fail("--offsets: {}:{} leaves no frame of {} ({} frames)", h.name, offsets[hi_camera],
+         h.path.string(), h.frames);
+  const Footage& l = footage[lo_camera];
+  fail(
+      "--offsets: no frame is common to every camera: {}:{} starts at scene frame {}, but {} "
+      "({} frames, offset {}) ends at {}",
+      l.name, offsets[lo_camera], lo, h.name, h.frames, offsets[hi_camera], hi);
+}
+
+std::string join(const std::vector<std::string>& names) {
+  return fmt::format("{}", fmt::join(names, ", "));
+}
+
+}  // namespace
+
+VideosReport import_videos(const fs::path& source, const fs::path& out,
+                           const ImportOptions& options, const VideosOptions& videos) {
+  detail::check_downscale(options.downscale);
+  std::vector<Footage> footage = find_footage(source);
+  std::vector<std::string> names;
+  for (const Footage& f : footage) names.push_back(f.name);
+  const std::string calib = videos.calibration.string();
+
+  // Cameras <-> calibration.
+  const std::vector<detail::CalibratedCamera> calibration =
+      detail::read_calibration(videos.calibration);
+  std::map<std::string, std::vector<const detail::CalibratedCamera*>> by_name;
+  for (const auto& cam : calibration) by_name[cam.name].push_back(&cam);
+  std::vector<std::string> missing;
+  std::vector<const detail::CalibratedCamera*> matched;
+  for (const Footage& f : footage) {
+    const auto it = by_name.find(f.name);
+    if (it == by_name.end()) {
+      missing.push_back(f.name);
+      continue;
+    }
+    if (it->second.size() > 1)
+      fail("{} and {}: both are camera '{}' (their file stems are equal)", it->second[0]->where,
+           it->second[1]->where, f.name);
+    matched.push_back(it->second[0]);
+  }
+  if (!missing.empty())
+    fail("{}: no calibration for camera{} {} (footage in {})", calib, missing.size() > 1 ? "s" : "",
+         join(missing), source.string());
+  VideosReport report;
+  for (const auto& [name, cams] : by_name)
+    if (!std::binary_search(names.begin(), names.end(), name))
+      report.without_footage.push_back(name);
+
+  for (const std::string& name : videos.test_cameras)
+    if (!std::binary_search(names.begin(), names.end(), name))
+      fail("--test-cameras: unknown camera '{}' (cameras: {})", name, join(names));
+  std::vector<int> offsets(footage.size(), 0);
+  for (const auto& [name, offset] : videos.offsets) {
+    const auto it = std::lower_bound(names.begin(), names.end(), name);
+    if (it == names.end() || *it != name)
+      fail("--offsets: unknown camera '{}' (cameras: {})", name, join(names));
+    offsets[it - names.begin()] = offset;
+  }
+
+  for (Footage& f : footage) probe(f);
+  const auto [fps, fps_source] = choose_fps(source, footage, videos.fps);
+  const auto [lo, hi] = common_frames(footage, offsets);
+  const auto [first, last] = detail::frame_range(
+      options, hi - lo + 1, videos.offsets.empty() ? "the footage" : "the footage after --offsets");
+
+  io::Scene scene;
+  scene.num_frames = last - first + 1;
+  scene.fps = fps;
+  std::vector<std::unique_ptr<detail::Undistorter>> undistorters;
+  for (std::size_t c = 0; c < footage.size(); ++c) {
+    const Footage& f = footage[c];
+    const detail::CalibratedCamera& cal = *matched[c];
+    undistorters.push_back(std::make_unique<detail::Undistorter>(
+        detail::fit_to_footage(cal.intrinsics, f.width, f.height, cal.where, f.path.string()),
+        cal.where));
+    Camera cam = undistorters.back()->pinhole();
+    cam.name = f.name;
+    cam.world_to_camera = cal.world_to_camera;
+    const auto& test = videos.test_cameras;
+    cam.split =
+        std::find(test.begin(), test.end(), f.name) != test.end() ? Split::kTest : Split::kTrain;
+    report.test_cameras += cam.split == Split::kTest;
+    report.undistorted += !undistorters.back()->identity();
+    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+  }
+  scene.up = detail::mean_camera_up(scene.cameras);
+
+  const int scene_start = lo + first;  // k of scene frame 0
+  AtomicDirectory dir(out, options.force);
+  scene.root = dir.temp_path();
+  const std::size_t total = footage.size() * std::size_t(scene.num_frames);
+  detail::parallel_jobs(
+      footage.size(), total, "import videos", options.progress,
+      [&](std::size_t c, Progress& progress) {
+        const Footage& f = footage[c];
+        const Camera& cam = scene.cameras[c];
+        const int source_first = scene_start + offsets[c];  // source frame of scene frame 0
+        auto store = [&](const Image& image, int frame) {
+          io::write_png(scene.image_path(int(c), frame),
+                        detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
+          progress.tick();
+        };
+        if (!f.video()) {
+          for (int j = 0; j < scene.num_frames; ++j) {
+            const fs::path& file = f.images[source_first + j];
+            const Image image = io::read_image(file);
+            if (image.width != f.width || image.height != f.height)
+              fail("{}: image is {}x{} but {} (the camera's first) is {}x{}", file.string(),
+                   image.width, image.height, f.images.front().filename().string(), f.width,
+                   f.height);
+            store(image, j);
+          }
+          return;
+        }
+        cv::VideoCapture cap(f.path.string(), cv::CAP_FFMPEG);
+        if (!cap.isOpened()) fail("{}: cannot open video", f.path.string());
+        cv::Mat frame;
+        for (int k = 0; k < source_first + scene.num_frames; ++k) {
+          const bool ok = k < source_first ? cap.grab() : cap.read(frame) && !frame.empty();
+          if (!ok)
+            fail("{}: cannot decode frame {} (the video ends early or is corrupt)", f.path.string(),
+                 k);
+          if (k < source_first) continue;
+          if (frame.cols != f.width || frame.rows != f.height)
+            fail("{}: frame {} is {}x{} but the video header says {}x{}", f.path.string(), k,
+                 frame.cols, frame.rows, f.width, f.height);
+          store(detail::from_bgr8(frame), k - source_first);
+        }
+      });
+  io::write_scene_json(scene);
+  dir.commit();
+
+  report.cameras = int(scene.cameras.size());
+  report.frames = scene.num_frames;
+  report.first_frame = scene_start;
+  report.fps = fps;
+  report.fps_source = fps_source;
+  report.calibration = fs::is_directory(videos.calibration)
+                           ? "COLMAP model " + io::find_colmap_model(videos.calibration).string()
+                           : "rig file " + calib;
+  return report;
+}
+
+}  // namespace retimegs::ingest
