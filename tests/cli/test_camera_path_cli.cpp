@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "moving_model_scene.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -22,39 +23,12 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-// A 9-frame, 2-camera scene (JSON only) and a model of moving primitives over frames 0 to 8.
-struct Fixture {
-  io::Scene scene;
-  std::string model, base;  // base: "render --model M --scene S"
-  explicit Fixture(const test::TempDir& dir) {
-    scene.root = dir / "scene";
-    scene.num_frames = 9;
-    scene.fps = 24;
-    for (int c = 0; c < 2; ++c)
-      scene.cameras.push_back(
-          test::small_camera("cam0" + std::to_string(c), {2.0 * c - 1.0, -0.5, -4.0}));
-    io::write_scene_json(scene);
-    model::Model m;
-    m.grid = {0.0, 2.0, 5};
-    std::mt19937 rng(1);
-    std::uniform_real_distribution<float> u(-1, 1);
-    model::Primitives& p = m.primitives;
-    const int n = 200;
-    p.resize(n);
-    for (int i = 0; i < n; ++i) {
-      for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = u(rng);
-      for (int k = 0; k < 9; ++k) p.velocity[9 * i + k] = (k % 3 == 0 ? 0.3f : 0.05f * u(rng));
-      for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.08f + 0.04f * u(rng));
-      p.q0[4 * i] = 1;
-      for (int k = 0; k < 48; ++k) p.sh[48 * i + k] = (k < 3 ? 1.0f : 0.1f) * u(rng);
-      p.opacity_logit[i] = 1.0f + u(rng);
-      p.mu_tau[i] = 1.0f + 2.0f * (i % 4);
-      p.tau_l[i] = p.tau_r[i] = 1.0f;
-    }
-    model = (dir / "model.rgs").string();
-    model::write_model(model, m);
-    base = "render --model " + model + " --scene " + scene.root.string();
-  }
+// The shared 4D fixture and the start of every render command on it.
+struct Fixture : test::MovingModelScene {
+  std::string base;  // "render --model M --scene S"
+  explicit Fixture(const test::TempDir& dir)
+      : MovingModelScene(dir.path()),
+        base("render --model " + model_path.string() + " --scene " + scene.root.string()) {}
 };
 
 // The camera_to_world entry (16 numbers, row-major, OpenGL axes) of an OpenCV camera.
