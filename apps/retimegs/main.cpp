@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
@@ -23,6 +25,24 @@ void use_short_openmp_spin(char** argv) {
   if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
   setenv("GOMP_SPINCOUNT", "10000", 1);
   execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
+}
+
+// CLI11 reports a missing or misspelt sub-command ("retimegs import foo") only as "A subcommand
+// is required"; this names the command, the word it did not know and the choices.
+std::string subcommand_message(CLI::App& app) {
+  CLI::App* at = &app;
+  std::string path = "retimegs";
+  while (!at->get_subcommands().empty()) {
+    at = at->get_subcommands().front();
+    path += " " + at->get_name();
+  }
+  std::string choices;
+  for (const CLI::App* sub : at->get_subcommands([](CLI::App*) { return true; }))
+    choices += (choices.empty() ? "" : ", ") + sub->get_name();
+  const std::vector<std::string> extra = at->remaining();
+  if (!extra.empty() && extra.front().rfind("-", 0) != 0)
+    return path + ": unknown command '" + extra.front() + "' (one of: " + choices + ")";
+  return path + ": give one of: " + choices;
 }
 
 }  // namespace
@@ -48,6 +68,12 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RequiredError& e) {
+    const bool subcommand = std::string(e.what()).find("subcommand") != std::string::npos;
+    std::fprintf(stderr, "%s\n",
+                 subcommand ? subcommand_message(app).c_str()
+                            : ("retimegs: " + std::string(e.what())).c_str());
+    return 2;
   } catch (const CLI::ParseError& e) {
     // --help and --version exit 0; usage errors exit 2 with CLI11's one-line message.
     if (e.get_exit_code() == 0) return app.exit(e);

@@ -252,5 +252,22 @@ TEST(ImportCli, EachFormatHasItsOwnHelp) {
     EXPECT_NE(all.find(format), std::string::npos) << all;
 }
 
+// A missing or misspelt format or command names the word and the choices in one line.
+TEST(ImportCli, AnUnknownFormatIsNamedWithTheChoices) {
+  auto r = test::run_cli("import foo --in a --out b");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("retimegs import: unknown command 'foo' (one of: "), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("videos"), std::string::npos) << r.err;
+  r = test::run_cli("import");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("retimegs import: give one of: "), std::string::npos) << r.err;
+  r = test::run_cli("frobnicate");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("retimegs: unknown command 'frobnicate' (one of: synth, import"),
+            std::string::npos)
+      << r.err;
+}
+
 }  // namespace
 }  // namespace retimegs::ingest
