@@ -74,8 +74,7 @@ void add_train_command(CLI::App& app) {
     if (args->iters) config.iters = *args->iters;
     if (args->cap) config.cap = *args->cap;
     if (args->seed) config.seed = *args->seed;
-    if (config.iters < 1) fail("--iters: must be >= 1, got {}", config.iters);
-    if (config.cap < 1) fail("--cap: must be >= 1");
+    train::check_config(config, "--iters / --cap");
     if (!args->baseline.empty()) config.stgs_baseline = true;
     config.ablate = train::parse_ablations(args->ablate, config.ablate, "--ablate");
     const io::Scene scene = io::read_scene(args->scene);

@@ -56,5 +56,51 @@ TEST(Presets, SetIterationsAndBudgetOnlyAndDefaultIsTheConfigsOwn) {
   EXPECT_NE(describe_presets().find("quality (30000 iterations"), std::string::npos);
 }
 
+// Every config value is range- and type-checked, with a message naming the key and the value:
+// values that crashed training (zero divisors, SH degree 10), wrapped (cap -1), truncated
+// (iters 2.5) or trained on a NaN loss (flow_weight_start 0).
+TEST(ConfigFromJson, RefusesValuesOutsideTheirRangeNamingTheKey) {
+  const struct {
+    const char* json;
+    const char* says;
+  } cases[] = {
+      {R"({"checkpoint_every": 0})", "'checkpoint_every' = 0 must lie in [1"},
+      {R"({"scale_schedule": false, "relocate_every": 0})", "'relocate_every' = 0"},
+      {R"({"scale_schedule": false, "sh_degree_every": 0})", "'sh_degree_every' = 0"},
+      {R"({"scale_schedule": false, "stretch_every": 0})", "'stretch_every' = 0"},
+      {R"({"max_sh_degree": 10})", "'max_sh_degree' = 10 must lie in [0, 3]"},
+      {R"({"max_sh_degree": -1})", "'max_sh_degree' = -1"},
+      {R"({"cap": -1})", "'cap' must be >= 0, got -1"},
+      {R"({"cap": 0})", "'cap' = 0"},
+      {R"({"iters": 2.5})", "'iters' must be an integer, got 2.5"},
+      {R"({"iters": 100000000000000000000})", "'iters' must be an integer"},
+      {R"({"iters": 10000000000})", "'iters' = 10000000000 is out of range"},
+      {R"({"growth": -1})", "'growth' = -1 must lie in [1, inf]"},
+      {R"({"min_opacity": 2})", "'min_opacity' = 2 must lie in [0, 1)"},
+      {R"({"lr_means": -0.1})", "'lr_means' = -0.1"},
+      {R"({"flow_weight_start": 0})", "'flow_weight_start' = 0 must lie in (0"},
+      {R"({"init_opacity": 1})", "'init_opacity' = 1"},
+      {R"({"ssim_lambda": 1.5})", "'ssim_lambda' = 1.5"},
+      {R"({"gamma": 0})", "'gamma' = 0"},
+      {R"({"scale_schedule": 1})", "'scale_schedule' must be true or false, got 1"},
+      {R"({"lr_sh0": "fast"})", "'lr_sh0' must be a number, got \"fast\""},
+  };
+  for (const auto& c : cases) {
+    const std::string message =
+        test::message_of([&] { config_from_json(c.json, TrainConfig{}, "cfg.json"); });
+    EXPECT_NE(message.find("cfg.json: "), std::string::npos) << c.json << ": " << message;
+    EXPECT_NE(message.find(c.says), std::string::npos) << c.json << ": " << message;
+  }
+  // The defaults, the presets and values at the edges of their ranges are accepted.
+  EXPECT_NO_THROW(check_config(TrainConfig{}, "defaults"));
+  for (const char* preset : {"fast", "default", "quality"})
+    EXPECT_NO_THROW(check_config(with_preset(TrainConfig{}, preset, "--preset"), preset));
+  EXPECT_NO_THROW(config_from_json(
+      R"({"min_opacity": 0, "final_prune_opacity": 0, "growth": 1, "ssim_lambda": 1,
+          "max_sh_degree": 0, "lr_means": 0, "iters": 1, "cap": 1,
+          "seed": 18446744073709551615})",
+      TrainConfig{}, "edges"));
+}
+
 }  // namespace
 }  // namespace retimegs::train

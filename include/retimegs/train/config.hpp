@@ -90,5 +90,8 @@ std::string describe_presets();
 std::string to_json(const TrainConfig& config);
 TrainConfig config_from_json(const std::string& json_text, TrainConfig config,
                              const std::string& what);
+// Every value in its range (iterations and divisors >= 1, rates and weights >= 0, opacities in
+// [0, 1), ...); throws Error naming `what`, the key and the value. config_from_json calls it.
+void check_config(const TrainConfig& config, const std::string& what);
 
 }  // namespace retimegs::train
