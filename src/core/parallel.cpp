@@ -10,7 +10,12 @@
 namespace retimegs {
 
 void set_threads(int threads) {
-  if (threads < 0) fail("--threads: must be >= 0, got {}", threads);
+  // Each OpenMP thread takes a stack and per-thread render buffers; far beyond the cores that
+  // only costs memory (100 000 threads ran out of it).
+  constexpr int kMaxThreads = 1024;
+  if (threads < 0 || threads > kMaxThreads)
+    fail("--threads: must lie in [0, {}] (0: all {} cores), got {}", kMaxThreads,
+         omp_get_num_procs(), threads);
   omp_set_num_threads(threads == 0 ? omp_get_num_procs() : threads);
 }
 

@@ -46,6 +46,7 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
     if (!value->is_array() || value->size() != steps)
       fail("{}: '{}' has {} time steps but 'fn' has {}", file, name,
            value->is_array() ? value->size() : 0, steps);
+  if (!ids[0].is_array() || ids[0].empty()) fail("{}: 'cam_id' lists no camera", file);
   const std::size_t count = ids[0].size();
   std::vector<SourceCamera> cams(count);
   for (std::size_t t = 0; t < steps; ++t) {

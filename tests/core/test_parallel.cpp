@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -64,6 +65,22 @@ TEST(ParallelFor, KeepsTheExceptionTypeAndSkipsTheRestOnOneThread) {
                             }),
                std::out_of_range);
   EXPECT_EQ(ran, (std::vector<int>{0, 1, 2, 3}));
+}
+
+// --threads beyond any machine (100 000 crashed) and negative counts are refused by name; the
+// thread count in force is unchanged.
+TEST(SetThreads, RefusesCountsOutsideTheRange) {
+  const int before = max_threads();
+  for (int threads : {-1, 1025, 100000}) {
+    try {
+      set_threads(threads);
+      ADD_FAILURE() << threads << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("--threads: must lie in [0, 1024]"), std::string::npos)
+          << e.what();
+    }
+    EXPECT_EQ(max_threads(), before);
+  }
 }
 
 }  // namespace

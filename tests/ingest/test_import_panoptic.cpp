@@ -190,6 +190,14 @@ TEST_F(PanopticBadInput, MissingKey) {
   expect_error({"train_meta.json", "missing required key 'w2c'"});
 }
 
+TEST_F(PanopticBadInput, NoCameras) {
+  auto j = metas_["train_meta.json"];
+  for (const char* key : {"k", "w2c", "fn", "cam_id"})
+    for (auto& step : j[key]) step = nlohmann::json::array();
+  test::write_text(dir_ / "src" / "train_meta.json", j.dump());
+  expect_error({"train_meta.json", "lists no camera"});
+}
+
 TEST_F(PanopticBadInput, NonRigidMatrix) {
   auto j = metas_["train_meta.json"];
   j["w2c"][0][3][1][1] = 1.5;
