@@ -73,6 +73,12 @@ std::vector<float> parse_float_list(const std::string& text, const std::string& 
   return values;
 }
 
+void check_frame_count(double frames, const std::string& flag) {
+  if (frames > kMaxOutputFrames)
+    fail("{}: {:.0f} frames; at most {} frames are rendered in one command", flag, frames,
+         kMaxOutputFrames);
+}
+
 std::vector<double> parse_time_range(const std::string& text, const std::string& flag) {
   std::vector<double> parts;
   std::size_t start = 0;
@@ -85,7 +91,7 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
   }
   const double a = parts[0], b = parts[1], step = parts[2];
   if (!(step > 0) || b < a) fail("{}: need A <= B and STEP > 0, got '{}'", flag, text);
-  if ((b - a) / step > 1e6) fail("{}: more than a million frames in '{}'", flag, text);
+  check_frame_count((b - a) / step + 1, flag);
   std::vector<double> times;
   for (long k = 0; a + k * step <= b + 1e-9; ++k) times.push_back(a + k * step);
   return times;
@@ -93,6 +99,7 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
 
 std::vector<double> slowmo_times(double first, double last, int factor) {
   if (factor < 1) fail("--slowmo: must be >= 1, got {}", factor);
+  check_frame_count((last - first) * factor + 1, "--slowmo");
   std::vector<double> times;
   const long count = std::lround((last - first) * factor);
   for (long k = 0; k <= count; ++k) times.push_back(first + double(k) / factor);

@@ -29,6 +29,11 @@ namespace retimegs::app {
 std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count);
 
 // "A:B:STEP" -> A, A + STEP, ... up to B (inclusive, with a 1e-9 tolerance); STEP > 0.
+// Renders and exports of more frames than this are refused up front (a typo such as
+// --slowmo 1000000000 would otherwise end in an allocation failure naming nothing).
+constexpr long kMaxOutputFrames = 1'000'000;
+void check_frame_count(double frames, const std::string& flag);
+
 std::vector<double> parse_time_range(const std::string& text, const std::string& flag);
 
 // F frames per scene-frame interval from time `first` to `last`: t = first + k / F.

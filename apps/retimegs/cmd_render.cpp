@@ -163,6 +163,7 @@ void add_render_command(CLI::App& app) {
         path.push_back(scene.cameras[scene.camera_index(name)]);
       if (frame_times.size() == 1) {
         if (args->path_frames < 1) fail("--path-frames: must be >= 1, got {}", args->path_frames);
+        check_frame_count(args->path_frames, "--path-frames");
         frame_times.assign(args->path_frames, frame_times[0]);  // bullet time
       }
     } else {

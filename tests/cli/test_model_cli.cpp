@@ -148,6 +148,16 @@ TEST(ModelCli, BadInputExitsTwoWithoutOutput) {
            Case{"render" + model + scene + " --camera cam00 --times 3:1:1 --out " +
                     (dir / "o").string(),
                 "--times"},
+           // Absurd frame counts are refused before anything is allocated.
+           Case{"render" + model + scene + " --camera cam00 --slowmo 1000000000 --out " +
+                    (dir / "o").string(),
+                "--slowmo: 8000000001 frames; at most 1000000 frames"},
+           Case{"render" + model + scene + " --path cam00,cam01 --time 3 --path-frames " +
+                    "1000000000 --out " + (dir / "o").string(),
+                "--path-frames: 1000000000 frames"},
+           Case{"render" + model + scene + " --camera cam00 --times 0:8:0.000001 --out " +
+                    (dir / "o").string(),
+                "--times: 8000001 frames"},
            Case{"export --model " + (dir / "cut.rgs").string() + " --time 1 --out " +
                     (dir / "o.ply").string(),
                 "cut.rgs"},
