@@ -1,3 +1,5 @@
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <fstream>
 
@@ -74,6 +76,18 @@ TEST(Scene, MissingFolderAndFile) {
   expect_scene_error(dir / "nope", {"nope", "does not exist"});
   fs::create_directories(dir / "empty");
   expect_scene_error(dir / "empty", {"scene.json", "cannot open"});
+}
+
+// A FIFO (or a folder) where scene.json should be is refused instead of blocking forever.
+TEST(Scene, SceneJsonThatIsNotARegularFile) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  fs::remove(dir / "s" / "scene.json");
+  ASSERT_EQ(::mkfifo((dir / "s" / "scene.json").c_str(), 0600), 0);
+  expect_scene_error(dir / "s", {"scene.json", "not a regular file"});
+  fs::remove(dir / "s" / "scene.json");
+  fs::create_directory(dir / "s" / "scene.json");
+  expect_scene_error(dir / "s", {"scene.json", "not a regular file"});
 }
 
 TEST(Scene, MalformedJson) {

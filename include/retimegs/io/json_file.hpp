@@ -9,7 +9,8 @@
 namespace retimegs::io {
 
 // The parsed contents of `path`. Throws Error "<path>: cannot open <what>" when it cannot be
-// opened and "<path>: malformed JSON: <parser message>" when it does not parse.
+// opened, "<path>: not a regular file" for a FIFO, device or folder, and "<path>: malformed JSON:
+// <parser message>" when it does not parse.
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& what);
 
 }  // namespace retimegs::io
