@@ -1,5 +1,6 @@
 #include "retimegs/io/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -66,9 +67,7 @@ class Fields {
 Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
   Camera cam;
   cam.name = f.string(f.require(j, "name", path), path + ".name");
-  if (cam.name.empty() || cam.name.find_first_of("/\\") != std::string::npos || cam.name == "." ||
-      cam.name == "..")
-    fail("{}: '{}.name' is not a usable folder name: '{}'", f.file(), path, cam.name);
+  check_camera_name(cam.name, fmt::format("{}: '{}.name'", f.file(), path));
   cam.width = f.positive_int(f.require(j, "width", path), path + ".width");
   cam.height = f.positive_int(f.require(j, "height", path), path + ".height");
   cam.fx = f.positive(f.require(j, "fx", path), path + ".fx");
@@ -132,14 +131,33 @@ int Scene::camera_index(const std::string& name) const {
   fail("{}: no camera named '{}' (cameras: {})", json_path().string(), name, known);
 }
 
+void check_camera_name(const std::string& name, const std::string& where) {
+  const bool control = std::any_of(name.begin(), name.end(),
+                                   [](unsigned char ch) { return ch < 0x20 || ch == 0x7f; });
+  if (name.empty() || name == "." || name == ".." || control ||
+      name.find_first_of("/\\") != std::string::npos)
+    fail(
+        "{}: camera name '{}' cannot be a folder name (one path component, no '/', '\\', "
+        "control characters, '.' or '..')",
+        where, name);
+}
+
+namespace {
+fs::path camera_folder(const Scene& scene, const char* kind, int camera) {
+  const std::string& name = scene.cameras.at(camera).name;
+  check_camera_name(name, scene.json_path().string());
+  return scene.root / kind / name;
+}
+}  // namespace
+
 fs::path Scene::image_path(int camera, int frame) const {
-  return root / "images" / cameras.at(camera).name / fmt::format("{:05d}.png", frame);
+  return camera_folder(*this, "images", camera) / fmt::format("{:05d}.png", frame);
 }
 fs::path Scene::mask_path(int camera, int frame) const {
-  return root / "masks" / cameras.at(camera).name / fmt::format("{:05d}.png", frame);
+  return camera_folder(*this, "masks", camera) / fmt::format("{:05d}.png", frame);
 }
 fs::path Scene::flow_path(int camera, int from, int to) const {
-  return root / "flow" / cameras.at(camera).name / fmt::format("{:05d}_{:05d}.flo", from, to);
+  return camera_folder(*this, "flow", camera) / fmt::format("{:05d}_{:05d}.flo", from, to);
 }
 fs::path Scene::points_path(int frame) const {
   return root / "points" / fmt::format("{:05d}.ply", frame);

@@ -176,6 +176,17 @@ TEST_F(NerfstudioBadInput, CameraMissingATime) {
   expect_error({"transforms.json", "camera 'right' has no image at time 0"});
 }
 
+// A camera name that would leave the scene folder is refused before anything is written.
+TEST_F(NerfstudioBadInput, CameraNameOutsideTheScene) {
+  for (const char* name : {"../../escape", "/tmp/abs", ".."}) {
+    for (auto& f : j_["frames"])
+      if (f["camera"] == "left" || f["camera"] == "../../escape" || f["camera"] == "/tmp/abs")
+        f["camera"] = name;
+    expect_error({"camera name '", "cannot be a folder name"});
+    EXPECT_FALSE(fs::exists(dir_ / "escape"));
+  }
+}
+
 TEST_F(NerfstudioBadInput, MovingCamera) {
   j_["frames"][2]["transform_matrix"][0][3] = 0.5;
   expect_error({"transforms.json", "camera 'left' moves"});

@@ -90,6 +90,19 @@ TEST(Scene, SceneJsonThatIsNotARegularFile) {
   expect_scene_error(dir / "s", {"scene.json", "not a regular file"});
 }
 
+TEST(Scene, CameraNamesAreSinglePathComponents) {
+  for (const char* name : {"..", ".", "a/b", "../x", "", "a\\b", "tab\there"})
+    EXPECT_THROW(io::check_camera_name(name, "scene.json"), Error) << name;
+  for (const char* name : {"cam00", "0", "left.1", "A_b-c"})
+    EXPECT_NO_THROW(io::check_camera_name(name, "scene.json")) << name;
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  auto j = nlohmann::json::parse(test::read_text(dir / "s" / "scene.json"));
+  j["cameras"][0]["name"] = "../outside";
+  test::write_text(dir / "s" / "scene.json", j.dump());
+  expect_scene_error(dir / "s", {"scene.json", "cameras[0].name", "camera name '../outside'"});
+}
+
 TEST(Scene, MalformedJson) {
   test::TempDir dir;
   write_small_scene(dir / "s");

@@ -29,11 +29,17 @@ struct Scene {
   int camera_index(const std::string& name) const;
 
   std::filesystem::path json_path() const { return root / "scene.json"; }
+  // These paths name the camera's folder by its name, checked by check_camera_name (so that no
+  // name reaches outside the scene).
   std::filesystem::path image_path(int camera, int frame) const;
   std::filesystem::path mask_path(int camera, int frame) const;
   std::filesystem::path flow_path(int camera, int from, int to) const;
   std::filesystem::path points_path(int frame) const;
 };
+
+// A camera name becomes a folder name: it must be one path component, not empty, "." or "..",
+// without '/', '\\' or control characters. Throws Error naming `where` and the name.
+void check_camera_name(const std::string& name, const std::string& where);
 
 enum class SceneCheck {
   kJson,   // scene.json only
