@@ -30,17 +30,25 @@ fs::path find_images(const fs::path& source, const fs::path& model_dir) {
 }
 
 // Camera names: file stems, or the relative path without extension with '/' -> '_' when stems
-// collide.
-std::vector<std::string> camera_names(const std::vector<io::ColmapImage>& images) {
-  std::vector<std::string> stems;
-  for (const auto& im : images) stems.push_back(fs::path(im.name).stem().string());
-  if (std::set<std::string>(stems.begin(), stems.end()).size() == stems.size()) return stems;
+// collide. Images that still share a name (a.png and a.jpg) are an error naming both: one camera
+// would silently replace the other.
+std::vector<std::string> camera_names(const std::vector<io::ColmapImage>& images,
+                                      const std::string& what) {
   std::vector<std::string> names;
-  for (const auto& im : images) {
-    std::string n = fs::path(im.name).replace_extension().generic_string();
-    std::replace(n.begin(), n.end(), '/', '_');
-    names.push_back(n);
+  for (const auto& im : images) names.push_back(fs::path(im.name).stem().string());
+  if (std::set<std::string>(names.begin(), names.end()).size() != names.size()) {
+    names.clear();
+    for (const auto& im : images) {
+      std::string n = fs::path(im.name).replace_extension().generic_string();
+      std::replace(n.begin(), n.end(), '/', '_');
+      names.push_back(n);
+    }
   }
+  std::map<std::string, std::size_t> first;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (const auto [it, fresh] = first.emplace(names[i], i); !fresh)
+      fail("{}: images '{}' and '{}' would both be camera '{}'", what, images[it->second].name,
+           images[i].name, names[i]);
   return names;
 }
 
@@ -70,7 +78,7 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
   io::Scene scene;
   scene.num_frames = 1;
   scene.fps = kStaticFps;
-  const auto names = camera_names(model.images);
+  const auto names = camera_names(model.images, (model_dir / "images").string());
   for (std::size_t i = 0; i < model.images.size(); ++i) {
     const io::ColmapImage& im = model.images[i];
     Camera cam = undistorters.at(im.camera_id)->pinhole();

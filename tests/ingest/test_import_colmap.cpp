@@ -267,6 +267,15 @@ TEST_F(ColmapBadInput, MissingImage) {
   expect_error({"b.png", "missing image"});
 }
 
+// a.png and a.jpg in one folder would both be camera "a".
+TEST_F(ColmapBadInput, TwoImagesOneCameraName) {
+  io::ColmapModel m = sample_model();
+  m.images[1].name = "a.jpg";
+  io::write_colmap_model_txt(m, model());
+  fs::copy_file(dir_ / "src" / "images" / "a.png", dir_ / "src" / "images" / "a.jpg");
+  expect_error({"images", "'a.png'", "'a.jpg'", "would both be camera 'a'"});
+}
+
 TEST_F(ColmapBadInput, UnknownCameraOfImage) {
   io::ColmapModel m = sample_model();
   m.images[1].camera_id = 9;
