@@ -204,12 +204,13 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
                              v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
-                           grads, &shaded_);
+                           grads, &shaded_, &touched_);
   stats.seconds.evaluate_backward += clock.lap();
 }
 
 std::string Trainer::finish() {
   model::Primitives& p = model_.primitives;
+  adam_.catch_up(p);
   if (model_.config.representation == model::Representation::kStgs ||
       !(config_.final_prune_opacity > 0))
     return "final prune: off";
@@ -265,6 +266,8 @@ StepStats Trainer::step_view(int c, int i) {
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
+  touched_.resize(p.size());
+  for (const std::int32_t r : active) touched_[std::size_t(r)] = 0;
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   Stopwatch shade_clock;
   model::shade(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_);
@@ -284,7 +287,7 @@ StepStats Trainer::step_view(int c, int i) {
   // Optimiser step, then relocation, growth, noise and stretching.
   const double decay = lr_factor(it);
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
-  adam_.step(p, grads, active, means_decay, decay);
+  adam_.step(p, grads, active, means_decay, decay, config_.lazy_adam ? &touched_ : nullptr);
   if (camera_color()) step_camera_color(c, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
@@ -313,7 +316,8 @@ void save_adam(const fs::path& dir, const std::string& name, const Adam& adam, j
 
 }  // namespace
 
-void Trainer::save_checkpoint(const fs::path& dir) const {
+void Trainer::save_checkpoint(const fs::path& dir) {
+  adam_.catch_up(model_.primitives);
   AtomicDirectory out(dir, /*replace=*/true);
   model::write_model(out.temp_path() / "model.rgs", model_);
   std::ostringstream rng;
@@ -425,12 +429,16 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   Progress progress("train", std::size_t(config.iters), run.progress);
   progress.tick(std::size_t(trainer.iteration()));
   double psnr_avg = 0, loss_avg = 0;
+  StageSeconds since_log;  // summed over the steps since the last log line
+  int steps_since_log = 0;
   while (trainer.iteration() < config.iters) {
     const StepStats s = trainer.step();
+    since_log += s.seconds, ++steps_since_log;
     constexpr double kSmoothing = 0.05;  // exponential moving average for the progress line
     psnr_avg = s.iteration == 1 ? s.psnr : (1 - kSmoothing) * psnr_avg + kSmoothing * s.psnr;
     loss_avg = s.iteration == 1 ? s.loss : (1 - kSmoothing) * loss_avg + kSmoothing * s.loss;
-    if (s.iteration % 10 == 0 || s.relocated || s.stretched)
+    if (s.iteration % 10 == 0 || s.relocated || s.stretched) {
+      const double ms = 1e3 / steps_since_log;
       log << json{{"iteration", s.iteration},
                   {"camera", s.camera},
                   {"frame", s.frame},
@@ -444,9 +452,20 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
                   {"relocated", s.relocated},
                   {"added", s.added},
                   {"stretched", s.stretched},
-                  {"pruned", s.pruned}}
+                  {"pruned", s.pruned},
+                  {"ms_per_step",
+                   {{"evaluate", since_log.evaluate * ms},
+                    {"render_forward", since_log.render_forward * ms},
+                    {"losses", since_log.losses * ms},
+                    {"render_backward", since_log.render_backward * ms},
+                    {"evaluate_backward", since_log.evaluate_backward * ms},
+                    {"optimizer", since_log.optimizer * ms},
+                    {"other", since_log.other() * ms},
+                    {"total", since_log.total * ms}}}}
                  .dump()
           << "\n";
+      since_log = {}, steps_since_log = 0;
+    }
     progress.tick(1, fmt::format("loss {:.4f} psnr {:.2f} n {}", loss_avg, psnr_avg, s.primitives));
     if (s.iteration % config.checkpoint_every == 0 && s.iteration < config.iters) {
       log.flush();

@@ -41,6 +41,12 @@ struct StageSeconds {
   double evaluate_backward = 0;  // model::evaluate_backward
   double optimizer = 0;          // regulariser and Adam
   double total = 0;              // the whole step (the rest: view choice, strategy, bookkeeping)
+  StageSeconds& operator+=(const StageSeconds& o) {
+    evaluate += o.evaluate, render_forward += o.render_forward, losses += o.losses;
+    render_backward += o.render_backward, evaluate_backward += o.evaluate_backward;
+    optimizer += o.optimizer, total += o.total;
+    return *this;
+  }
   double other() const {
     return total - evaluate - render_forward - losses - render_backward - evaluate_backward -
            optimizer;
@@ -79,11 +85,14 @@ class Trainer {
   std::string finish();
 
   int iteration() const { return iteration_; }
+  // Between steps, rows that missed steps of the lazy Adam (TrainConfig::lazy_adam) lag them until
+  // the next relocation, checkpoint or finish().
   const model::Model& model() const { return model_; }
 
   // A checkpoint folder (written atomically): model.rgs (with the camera colours), state.json,
-  // adam/<field>_{m,v}.npy and adam/camera_color_{m,v}.npy.
-  void save_checkpoint(const std::filesystem::path& dir) const;
+  // adam/<field>_{m,v}.npy and adam/camera_color_{m,v}.npy. It first applies the optimiser's
+  // pending catch-up (Optimizers::catch_up), so a resumed run continues exactly as this one.
+  void save_checkpoint(const std::filesystem::path& dir);
   void load_checkpoint(const std::filesystem::path& dir);
 
  private:
@@ -131,8 +140,9 @@ class Trainer {
   std::vector<float> colors_, color_grads_;
   Adam color_adam_;
   Image corrected_;
-  SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
-  model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders
+  SsimTarget ssim_target_;             // target_'s side of SSIM, shared by the step's renders
+  model::Shaded shaded_;               // the SH colours of the step's view, shared by its renders
+  std::vector<std::uint8_t> touched_;  // [rows] a renderer gradient this step (lazy Adam)
   // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
   // (indexed by model::Group; a group's batch size changes little from step to step), the render
   // with its saved state and the gradient with respect to the batch.
