@@ -226,5 +226,73 @@ TEST(Adam, LazyCatchUpEarlyInTrainingStaysCloseToDense) {
   EXPECT_GT(std::abs(p_lazy), 1.5f * 0.05f);  // well past the 5 touched steps' own moves
 }
 
+// The optimiser of a model: the regularised fields (log_scale, opacity_logit) step densely, bit for
+// bit as without touched flags; the others lazily, and after catch_up every field agrees with the
+// dense optimiser's to float rounding (bias corrections at their limit, constant rates). Rows: 0
+// has a renderer gradient at every step, 1 at every third, 2 only at the first; row 3 is not in
+// the active set.
+TEST(Optimizers, LazyFieldsCatchUpAndRegularisedFieldsStepDensely) {
+  constexpr std::size_t kRows = 4;
+  std::mt19937 rng(11);
+  std::normal_distribution<float> normal;
+  model::Primitives p;
+  p.resize(kRows);
+  for (const auto& f : p.fields())
+    for (float& v : *f.values) v = normal(rng);
+  TrainConfig config;
+  Optimizers dense(p, model::Representation::kRetime, config, 2.0, 0.5), lazy = dense;
+  for (Optimizers* o : {&dense, &lazy})
+    for (auto& group : *o) group.adam.step_count() = 100000;
+  model::Primitives p_dense = p, p_lazy = p;
+  const std::vector<std::int32_t> rows = {0, 1, 2};
+  for (int step = 0; step < 30; ++step) {
+    std::vector<std::uint8_t> touched = {1, std::uint8_t(step % 3 == 0), std::uint8_t(step == 0),
+                                         0};
+    model::PrimitiveGrads g(kRows);
+    for (std::size_t r = 0; r < 3; ++r) {
+      // The regularisers reach every active row; the renders only the touched ones.
+      for (int a = 0; a < 3; ++a) g.v_log_scale[3 * r + a] = normal(rng);
+      g.v_opacity_logit[r] = normal(rng);
+      if (!touched[r]) continue;
+      for (auto* field : {&g.v_mu, &g.v_velocity, &g.v_q0, &g.v_q1, &g.v_sh}) {
+        const std::size_t width = field->size() / kRows;
+        for (std::size_t k = r * width; k < (r + 1) * width; ++k) (*field)[k] = normal(rng);
+      }
+    }
+    model::PrimitiveGrads g_lazy = g;
+    dense.step(p_dense, g, rows, 1.0, 1.0);
+    lazy.step(p_lazy, g_lazy, rows, 1.0, 1.0, &touched);
+    ASSERT_EQ(p_lazy.log_scale, p_dense.log_scale) << step;
+    ASSERT_EQ(p_lazy.opacity_logit, p_dense.opacity_logit) << step;
+    for (int f = 0; f < 6; ++f) {  // row 0 in every field
+      const auto field = p.fields()[f];
+      const int w = field.width;
+      const auto& a = *p_lazy.fields()[f].values;
+      const auto& b = *p_dense.fields()[f].values;
+      ASSERT_TRUE(std::equal(a.begin(), a.begin() + w, b.begin())) << field.name << " " << step;
+    }
+    for (const auto* field : {&g_lazy.v_mu, &g_lazy.v_sh, &g_lazy.v_log_scale})
+      ASSERT_TRUE(std::all_of(field->begin(), field->end(), [](float v) { return v == 0; }));
+  }
+  EXPECT_EQ(lazy.pending_rows(), 2u);  // rows 1 (missed steps 28, 29) and 2
+  EXPECT_NE(p_lazy.sh[2 * model::Primitives::kShWidth],
+            p_dense.sh[2 * model::Primitives::kShWidth]);
+  lazy.catch_up(p_lazy);
+  EXPECT_EQ(lazy.pending_rows(), 0u);
+  for (int f = 0; f < model::Primitives::kFieldCount; ++f) {
+    const auto& a = *p_lazy.fields()[f].values;
+    const auto& b = *p_dense.fields()[f].values;
+    for (std::size_t k = 0; k < a.size(); ++k)
+      EXPECT_NEAR(a[k], b[k], 1e-5 * std::abs(b[k]) + 1e-6) << p.fields()[f].name << " " << k;
+  }
+  // Row 3 was never active: as it started.
+  for (int f = 0; f < model::Primitives::kFieldCount; ++f) {
+    const int w = p.fields()[f].width;
+    const auto& a = *p_lazy.fields()[f].values;
+    const auto& b = *p.fields()[f].values;
+    EXPECT_TRUE(std::equal(a.begin() + 3 * w, a.begin() + 4 * w, b.begin() + 3 * w));
+  }
+}
+
 }  // namespace
 }  // namespace retimegs::train
