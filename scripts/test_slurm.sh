@@ -138,7 +138,7 @@ for k in $(seq 0 $((windows - 1))); do
   [ -f "$tmp/run/windows/$k/model.rgs" ] || fail "window $k wrote no model"
   [ -f "$tmp/run/slurm/logs/train_${train_job}_$k.out" ] || fail "window $k left no log"
 done
-# The merged model covers the whole clip: eval scores it on the held-out odd frames (about 22 dB
+# The merged model covers the whole clip: eval scores it on the held-out odd frames (about 20 dB
 # after 150 iterations per window; a model that lost a window scores far less).
 "$binary" eval --scene "$scene" --model "$model" --out "$tmp/metrics.json" >"$tmp/eval.log" 2>&1 ||
   fail "eval of the merged model: $(tail -n 3 "$tmp/eval.log")"
