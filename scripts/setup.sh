@@ -14,6 +14,7 @@ packages=(
   libnanoflann-dev         # nearest neighbours (initialisation, stretching)
   colmap                   # prepare --points colmap (feature_extractor, point_triangulator)
   libgtest-dev libgmock-dev libbenchmark-dev
+  slurm-wlm munge          # scripts/test_slurm.sh: a throw-away Slurm cluster for `retimegs slurm`
 )
 
 missing=()

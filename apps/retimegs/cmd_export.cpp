@@ -12,6 +12,7 @@
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/model/window.hpp"
 
 namespace retimegs::app {
 
@@ -34,7 +35,7 @@ void add_export_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     if (!args->time && args->times.empty()) fail("export: give --time or --times");
-    const model::Model m = model::read_model(args->model);
+    const model::Model m = model::window_view(model::read_model(args->model));
     const std::filesystem::path out = args->out;
     if (args->time) {
       if (out.extension() != ".ply")

@@ -1,6 +1,6 @@
 // retimegs prepare --scene SCENE [--train-frames even|all] [--flow dis|deepflow|tvl1]
 //                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks]
-//                  [--force] [--threads T]
+//                  [--window A:B] [--force] [--threads T]
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,7 +19,7 @@ namespace retimegs::app {
 
 void add_prepare_command(CLI::App& app) {
   struct Args {
-    std::string scene, frames = "even", flow = "dis", flow_dir;
+    std::string scene, frames = "even", flow = "dis", flow_dir, window;
     std::vector<std::string> points;
     int threads = 0;
     bool force = false, masks = false;
@@ -54,10 +54,15 @@ void add_prepare_command(CLI::App& app) {
                   "colmap when COLMAP is not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
+  CLI::Option* window =
+      cmd->add_option("--window", args->window,
+                      "A:B: only the flows and points of training frames A..B (as train "
+                      "--window A:B reads them)");
   cmd->add_flag("--masks", args->masks,
                 "write approximate foreground masks for a capture without them, from a MOG2 "
                 "background model of each (static) camera's training frames; what stays put for "
-                "most of them counts as background");
+                "most of them counts as background")
+      ->excludes(window);
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "recompute and overwrite existing flow and point files");
@@ -69,6 +74,7 @@ void add_prepare_command(CLI::App& app) {
     options.flow_dir = args->flow_dir;
     options.force = args->force;
     if (args->masks) options.masks.emplace();
+    if (!args->window.empty()) options.window = io::parse_frame_window(args->window, "--window");
     if (!args->points.empty()) {
       const std::string& kinds = args->points[0];
       bool needs_dir = false;

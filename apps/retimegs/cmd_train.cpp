@@ -1,6 +1,6 @@
 // retimegs train --scene SCENE --out RUN [--train-frames even|all] [--preset fast|default|quality]
 //                [--iters N] [--cap N] [--config FILE] [--ablate LIST] [--baseline stgs]
-//                [--seed S] [--threads T] [--resume]
+//                [--seed S] [--threads T] [--window A:B] [--resume]
 #include <fstream>
 #include <memory>
 #include <optional>
@@ -17,7 +17,7 @@ namespace retimegs::app {
 
 void add_train_command(CLI::App& app) {
   struct Args {
-    std::string scene, out, frames = "even", preset = "default", config, ablate, baseline;
+    std::string scene, out, frames = "even", preset = "default", config, ablate, baseline, window;
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
@@ -50,6 +50,9 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--seed", args->seed, "random seed")->default_str("0");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
+  cmd->add_option("--window", args->window,
+                  "A:B: train only scene frames A..B (training frames; their flows and points), "
+                  "a window of a long clip for `retimegs merge`");
   auto* resume = cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
   cmd->add_flag("--force", args->force,
                 "start afresh over an existing run (its model, config, log and checkpoints are "
@@ -62,6 +65,7 @@ void add_train_command(CLI::App& app) {
     run.resume = args->resume;
     run.force = args->force;
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
+    if (!args->window.empty()) run.window = io::parse_frame_window(args->window, "--window");
     train::TrainConfig& config = run.config;
     config = train::with_preset(config, args->preset, "--preset");
     if (!args->config.empty()) {

@@ -13,5 +13,7 @@ void add_render_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_train_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
+void add_merge_command(CLI::App& app);
+void add_slurm_command(CLI::App& app);
 
 }  // namespace retimegs::app

@@ -65,6 +65,8 @@ int main(int argc, char** argv) {
   retimegs::app::add_eval_command(app);
   retimegs::app::add_export_command(app);
   retimegs::app::add_sheet_command(app);
+  retimegs::app::add_merge_command(app);
+  retimegs::app::add_slurm_command(app);
 
   try {
     app.parse(argc, argv);

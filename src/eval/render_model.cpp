@@ -8,6 +8,7 @@
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/static_splats.hpp"
+#include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
 
 namespace retimegs::eval {
@@ -33,7 +34,7 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
 
 LoadedModel load_model(const std::filesystem::path& path) {
   if (path.extension() == ".ply") return io::read_splat_ply(path);
-  return model::read_model(path);
+  return model::window_view(model::read_model(path));  // a window model is drawn as trained
 }
 
 Image render_loaded(const LoadedModel& model, const Camera& camera, double t,

@@ -1,6 +1,8 @@
 #include "retimegs/io/training_views.hpp"
 
 #include <algorithm>
+#include <charconv>
+#include <string_view>
 
 #include "retimegs/core/error.hpp"
 
@@ -23,6 +25,19 @@ FrameSelection parse_frame_selection(const std::string& text, const std::string&
   if (text == "even") return FrameSelection::kEven;
   if (text == "all") return FrameSelection::kAll;
   fail("{}: must be even or all, got '{}'", flag, text);
+}
+
+FrameWindow parse_frame_window(const std::string& text, const std::string& flag) {
+  const auto colon = text.find(':');
+  FrameWindow w{-1, -1};
+  const auto parse = [&](std::string_view part, int& value) {
+    const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), value);
+    return ec == std::errc() && end == part.data() + part.size();
+  };
+  if (colon == std::string::npos || !parse(std::string_view(text).substr(0, colon), w.first) ||
+      !parse(std::string_view(text).substr(colon + 1), w.last) || w.first < 0 || w.last <= w.first)
+    fail("{}: expected A:B, scene frames with 0 <= A < B, got '{}'", flag, text);
+  return w;
 }
 
 std::vector<int> training_cameras(const Scene& scene) {
@@ -53,7 +68,27 @@ TrainingViews training_views(const Scene& scene, FrameSelection which) {
   views.frames = training_frames(scene.num_frames, which);
   for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
     views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);
+  views.clip_frames = views.frames;
   views.extent = cameras_extent(scene, views.cameras);
+  return views;
+}
+
+TrainingViews training_views(const Scene& scene, FrameSelection which, const FrameWindow& window) {
+  TrainingViews views = training_views(scene, which);
+  const std::vector<int>& clip = views.clip_frames;
+  for (const int end : {window.first, window.last})
+    if (!std::binary_search(clip.begin(), clip.end(), end))
+      fail(
+          "{}: window {}:{}: frame {} is not a training frame of the clip (frames 0, {}, {}, ... "
+          "below {}): windows start and end on training frames so that neighbours share one",
+          scene.json_path().string(), window.first, window.last, end, views.step, 2 * views.step,
+          scene.num_frames);
+  views.frames.clear();
+  views.flow_pairs.clear();
+  for (const int k : clip)
+    if (k >= window.first && k <= window.last) views.frames.push_back(k);
+  for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
+    views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);
   return views;
 }
 

@@ -69,6 +69,15 @@ std::map<std::string, CameraColor> camera_colors_from(const json& header, const 
   return colors;
 }
 
+// The index of training time t in `grid`; throws Error naming `file` when t is not one.
+int grid_index(const TimeGrid& grid, double t, const std::string& file) {
+  const double i = std::round((t - grid.first) / grid.step);
+  if (!std::isfinite(t) || !(i >= 0 && i < grid.count) ||
+      std::abs(grid.at(int(i)) - t) > 1e-6 * grid.step)
+    fail("{}: window end {} is not a training frame of the model's time grid", file, t);
+  return int(i);
+}
+
 }  // namespace
 
 const CameraColor* find_camera_color(const Model& model, const std::string& camera) {
@@ -119,6 +128,12 @@ void write_model(const fs::path& path, const Model& model) {
         {"sh_degree", model.config.sh_degree}}},
       {"fields", fields},
       {"training_config", training}};
+  if (const auto& w = model.window) {
+    if (!(w->first >= 0 && w->first < w->last && w->last < model.grid.count))
+      fail("{}: window {}..{} is not a run of the {} training frames", path.string(), w->first,
+           w->last, model.grid.count);
+    header["window"] = {{"first", model.grid.at(w->first)}, {"last", model.grid.at(w->last)}};
+  }
   for (const auto& [camera, color] : model.camera_colors) {
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(color.m[k]) || !std::isfinite(color.c[k]))
@@ -183,6 +198,13 @@ Model read_model(const fs::path& path) {
     model.config.sh_degree = m.at("sh_degree").get<int>();
     model.training_config = header.value("training_config", json::object()).dump();
     model.camera_colors = camera_colors_from(header, file);
+    if (header.contains("window")) {
+      const json& w = header.at("window");
+      model.window = TimeWindow{grid_index(model.grid, w.at("first").get<double>(), file),
+                                grid_index(model.grid, w.at("last").get<double>(), file)};
+      if (!(model.window->first < model.window->last))
+        fail("{}: window {} ends before it starts", file, w.dump());
+    }
   } catch (const json::exception& e) {
     fail("{}: malformed model header: {}", file, e.what());
   }

@@ -189,7 +189,12 @@ std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_f
 
 PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
   PrepareReport report;
-  const io::TrainingViews views = io::training_views(scene, options.frames);
+  if (options.window && options.masks)
+    fail("{}: masks are learnt from the whole clip: write them without a window first",
+         scene.json_path().string());
+  const io::TrainingViews views = options.window
+                                      ? io::training_views(scene, options.frames, *options.window)
+                                      : io::training_views(scene, options.frames);
   const std::vector<int>& cameras = views.cameras;
   const std::vector<int>& frames = views.frames;
   if (cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
@@ -294,7 +299,7 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
       report.points_source +=
           (report.points_source.empty() ? "" : ",") + std::string(points_source_name(source));
     const std::size_t random_count =
-        std::max(kMinRandomPointsPerFrame, options.random_points_total / frames.size());
+        std::max(kMinRandomPointsPerFrame, options.random_points_total / views.clip_frames.size());
     Progress progress("points", point_frames.size(), options.progress);
     for (std::size_t i = 0; i < point_frames.size(); ++i) {
       const int k = point_frames[i];

@@ -22,8 +22,10 @@ std::size_t TrainingSet::image_bytes() const {
   return n;
 }
 
-TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) {
-  const io::TrainingViews views = io::training_views(scene, which);
+TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
+                              const std::optional<io::FrameWindow>& window) {
+  const io::TrainingViews views =
+      window ? io::training_views(scene, which, *window) : io::training_views(scene, which);
   if (views.frames.size() < 2)
     fail("{}: training needs at least 2 training frames; the scene has {} frame(s)",
          scene.json_path().string(), scene.num_frames);
@@ -32,7 +34,9 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which) 
   set.scene = scene;
   set.cameras = views.cameras;
   set.frames = views.frames;
-  set.grid = {0.0, double(views.step), int(views.frames.size())};
+  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
+  if (window)
+    set.clip_grid = model::TimeGrid{0.0, double(views.step), int(views.clip_frames.size())};
   set.scene_extent = views.extent;
   set.near_plane = float(io::scene_near_plane(scene));
 

@@ -18,6 +18,7 @@
 #include "retimegs/io/npy.hpp"
 #include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/losses.hpp"
@@ -50,6 +51,8 @@ Trainer::Trainer(const TrainingSet& set, const TrainConfig& config)
       rng_(config.seed) {
   model_.grid = set.grid;
   model_.config = config.model_config();
+  // A window trains as a clip of its own, its ends open (model/window.hpp).
+  if (set.clip_grid) model_.config = model::window_config(model_.config, *set.clip_grid, set.grid);
   model_.training_config = to_json(config);
   if (camera_color()) {
     const std::size_t cameras = set.cameras.size();
@@ -362,6 +365,13 @@ void load_adam(const fs::path& dir, const std::string& name, const json& state,
 
 void Trainer::load_checkpoint(const fs::path& dir) {
   model_ = model::read_model(dir / "model.rgs");
+  if (model_.grid.first != set_.grid.first || model_.grid.step != set_.grid.step ||
+      model_.grid.count != set_.grid.count)
+    fail(
+        "{}: the checkpoint trained {} frames from frame {} (step {}), this run trains {} from "
+        "frame {} (step {}): resume with the same --window and --train-frames",
+        dir.string(), model_.grid.count, model_.grid.first, model_.grid.step, set_.grid.count,
+        set_.grid.first, set_.grid.step);
   const fs::path file = dir / "state.json";
   const json state = io::read_json_file(file, "checkpoint state");
   iteration_ = state_value<int>(state, "iteration", file);
@@ -407,7 +417,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
         "afresh, or choose another folder)",
         run.out.string());
   }
-  const TrainingSet set = load_training_set(scene, run.frames);
+  const TrainingSet set = load_training_set(scene, run.frames, run.window);
   if (run.force && !run.resume)  // only once the scene has loaded: a bad scene keeps the old run
     for (const char* name : {"model.rgs", "config.json", "log.jsonl", "checkpoints"})
       fs::remove_all(run.out / name);
@@ -474,10 +484,14 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   }
   progress.finish();
   spdlog::info("{}", trainer.finish());
-  model::write_model(run.out / "model.rgs", trainer.model());
+  // A window's model is stored on the clip's grid with its window, for merge.
+  const model::Model model =
+      set.clip_grid ? model::with_window(trainer.model(), *set.clip_grid, config.model_config())
+                    : trainer.model();
+  model::write_model(run.out / "model.rgs", model);
   spdlog::info("model: {} ({} primitives); peak memory {:.0f} MB", (run.out / "model.rgs").string(),
-               trainer.model().primitives.size(), double(peak_rss_bytes()) / 1e6);
-  return trainer.model();
+               model.primitives.size(), double(peak_rss_bytes()) / 1e6);
+  return model;
 }
 
 }  // namespace retimegs::train

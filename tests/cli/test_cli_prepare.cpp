@@ -44,6 +44,34 @@ fs::path bare_scene(const test::TempDir& dir) {
   return scene;
 }
 
+// --window 2:4 prepares what train --window 2:4 reads: the flows between 2 and 4, the points of
+// 2 and 4, nothing of frame 0; the rest of the clip follows with a later run.
+TEST(PrepareCli, WindowPreparesOnlyItsFrames) {
+  test::TempDir dir;
+  const fs::path scene = bare_scene(dir);
+  const std::string cmd = "prepare --scene " + scene.string() + " --points random";
+  int status = -1;
+  const std::string out = run_stdout(cmd + " --window 2:4", dir, status);
+  ASSERT_EQ(status, 0);
+  EXPECT_NE(out.find("6 files written"), std::string::npos) << out;  // 3 cameras x 2 directions
+  for (const char* name : {"00002_00004.flo", "00004_00002.flo"})
+    EXPECT_TRUE(fs::exists(scene / "flow" / "cam01" / name)) << name;
+  EXPECT_FALSE(fs::exists(scene / "flow" / "cam01" / "00000_00002.flo"));
+  EXPECT_TRUE(fs::exists(scene / "points" / "00002.ply"));
+  EXPECT_TRUE(fs::exists(scene / "points" / "00004.ply"));
+  EXPECT_FALSE(fs::exists(scene / "points" / "00000.ply"));
+  const std::string rest = run_stdout(cmd + " --window 0:2", dir, status);
+  ASSERT_EQ(status, 0);
+  EXPECT_NE(rest.find("6 files written"), std::string::npos) << rest;
+  EXPECT_TRUE(fs::exists(scene / "points" / "00000.ply"));
+  // Not a training frame; masks learn from the whole clip.
+  auto r = test::run_cli(cmd + " --window 1:4");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("frame 1 is not a training frame"), std::string::npos) << r.err;
+  r = test::run_cli(cmd + " --window 0:2 --masks");
+  EXPECT_EQ(r.status, 2);
+}
+
 TEST(PrepareCli, FillsInResumesAndForceRewrites) {
   test::TempDir dir;
   const fs::path scene = bare_scene(dir);

@@ -32,7 +32,8 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
                     const render::RenderOptions& options = {});
 
 // A model read from a file, by its extension: `.ply` is a static 3DGS model (Inria layout),
-// anything else a 4D model (.rgs). Throws Error naming the file on a bad model.
+// anything else a 4D model (.rgs); a window model (train --window) as model::window_view gives it,
+// its time range the window's. Throws Error naming the file on a bad model.
 using LoadedModel = std::variant<model::Model, Splats>;
 LoadedModel load_model(const std::filesystem::path& path);
 

@@ -3,6 +3,7 @@
 // train reads exactly these, eval's baselines blend these frames, and prepare's random points and
 // training's random fallback share one box: all call the functions below, none re-derives them.
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,10 +21,23 @@ enum class FrameSelection { kEven, kAll };
 // "even" or "all"; throws Error naming `flag` otherwise.
 FrameSelection parse_frame_selection(const std::string& text, const std::string& flag);
 
+// `train --window A:B`, `prepare --window A:B`: scene frames A..B of a long clip, trained apart
+// from the rest and merged later (model/merge.hpp). Both ends are training frames, so that
+// consecutive windows share their boundary frame.
+struct FrameWindow {
+  int first = 0, last = 0;  // scene frames, first < last
+};
+
+// "A:B"; throws Error naming `flag` unless A and B are integers with 0 <= A < B.
+FrameWindow parse_frame_window(const std::string& text, const std::string& flag);
+
 struct TrainingViews {
   std::vector<int> cameras;  // scene indices of the training cameras (split "train")
-  std::vector<int> frames;   // 0, step, 2 step, ... < num_frames
-  int step = 1;              // 2 (kEven) or 1 (kAll)
+  std::vector<int> frames;   // 0, step, 2 step, ... < num_frames (within the window, if any)
+  // The whole clip's training frames: `frames` unless a window restricts them. A window's model
+  // keeps the clip's time grid, so that windows share one grid.
+  std::vector<int> clip_frames;
+  int step = 1;  // 2 (kEven) or 1 (kAll)
   // Consecutive training frames (frames[i], frames[i + 1]): every training camera has a flow
   // between them in both directions.
   std::vector<std::pair<int, int>> flow_pairs;
@@ -51,6 +65,10 @@ std::vector<int> held_out_frames(int num_frames, FrameSelection which);
 
 // Empty lists are not errors here: each command checks for what it needs.
 TrainingViews training_views(const Scene& scene, FrameSelection which);
+// The views of the training frames within `window` and the flow pairs between them; cameras and
+// extent stay the whole clip's (every window trains with the same learning rates and near plane).
+// Throws Error naming the scene unless both ends are training frames of the clip.
+TrainingViews training_views(const Scene& scene, FrameSelection which, const FrameWindow& window);
 
 // The training cameras alone (split "train"), as in training_views().
 std::vector<int> training_cameras(const Scene& scene);

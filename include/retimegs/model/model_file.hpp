@@ -8,13 +8,16 @@
 //                 ([{name, width, dtype "<f4", offset, bytes}], offsets from the data start),
 //                 the training config (free-form JSON, for provenance) and, when training
 //                 learned them, "camera_colors": {camera name: {"m": [3], "c": [3]}} (files
-//                 without the key, as earlier builds wrote them, load with none)
+//                 without the key, as earlier builds wrote them, load with none) and, for a
+//                 window model (train --window), "window": {"first", "last"}, its first and last
+//                 training times (files without it hold the whole clip)
 //   ...           the fields' raw float32 arrays, row-major, in table order
 //   u64           FNV-1a 64 checksum of every preceding byte
 //
 // Written atomically; a truncated or corrupted file is refused, never half-loaded.
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -32,6 +35,9 @@ struct Model {
   // Per training camera, by name: the colour correction learned for its images (empty when
   // training learned none). Other cameras render the model's colours.
   std::map<std::string, CameraColor> camera_colors;
+  // A window model (train --window): the training frames of `grid` it was trained on. `grid` stays
+  // the whole clip's, so that windows share one grid; model/window.hpp draws such a model alone.
+  std::optional<TimeWindow> window;
 };
 
 // The stored correction of the camera named `camera`, or nullptr when the model has none for it.

@@ -24,6 +24,13 @@ struct TimeGrid {
   double to_frames(double normalised) const { return normalised * (last() - first); }
 };
 
+// Training frames first..last (indices into a TimeGrid, first < last): the part of a long clip a
+// window model was trained on (train --window, model/window.hpp).
+struct TimeWindow {
+  int first = 0, last = 1;
+  bool operator==(const TimeWindow&) const = default;
+};
+
 enum class Representation {
   kRetime,  // boundary-aware sigmoid window, Catmull-Rom (or linear) trajectory
   kStgs,    // SpacetimeGaussians baseline: 1-D Gaussian window, cubic polynomial motion

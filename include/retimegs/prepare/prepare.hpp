@@ -49,6 +49,10 @@ struct PrepareOptions {
   // kRandom's points in all, spread over the training frames (at least kMinRandomPointsPerFrame
   // each) as training's fallback seeds the same number at once.
   std::size_t random_points_total = io::kRandomPointsTotal;
+  // Set (prepare --window): only the flows and points of the window's training frames, so that
+  // each window of a long clip prepares its own part (io::training_views with the window). Not
+  // with `masks`, which learn from the whole clip's frames and write every frame.
+  std::optional<io::FrameWindow> window;
   std::uint64_t seed = 0;
   bool force = false;
   bool progress = true;

@@ -17,6 +17,9 @@ struct TrainingSet {
   std::vector<int> cameras;  // indices of the training cameras (split "train")
   std::vector<int> frames;   // scene frames used for training: t_i = frames[i]
   model::TimeGrid grid;      // t_i = grid.at(i) == frames[i]
+  // Set when a window (train --window) restricts the frames: the whole clip's training frames,
+  // the time grid of the model written.
+  std::optional<model::TimeGrid> clip_grid;
 
   // Indexed [camera slot][frame slot], slots as in `cameras` / `frames`.
   std::vector<std::vector<PackedImage>> images;            // RGB [H, W, 3]
@@ -33,6 +36,8 @@ struct TrainingSet {
 
 // Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
 // the wrong size, ...). Needs at least 2 training frames and 1 training camera.
-TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which);
+// With a window, only the training frames within it (io::training_views with the window).
+TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
+                              const std::optional<io::FrameWindow>& window = std::nullopt);
 
 }  // namespace retimegs::train

@@ -16,6 +16,7 @@
 #include <array>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -158,6 +159,9 @@ struct TrainRun {
   std::filesystem::path out;  // RUN/
   TrainConfig config;
   io::FrameSelection frames = io::FrameSelection::kEven;
+  // Set: train only the training frames within it; the model keeps the clip's grid and records
+  // the window (model/window.hpp), for `merge`.
+  std::optional<io::FrameWindow> window;
   bool resume = false;
   bool force = false;  // replace an existing run's outputs (not with resume)
   bool progress = true;

@@ -1,0 +1,45 @@
+// retimegs merge --out M.rgs [--force] RUN1/model.rgs RUN2/model.rgs ...
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/model/merge.hpp"
+#include "retimegs/model/model_file.hpp"
+
+namespace retimegs::app {
+
+void add_merge_command(CLI::App& app) {
+  struct Args {
+    std::string out;
+    std::vector<std::string> models;
+    bool force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "merge",
+      "Stitch window models of one clip (train --window), each starting at the frame where the "
+      "previous one ends, into one model of the frames they cover together.");
+  cmd->add_option("--out", args->out, "merged model file (.rgs)")->required();
+  cmd->add_option("models", args->models, "window models (.rgs), in any order")
+      ->required()
+      ->expected(1, -1);
+  cmd->add_flag("--force", args->force, "replace an existing --out");
+  cmd->callback([args] {
+    check_output_free(args->out, args->force);
+    std::vector<model::Model> windows;
+    for (const std::string& path : args->models) windows.push_back(model::read_model(path));
+    const model::Model merged = model::merge_models(windows, args->models);
+    model::write_model(args->out, merged);
+    const model::TimeWindow span =
+        merged.window.value_or(model::TimeWindow{0, merged.grid.count - 1});
+    spdlog::info("merged {} window{} into {}: {} primitives, frames {}..{}", windows.size(),
+                 windows.size() == 1 ? "" : "s", args->out, merged.primitives.size(),
+                 merged.grid.at(span.first), merged.grid.at(span.last));
+  });
+}
+
+}  // namespace retimegs::app

@@ -1,0 +1,92 @@
+// retimegs slurm --scene S --out RUN --windows N [--train-frames even|all] [--iters N]
+//                [--preset P] [--config FILE] [--cap N] [--seed S] [--sbatch-arg ARG ...]
+//                [--submit] [--force]
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "commands.hpp"
+#include "retimegs/cluster/slurm.hpp"
+#include "retimegs/io/scene.hpp"
+
+namespace retimegs::app {
+
+void add_slurm_command(CLI::App& app) {
+  struct Args {
+    std::string scene, out, frames = "even", preset, config;
+    int windows = 0;
+    std::optional<int> iters;
+    std::optional<std::size_t> cap;
+    std::optional<std::uint64_t> seed;
+    std::vector<std::string> sbatch_args;
+    bool submit = false, force = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "slurm",
+      "Train a long clip as time windows on a Slurm cluster: writes RUN/slurm/train.sbatch (a job "
+      "array, one task per window: prepare, then train --window), RUN/slurm/merge.sbatch (merge, "
+      "after the array) and RUN/slurm/run_local.sh (the same steps on this machine). "
+      "Resubmitting resumes.");
+  cmd->add_option("--scene", args->scene, "scene folder (on a file system the nodes share)")
+      ->required();
+  cmd->add_option("--out", args->out, "run folder: RUN/windows/K, RUN/model.rgs, RUN/slurm/")
+      ->required();
+  cmd->add_option("--windows", args->windows, "number of time windows (one array task each)")
+      ->required();
+  cmd->add_option("--train-frames", args->frames, "even or all, as for train")
+      ->check(CLI::IsMember({"even", "all"}))
+      ->capture_default_str();
+  cmd->add_option("--iters", args->iters, "iterations of each window");
+  cmd->add_option("--preset", args->preset, "budget preset of each window (as for train)");
+  cmd->add_option("--config", args->config, "training config file of each window");
+  cmd->add_option("--cap", args->cap, "primitive budget of each window");
+  cmd->add_option("--seed", args->seed, "random seed of each window");
+  cmd->add_option("--sbatch-arg", args->sbatch_args,
+                  "an sbatch option for both jobs, repeatable: --sbatch-arg=--partition=gpu "
+                  "--sbatch-arg=--time=4:00:00");
+  cmd->add_flag("--submit", args->submit,
+                "submit both jobs with sbatch (merge with --dependency=afterok) and print their "
+                "ids");
+  cmd->add_flag("--force", args->force,
+                "rewrite the run's scripts when they differ (other settings); the same ones are "
+                "kept, so that submitting again resumes");
+  cmd->callback([args] {
+    cluster::SlurmJob job;
+    job.force = args->force;
+    job.binary = std::filesystem::read_symlink("/proc/self/exe");
+    job.scene = args->scene;
+    job.run = args->out;
+    job.windows = args->windows;
+    job.train_frames = args->frames;
+    job.sbatch_args = args->sbatch_args;
+    if (!args->preset.empty())
+      job.train_args.insert(job.train_args.end(), {"--preset", args->preset});
+    if (!args->config.empty())
+      job.train_args.insert(job.train_args.end(),
+                            {"--config", std::filesystem::absolute(args->config).string()});
+    if (args->iters)
+      job.train_args.insert(job.train_args.end(), {"--iters", std::to_string(*args->iters)});
+    if (args->cap)
+      job.train_args.insert(job.train_args.end(), {"--cap", std::to_string(*args->cap)});
+    if (args->seed)
+      job.train_args.insert(job.train_args.end(), {"--seed", std::to_string(*args->seed)});
+    const io::Scene scene = io::read_scene(args->scene);
+    const cluster::SlurmScripts scripts = cluster::write_slurm_scripts(job, scene);
+    std::string windows;
+    for (const io::FrameWindow& w : scripts.windows)
+      windows += fmt::format("{}{}:{}", windows.empty() ? "" : " ", w.first, w.last);
+    spdlog::info("{} windows ({}): {}, {}, {}", scripts.windows.size(), windows,
+                 scripts.train.string(), scripts.merge.string(), scripts.local.string());
+    if (!args->submit) return;
+    const cluster::SubmittedJobs jobs = cluster::submit(scripts);
+    std::printf("train %s\nmerge %s\n", jobs.train.c_str(), jobs.merge.c_str());
+  });
+}
+
+}  // namespace retimegs::app
