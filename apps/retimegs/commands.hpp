@@ -13,5 +13,6 @@ void add_render_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_train_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
+void add_view_command(CLI::App& app);
 
 }  // namespace retimegs::app

@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   retimegs::app::add_eval_command(app);
   retimegs::app::add_export_command(app);
   retimegs::app::add_sheet_command(app);
+  retimegs::app::add_view_command(app);
 
   try {
     app.parse(argc, argv);
