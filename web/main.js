@@ -10,7 +10,10 @@ import { halfToFloat } from './time_model.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('canvas'), hud = $('hud');
-const api = { frameReady: false, loadMs: null, sortMs: null, visible: 0, error: null };
+// Timings in ms since the navigation started: model data fetched, textures uploaded, first frame
+// shown (loadMs); sortMs is the worker's last sort.
+const api = { frameReady: false, fetchedMs: null, uploadedMs: null, loadMs: null, sortMs: null,
+              visible: 0, error: null };
 window.retimegs = api;
 
 function showMessage(text) {
@@ -21,7 +24,6 @@ function showMessage(text) {
 }
 
 async function load() {
-  const started = performance.now();
   const gl = canvas.getContext('webgl2', { antialias: false, alpha: false, depth: false,
                                            preserveDrawingBuffer: true });
   if (!gl) {
@@ -38,6 +40,7 @@ async function load() {
                     `model.bin: HTTP ${dataResponse.status})`);
   const manifest = await manifestResponse.json();
   const buffer = await dataResponse.arrayBuffer();
+  const fetchedMs = performance.now();
   if (manifest.format !== 'retimegs-web' || manifest.version !== 1)
     throw new Error(`model.json: not a retimegs viewer manifest of version 1`);
   const textures = {};
@@ -51,10 +54,12 @@ async function load() {
                          texelsPerPrimitive: t.texels_per_primitive };
   }
   const renderer = new Renderer(gl, manifest, textures);
-  start(manifest, renderer, textures, started);
+  api.fetchedMs = fetchedMs;
+  api.uploadedMs = performance.now();
+  start(manifest, renderer, textures);
 }
 
-function start(manifest, renderer, textures, started) {
+function start(manifest, renderer, textures) {
   const n = manifest.count;
   const first = manifest.time.first, last = manifest.time.last;
   const params = new URLSearchParams(location.search);
@@ -282,7 +287,7 @@ function start(manifest, renderer, textures, started) {
             api.frameReady = true;
             if (firstFrame) {
               firstFrame = false;
-              api.loadMs = performance.now() - started;
+              api.loadMs = performance.now();  // since the navigation started
             }
           }
         });
@@ -293,7 +298,7 @@ function start(manifest, renderer, textures, started) {
       frames = 0, fpsSince = now;
     }
     slider.value = state.t;
-    playButton.textContent = state.playing ? '⏸' : '▶';
+    playButton.textContent = state.playing ? 'II' : '▶';
     const atTraining = training.has(Math.round(state.t * 1e6));
     timeLabel.textContent = `t = ${state.t.toFixed(3)}${atTraining ? ' (training)' : ''}`;
     hud.textContent = `${fpsShown.toFixed(1)} fps · ${api.visible.toLocaleString('en')} / ` +

@@ -1,11 +1,14 @@
-// WebGL2 renderer of the packed model: one instanced quad per primitive, evaluated at time t in
-// the vertex shader exactly as model::evaluate does (window, trajectory, rotation, SH) and
+// WebGL2 renderer of the packed model. Pass 1 evaluates each primitive at time t once per frame
+// (a vertex shader over points, its results captured by transform feedback) exactly as
+// model::evaluate does (window, trajectory, rotation, SH) and
 // projected as render/project.cpp does (EWA with the field-of-view guard, 0.3 px² low-pass, near
-// plane, pixel centres at +0.5), composited back to front with premultiplied alpha: the same
+// plane, pixel centres at +0.5); pass 2 draws one instanced quad per primitive from those
+// records, composited back to front with premultiplied alpha: the same
 // sum as the CPU renderer's front-to-back blend (alpha = min(0.99, opacity · G), skipped below
 // 1/255).
 
-const VERTEX_SHADER = `#version 300 es
+// Pass 1, per primitive (points, rasteriser off): the Gaussian at time t in image space.
+const PREPARE_SHADER = `#version 300 es
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -27,10 +30,11 @@ uniform vec3 u_gain, u_offset;  // the camera's colour map: gain · rgb + offset
 
 in uint a_index;
 
-flat out vec3 v_color;
-flat out float v_opacity;
-flat out vec3 v_conic;
-out vec2 v_offset;  // pixel offset from the projected centre
+// One record per primitive, captured by transform feedback (culled: opacity 0).
+out vec4 f_centre;  // projected centre (pixels), opacity σ·σ_τ(t), unused
+out vec4 f_axes;    // the quad's half-axes (pixels): a1, a2
+out vec4 f_conic;   // inverse 2-D covariance (a, b, c), unused
+out vec4 f_color;   // RGB through the camera's colour map, unused
 
 ivec2 texel(int k) { return ivec2(k % u_width_texels, k / u_width_texels); }
 float sigmoid(float x) { return 1.0 / (1.0 + exp(-x)); }
@@ -43,14 +47,19 @@ const float SH_C3[7] = float[7](-0.5900435899266435, 2.890611442640554, -0.45704
                                 0.3731763325901154, -0.4570457994644658, 1.445305721320277,
                                 -0.5900435899266435);
 
-// Coefficient k (RGB) of primitive i: values 3k..3k+2 of its SH texels.
+// The primitive's SH values, fetched once per vertex: 3K values in ceil(3K/4) texels.
+vec4 sh_texels[12];
+void fetch_sh(int i) {
+  for (int k = 0; k < 12; ++k)
+    if (k < u_sh_texels) sh_texels[k] = texelFetch(u_sh, texel(i * u_sh_texels + k), 0);
+}
+
+// Coefficient k (RGB): values 3k..3k+2.
 vec3 sh_coefficient(int i, int k) {
   vec3 c;
   for (int a = 0; a < 3; ++a) {
     int v = 3 * k + a;
-    vec4 t = texelFetch(u_sh, texel(i * u_sh_texels + v / 4), 0);
-    int lane = v % 4;
-    c[a] = lane == 0 ? t.x : lane == 1 ? t.y : lane == 2 ? t.z : t.w;
+    c[a] = sh_texels[v / 4][v % 4];
   }
   return c;
 }
@@ -91,7 +100,12 @@ mat3 quat_to_rotation(vec4 q) {
               2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y));
 }
 
-void cull() { gl_Position = vec4(0.0, 0.0, 2.0, 1.0); }  // outside the clip volume
+void cull() {
+  f_centre = vec4(0.0);
+  f_axes = vec4(0.0);
+  f_conic = vec4(0.0);
+  f_color = vec4(0.0);
+}
 
 void main() {
   int i = int(a_index);
@@ -176,18 +190,54 @@ void main() {
   float l1 = mid + disc, l2 = max(mid - disc, 0.0);
   vec2 e1 = abs(b) > 1e-12 * (a + d) ? normalize(vec2(b, l1 - a)) : (a >= d ? vec2(1, 0) : vec2(0, 1));
   vec2 e2 = vec2(-e1.y, e1.x);
-  vec2 corner = vec2(float(gl_VertexID & 1), float((gl_VertexID >> 1) & 1)) * 2.0 - 1.0;
-  // 1.001 and +0.01 px: the renderer's own margin on this ellipse (kExtentRelMargin).
-  vec2 offset = corner.x * (sqrt(2.0 * level * l1) * 1.001 + 0.01) * e1 +
-                corner.y * (sqrt(2.0 * level * l2) * 1.001 + 0.01) * e2;
-  vec2 centre = vec2(fx * p.x / z + cx, fy * p.y / z + cy);
-  vec2 pixel = centre + offset;
-  gl_Position = vec4(2.0 * pixel.x / u_size.x - 1.0, 1.0 - 2.0 * pixel.y / u_size.y, 0.0, 1.0);
+  f_axes = vec4((sqrt(2.0 * level * l1) * 1.001 + 0.01) * e1,
+                (sqrt(2.0 * level * l2) * 1.001 + 0.01) * e2);
+  f_centre = vec4(fx * p.x / z + cx, fy * p.y / z + cy, opacity, 0.0);
+  f_conic = vec4(conic, 0.0);
+  fetch_sh(i);
+  f_color = vec4(u_gain * sh_color(i, x - u_eye) + u_offset, 0.0);
+}
+`;
 
+const NOTHING_SHADER = `#version 300 es
+precision highp float;
+out vec4 color;
+void main() { color = vec4(0.0); }
+`;
+
+// Pass 2, six vertices (two triangles) per primitive: the quad over the ellipse where alpha >=
+// 1/255, from the records of pass 1 (copied into a texture, 4 texels each). Not instanced:
+// SwiftShader, the software WebGL2 of headless browsers, pays a draw call's set-up per instance.
+const SPLAT_SHADER = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform vec2 u_size;
+uniform sampler2D u_records;
+uniform int u_width_texels;
+flat out vec3 v_color;
+flat out float v_opacity;
+flat out vec3 v_conic;
+out vec2 v_offset;  // pixel offset from the projected centre
+const int CORNER_X[6] = int[6](0, 1, 0, 0, 1, 1);
+const int CORNER_Y[6] = int[6](0, 0, 1, 1, 0, 1);
+vec4 record(int k) { return texelFetch(u_records, ivec2(k % u_width_texels, k / u_width_texels), 0); }
+void main() {
+  int splat = gl_VertexID / 6, vertex = gl_VertexID % 6;
+  vec4 centre = record(4 * splat);
+  if (!(centre.z > 0.0)) {
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);  // culled: outside the clip volume
+    return;
+  }
+  vec4 axes = record(4 * splat + 1);
+  vec2 corner = vec2(float(CORNER_X[vertex]), float(CORNER_Y[vertex])) * 2.0 - 1.0;
+  vec2 offset = corner.x * axes.xy + corner.y * axes.zw;
+  vec2 pixel = centre.xy + offset;
+  gl_Position = vec4(2.0 * pixel.x / u_size.x - 1.0, 1.0 - 2.0 * pixel.y / u_size.y, 0.0, 1.0);
   v_offset = offset;
-  v_conic = conic;
-  v_opacity = opacity;
-  v_color = u_gain * sh_color(i, x - u_eye) + u_offset;
+  v_conic = record(4 * splat + 2).xyz;
+  v_opacity = centre.z;
+  v_color = record(4 * splat + 3).rgb;
 }
 `;
 
@@ -208,6 +258,8 @@ void main() {
 }
 `;
 
+const RECORD_FLOATS = 16;  // f_centre, f_axes, f_conic, f_color
+
 function compile(gl, type, source) {
   const shader = gl.createShader(type);
   gl.shaderSource(shader, source);
@@ -217,25 +269,39 @@ function compile(gl, type, source) {
   return shader;
 }
 
+function link(gl, vertex, fragment, feedback) {
+  const program = gl.createProgram();
+  gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, vertex));
+  gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, fragment));
+  if (feedback) gl.transformFeedbackVaryings(program, feedback, gl.INTERLEAVED_ATTRIBS);
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS))
+    throw new Error(`shader link: ${gl.getProgramInfoLog(program)}`);
+  return program;
+}
+
+function uniformsOf(gl, program) {
+  const uniforms = {};
+  const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+  for (let k = 0; k < count; ++k) {
+    const name = gl.getActiveUniform(program, k).name.replace(/\[0\]$/, '');
+    uniforms[name] = gl.getUniformLocation(program, name);
+  }
+  return uniforms;
+}
+
 export class Renderer {
   // `textures`: {name: {data (Float32Array | Uint16Array), half, height, texelsPerPrimitive}}.
   constructor(gl, manifest, textures) {
     this.gl = gl;
     this.manifest = manifest;
-    const program = gl.createProgram();
-    gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX_SHADER));
-    gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT_SHADER));
-    gl.linkProgram(program);
-    if (!gl.getProgramParameter(program, gl.LINK_STATUS))
-      throw new Error(`shader link: ${gl.getProgramInfoLog(program)}`);
+    const program = link(gl, PREPARE_SHADER, NOTHING_SHADER,
+                         ['f_centre', 'f_axes', 'f_conic', 'f_color']);
     this.program = program;
+    this.splatProgram = link(gl, SPLAT_SHADER, FRAGMENT_SHADER, null);
+    this.splatUniforms = uniformsOf(gl, this.splatProgram);
     gl.useProgram(program);
-    this.uniforms = {};
-    const count = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
-    for (let k = 0; k < count; ++k) {
-      const name = gl.getActiveUniform(program, k).name.replace(/\[0\]$/, '');
-      this.uniforms[name] = gl.getUniformLocation(program, name);
-    }
+    this.uniforms = uniformsOf(gl, program);
     const maxSize = gl.getParameter(gl.MAX_TEXTURE_SIZE);
     const names = ['mu', 'v1', 'v2', 'v3', 'shape', 'q0', 'q1', 'sh'];
     names.forEach((name, unit) => {
@@ -267,20 +333,37 @@ export class Renderer {
     gl.uniform1f(u.u_gamma, manifest.gamma_frames);
     gl.uniform1f(u.u_epsilon, manifest.epsilon);
     gl.uniform1f(u.u_min_opacity, manifest.min_opacity);
-    gl.uniform1f(u.u_alpha_clamp, 0.99);  // render::RenderOptions::alpha_clamp
     gl.uniform1f(u.u_low_pass, 0.3);      // render::RenderOptions::low_pass, px²
     gl.uniform1f(u.u_fov_guard, 0.3);     // render/constants.hpp kFovGuard
     gl.uniform1f(u.u_near, manifest.near);
 
-    this.vao = gl.createVertexArray();
-    gl.bindVertexArray(this.vao);
+    gl.useProgram(this.splatProgram);
+    gl.uniform1f(this.splatUniforms.u_min_opacity, manifest.min_opacity);
+    gl.uniform1f(this.splatUniforms.u_alpha_clamp, 0.99);  // render::RenderOptions::alpha_clamp
+
+    // Pass 1 reads the sorted indices; pass 2 the records pass 1 wrote, one per instance.
     this.indexBuffer = gl.createBuffer();
+    this.prepareVao = gl.createVertexArray();
+    gl.bindVertexArray(this.prepareVao);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.indexBuffer);
     const location = gl.getAttribLocation(program, 'a_index');
     gl.enableVertexAttribArray(location);
     gl.vertexAttribIPointer(location, 1, gl.UNSIGNED_INT, 0, 0);
-    gl.vertexAttribDivisor(location, 1);
+    this.recordBuffer = gl.createBuffer();
+    this.recordTexture = gl.createTexture();
+    this.recordUnit = names.length;
+    gl.activeTexture(gl.TEXTURE0 + this.recordUnit);
+    gl.bindTexture(gl.TEXTURE_2D, this.recordTexture);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.useProgram(this.splatProgram);
+    gl.uniform1i(this.splatUniforms.u_records, this.recordUnit);
+    gl.uniform1i(this.splatUniforms.u_width_texels, manifest.texture_width);
+    this.splatVao = gl.createVertexArray();
+    gl.bindVertexArray(null);
+    this.feedback = gl.createTransformFeedback();
     this.instances = 0;
+    this.capacity = 0;
   }
 
   // The draw order from the sort worker: indices back to front.
@@ -289,6 +372,19 @@ export class Renderer {
     gl.bindBuffer(gl.ARRAY_BUFFER, this.indexBuffer);
     gl.bufferData(gl.ARRAY_BUFFER, order, gl.DYNAMIC_DRAW);
     this.instances = order.length;
+    if (this.instances > this.capacity) {
+      // Whole texture rows, so that the record texture takes the buffer as it is.
+      const width = this.manifest.texture_width;
+      this.recordRows = Math.ceil((4 * this.instances) / width);
+      this.capacity = (this.recordRows * width) / 4;
+      gl.bindBuffer(gl.ARRAY_BUFFER, this.recordBuffer);
+      gl.bufferData(gl.ARRAY_BUFFER, this.capacity * RECORD_FLOATS * 4, gl.DYNAMIC_COPY);
+      gl.activeTexture(gl.TEXTURE0 + this.recordUnit);
+      gl.bindTexture(gl.TEXTURE_2D, this.recordTexture);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, width, this.recordRows, 0, gl.RGBA, gl.FLOAT,
+                    null);
+    }
+    gl.bindBuffer(gl.ARRAY_BUFFER, null);
   }
 
   // view: {rotation [9] row-major world to camera, translation [3], fx, fy, cx, cy, width,
@@ -311,10 +407,34 @@ export class Renderer {
     gl.uniform3fv(u.u_eye, view.eye);
     gl.uniform3fv(u.u_gain, gain);
     gl.uniform3fv(u.u_offset, offset);
+    if (this.instances === 0) return;
+    // Pass 1: one record per primitive, in draw order.
+    gl.bindVertexArray(this.prepareVao);
+    gl.enable(gl.RASTERIZER_DISCARD);
+    gl.bindTransformFeedback(gl.TRANSFORM_FEEDBACK, this.feedback);
+    gl.bindBufferBase(gl.TRANSFORM_FEEDBACK_BUFFER, 0, this.recordBuffer);
+    gl.beginTransformFeedback(gl.POINTS);
+    gl.drawArrays(gl.POINTS, 0, this.instances);
+    gl.endTransformFeedback();
+    gl.bindBufferBase(gl.TRANSFORM_FEEDBACK_BUFFER, 0, null);
+    gl.bindTransformFeedback(gl.TRANSFORM_FEEDBACK, null);
+    gl.disable(gl.RASTERIZER_DISCARD);
+    // The records into their texture, on the GPU.
+    const rows = Math.ceil((4 * this.instances) / this.manifest.texture_width);
+    gl.bindBuffer(gl.PIXEL_UNPACK_BUFFER, this.recordBuffer);
+    gl.activeTexture(gl.TEXTURE0 + this.recordUnit);
+    gl.bindTexture(gl.TEXTURE_2D, this.recordTexture);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.manifest.texture_width, rows, gl.RGBA,
+                     gl.FLOAT, 0);
+    gl.bindBuffer(gl.PIXEL_UNPACK_BUFFER, null);
+    // Pass 2: the quads, back to front.
+    gl.useProgram(this.splatProgram);
+    gl.uniform2f(this.splatUniforms.u_size, view.width, view.height);
     gl.enable(gl.BLEND);
     gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA);
     gl.disable(gl.DEPTH_TEST);
-    gl.bindVertexArray(this.vao);
-    if (this.instances > 0) gl.drawArraysInstanced(gl.TRIANGLE_STRIP, 0, 4, this.instances);
+    gl.bindVertexArray(this.splatVao);
+    gl.drawArrays(gl.TRIANGLES, 0, 6 * this.instances);
+    gl.bindVertexArray(null);
   }
 }

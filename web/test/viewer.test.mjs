@@ -1,8 +1,8 @@
 // Browser test of the viewer (ctest: viewer_browser). Headless Chromium (Debian's, software WebGL2
 // through SwiftShader) driven by playwright-core loads `retimegs view` for a model written by
 // view_helper (stretched primitives over the whole clip, open windows at both clip ends, soft
-// window edges, degree-3 SH, a colour map on cam0) and compares canvas screenshots with `retimegs
-// render` of the same camera and time: PSNR >= 28 dB and SSIM >= 0.9 with the project's own
+// window edges, degree-3 SH, a colour map on cam0) and for a small model trained here, and
+// compares canvas screenshots with `retimegs render` of the same camera and time: PSNR >= 28 dB and SSIM >= 0.9 with the project's own
 // metrics (view_helper compare). Also: scrubbing the slider changes the frame to the slider's
 // time, the exported static site draws the same frame, a missing WebGL2 shows a message.
 //
@@ -81,11 +81,41 @@ function serveFolder(folder) {
     () => resolve(`http://127.0.0.1:${staticServer.address().port}/`)));
 }
 
-function render(camera, t) {
+function render(camera, t, which = { model, scene }) {
   const out = join(work, `render_${camera}_t${t}.png`);
-  execFileSync(retimegs, ['render', '--model', model, '--scene', scene, '--camera', camera,
-                          '--time', String(t), '--out', out]);
+  execFileSync(retimegs, ['render', '--model', which.model, '--scene', which.scene, '--camera',
+                          camera, '--time', String(t), '--out', out]);
   return out;
+}
+
+// A small trained model: the minimal synthetic scene (4 cameras x 5 frames, 96x72), 200
+// iterations with at most 4000 primitives and a stretching pass at iteration 150 (besides the
+// still points that initialisation already spans over the clip). About 15 s on 2 cores.
+function trainSmallModel() {
+  const trainedScene = join(work, 'trained_scene'), run = join(work, 'run');
+  execFileSync(retimegs, ['synth', '--preset', 'minimal', '--cameras', '4', '--frames', '5',
+                          '--size', '96x72', '--out', trainedScene], { stdio: ['ignore', 'ignore', 'pipe'] });
+  writeFileSync(join(work, 'train.json'), '{"stretch_every": 150}');
+  execFileSync(retimegs, ['train', '--scene', trainedScene, '--out', run, '--preset', 'fast',
+                          '--iters', '200', '--cap', '4000', '--config', join(work, 'train.json')],
+               { stdio: ['ignore', 'ignore', 'pipe'] });
+  return { model: join(run, 'model.rgs'), scene: trainedScene };
+}
+
+// Viewer screenshots of `cases` ([camera, t]) against `retimegs render`, `prefix` naming them.
+async function compareWithRender(page, url, which, cases, prefix, size) {
+  for (const [camera, t] of cases) {
+    await frame(page, url, `?camera=${camera}&t=${t}&paused=1`);
+    const state = await page.evaluate(() => window.retimegs.state());
+    check(state.width === size[0] && state.height === size[1],
+          `${prefix} ${camera} t=${t}: canvas is the camera's ${size[0]}x${size[1]}`);
+    const shot = await screenshot(page, `${prefix}_viewer_${camera}_t${t}`);
+    const reference = render(camera, t, which);
+    if (shots) copyFileSync(reference, join(shots, `${prefix}_render_${camera}_t${t}.png`));
+    const { psnr, ssim } = compare(shot, reference);
+    check(psnr >= 28 && ssim >= 0.9, `${prefix} ${camera} t=${t}: viewer vs render PSNR ` +
+                                     `${psnr.toFixed(2)} dB, SSIM ${ssim.toFixed(4)}`);
+  }
 }
 
 function compare(a, b) {
@@ -127,21 +157,20 @@ try {
   const page = await context.newPage();
   page.on('pageerror', (e) => console.log(`page error: ${e.message}`));
 
-  // Two cameras (cam0 with its colour map, cam1 without) at a training frame, at an in-between
-  // time on the soft window edges, and at both clip ends (open windows, stretched primitives on
-  // their linear continuation).
-  const cases = [['cam0', 4], ['cam1', 4], ['cam0', 3.5], ['cam1', 3.5], ['cam0', 0], ['cam1', 8]];
-  for (const [camera, t] of cases) {
-    await frame(page, url, `?camera=${camera}&t=${t}&paused=1`);
-    const size = await page.evaluate(() => window.retimegs.state());
-    check(size.width === 160 && size.height === 120, `${camera} t=${t}: canvas is the camera's 160x120`);
-    const shot = await screenshot(page, `viewer_${camera}_t${t}`);
-    const reference = render(camera, t);
-    if (shots) copyFileSync(reference, join(shots, `render_${camera}_t${t}.png`));
-    const { psnr, ssim } = compare(shot, reference);
-    check(psnr >= 28 && ssim >= 0.9,
-          `${camera} t=${t}: viewer vs render PSNR ${psnr.toFixed(2)} dB, SSIM ${ssim.toFixed(4)}`);
-  }
+  // The fixture: two cameras (cam0 with its colour map, cam1 without) at a training frame, at
+  // an in-between time on the soft window edges, and at both clip ends (open windows, stretched
+  // primitives on their linear continuation).
+  await compareWithRender(page, url, { model, scene },
+                          [['cam0', 4], ['cam1', 4], ['cam0', 3.5], ['cam1', 3.5], ['cam0', 0],
+                           ['cam1', 8]], 'fixture', [160, 120]);
+
+  // A trained model: two training cameras (their learned colour maps) at training frame 2 and at
+  // the held-out frame 3.
+  const trained = trainSmallModel();
+  const trainedUrl = await serve(['--model', trained.model, '--scene', trained.scene]);
+  await compareWithRender(page, trainedUrl, trained,
+                          [['cam00', 2], ['cam02', 2], ['cam00', 3], ['cam02', 3]], 'trained',
+                          [96, 72]);
 
   // Scrubbing: the slider moves time, the frame changes and is the render of the new time.
   await frame(page, url, '?camera=cam1&t=2&paused=1');
@@ -162,7 +191,7 @@ try {
   execFileSync(retimegs, ['export', '--model', model, '--scene', scene, '--web', site]);
   const siteUrl = await serveFolder(site);
   await frame(page, siteUrl, '?camera=cam0&t=3.5&paused=1');
-  const exported = compare(await screenshot(page, 'export_cam0_t3.5'), join(work, 'viewer_cam0_t3.5.png'));
+  const exported = compare(await screenshot(page, 'export_cam0_t3.5'), join(work, 'fixture_viewer_cam0_t3.5.png'));
   check(exported.psnr >= 50, `export --web: same frame as view (PSNR ${exported.psnr.toFixed(2)} dB)`);
 
   // An unknown camera is named, with the choices.
