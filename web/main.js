@@ -286,7 +286,10 @@ function start(manifest, renderer, textures) {
           if (keyOf(currentView()) === key && !dirty) {
             api.frameReady = true;
             if (firstFrame) {
+              // Reading a pixel waits for the GPU to finish the frame.
               firstFrame = false;
+              renderer.gl.readPixels(0, 0, 1, 1, renderer.gl.RGBA, renderer.gl.UNSIGNED_BYTE,
+                                     new Uint8Array(4));
               api.loadMs = performance.now();  // since the navigation started
             }
           }

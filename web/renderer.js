@@ -258,6 +258,23 @@ void main() {
 }
 `;
 
+// Final pass over a half-float image: the camera's colour map, after compositing as `render`
+// applies it; the canvas clamps to [0, 1] as a PNG does.
+const FULLSCREEN_SHADER = `#version 300 es
+void main() {
+  gl_Position = vec4(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID & 2) * 2 - 1), 0.0, 1.0);
+}
+`;
+const COLOR_MAP_SHADER = `#version 300 es
+precision highp float;
+uniform sampler2D u_image;
+uniform vec3 u_gain, u_offset;
+out vec4 color;
+void main() {
+  color = vec4(u_gain * texelFetch(u_image, ivec2(gl_FragCoord.xy), 0).rgb + u_offset, 1.0);
+}
+`;
+
 const RECORD_FLOATS = 16;  // f_centre, f_axes, f_conic, f_color
 
 function compile(gl, type, source) {
@@ -362,6 +379,23 @@ export class Renderer {
     this.splatVao = gl.createVertexArray();
     gl.bindVertexArray(null);
     this.feedback = gl.createTransformFeedback();
+
+    // Composite into a half-float image where the GPU can (EXT_color_buffer_float): no 8-bit
+    // rounding per blended splat, and the colour map applied to the result, not per splat.
+    if (gl.getExtension('EXT_color_buffer_float')) {
+      this.mapProgram = link(gl, FULLSCREEN_SHADER, COLOR_MAP_SHADER, null);
+      this.mapUniforms = uniformsOf(gl, this.mapProgram);
+      this.imageUnit = this.recordUnit + 1;
+      this.image = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE0 + this.imageUnit);
+      gl.bindTexture(gl.TEXTURE_2D, this.image);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      this.framebuffer = gl.createFramebuffer();
+      this.imageSize = [0, 0];
+      gl.useProgram(this.mapProgram);
+      gl.uniform1i(this.mapUniforms.u_image, this.imageUnit);
+    }
     this.instances = 0;
     this.capacity = 0;
   }
@@ -392,10 +426,25 @@ export class Renderer {
   draw(view, t, background) {
     const gl = this.gl, u = this.uniforms;
     gl.viewport(0, 0, view.width, view.height);
-    const gain = view.color ? view.color.m.map(Math.exp) : [1, 1, 1];
-    const offset = view.color ? view.color.c : [0, 0, 0];
-    // The colour map is affine and the blend weights (Σ αT plus the transmittance left) sum to
-    // one, so mapping every splat's colour and the background maps the image.
+    const mapGain = view.color ? view.color.m.map(Math.exp) : [1, 1, 1];
+    const mapOffset = view.color ? view.color.c : [0, 0, 0];
+    let gain = mapGain, offset = mapOffset;
+    if (this.framebuffer) {
+      if (this.imageSize[0] !== view.width || this.imageSize[1] !== view.height) {
+        this.imageSize = [view.width, view.height];
+        gl.activeTexture(gl.TEXTURE0 + this.imageUnit);
+        gl.bindTexture(gl.TEXTURE_2D, this.image);
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA16F, view.width, view.height, 0, gl.RGBA,
+                      gl.HALF_FLOAT, null);
+        gl.bindFramebuffer(gl.FRAMEBUFFER, this.framebuffer);
+        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, this.image, 0);
+      }
+      gl.bindFramebuffer(gl.FRAMEBUFFER, this.framebuffer);
+      gain = [1, 1, 1], offset = [0, 0, 0];  // mapped in the final pass
+    }
+    // Without the half-float image: the colour map is affine and the blend weights (Σ αT plus the
+    // transmittance left) sum to one, so mapping every splat's colour and the background maps
+    // the image (up to the 8-bit clamping of each step).
     gl.clearColor(...background.map((b, k) => gain[k] * b + offset[k]), 1);
     gl.clear(gl.COLOR_BUFFER_BIT);
     gl.useProgram(this.program);
@@ -407,7 +456,21 @@ export class Renderer {
     gl.uniform3fv(u.u_eye, view.eye);
     gl.uniform3fv(u.u_gain, gain);
     gl.uniform3fv(u.u_offset, offset);
-    if (this.instances === 0) return;
+    if (this.instances > 0) this.drawSplats(view);
+    if (this.framebuffer) {
+      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+      gl.disable(gl.BLEND);
+      gl.useProgram(this.mapProgram);
+      gl.uniform3fv(this.mapUniforms.u_gain, mapGain);
+      gl.uniform3fv(this.mapUniforms.u_offset, mapOffset);
+      gl.bindVertexArray(this.splatVao);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+      gl.bindVertexArray(null);
+    }
+  }
+
+  drawSplats(view) {
+    const gl = this.gl;
     // Pass 1: one record per primitive, in draw order.
     gl.bindVertexArray(this.prepareVao);
     gl.enable(gl.RASTERIZER_DISCARD);

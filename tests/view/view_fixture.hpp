@@ -35,7 +35,10 @@ inline model::Model view_fixture_model(std::size_t count, unsigned seed) {
     if (background) p.mu[3 * i + 2] = 2.0f + 0.5f * uniform(rng);  // behind the subject
     const float speed = background ? 0.0f : 0.08f;
     for (int k = 0; k < 9; ++k) p.velocity[9 * i + k] = speed * normal(rng);
-    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = -3.2f + 0.5f * normal(rng);
+    // Sizes shrink as the count grows (as in a trained model), keeping the overdraw per pixel
+    // about that of 4000 primitives.
+    const float size = -3.2f - std::log(float(count) / 4000.0f) / 3.0f;
+    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = size + 0.5f * normal(rng);
     for (int a = 0; a < 4; ++a) p.q0[4 * i + a] = normal(rng);
     for (int a = 0; a < 4; ++a) p.q1[4 * i + a] = kind == 0 ? 0.1f * normal(rng) : 0.0f;
     for (int k = 0; k < model::Primitives::kShWidth; ++k)

@@ -13,6 +13,15 @@ import { join } from 'node:path';
 import { chromium } from 'playwright-core';
 
 const [retimegs, helper, count = '300000', shots] = process.argv.slice(2);
+
+// Milliseconds from setting a new time to its frame drawn and read back (sort and GPU included).
+async function frameTime(page) {
+  const start = Date.now();
+  await page.evaluate(() => window.retimegs.setTime(4.25));
+  await page.waitForFunction(() => window.retimegs.frameReady, null, { timeout: 600000 });
+  await page.evaluate(() => document.getElementById('canvas').toDataURL().length);
+  return Date.now() - start;
+}
 const work = mkdtempSync(join(tmpdir(), 'retimegs-viewer-bench-'));
 execFileSync(helper, ['fixture', work, count]);
 const model = join(work, 'model.rgs');
@@ -47,6 +56,7 @@ try {
               `${first.uploadedMs.toFixed(0)} ms, shown ${first.loadMs.toFixed(0)} ms after ` +
               `navigation; ${first.visible} visible; worker sort ${first.sortMs.toFixed(1)} ms`);
   if (shots) await page.screenshot({ path: join(shots, `viewer-${count}.png`) });
+  console.log(`a new time, paused: ${(await frameTime(page)).toFixed(0)} ms to the drawn frame`);
   // Play for 5 s, sampling the worker's sort time and the frame rate shown.
   await page.evaluate(() => document.getElementById('play').click());
   const sorts = [];
@@ -64,6 +74,7 @@ try {
   await smallPage.goto(`${url}?camera=cam0&t=3.5&paused=1`);
   await smallPage.waitForFunction(() => window.retimegs.frameReady, null, { timeout: 600000 });
   const small = await smallPage.evaluate(() => ({ ...window.retimegs }));
+  console.log(`camera=cam0, a new time, paused: ${(await frameTime(smallPage)).toFixed(0)} ms`);
   console.log(`camera=cam0 (160x120): shown ${small.loadMs.toFixed(0)} ms after navigation; ` +
               `worker sort ${small.sortMs.toFixed(1)} ms`);
   await smallPage.evaluate(() => document.getElementById('play').click());
