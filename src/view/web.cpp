@@ -36,6 +36,13 @@ void write_web(const std::filesystem::path& out, const std::vector<WebFile>& fil
 void serve(const std::vector<WebFile>& files, const std::string& host, int port,
            const std::function<void(const std::string& url)>& on_listening) {
   httplib::Server server;
+  // SO_REUSEADDR only: a restarted viewer rebinds its port at once, but a port that another
+  // process listens on is refused (httplib's default SO_REUSEPORT would share it silently, and
+  // the two servers would answer requests in turn, each with its own model).
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   for (const WebFile& f : files) {
     const auto handler = [&f](const httplib::Request&, httplib::Response& response) {
       // The model changes between runs on one port: the browser must not keep an old one.

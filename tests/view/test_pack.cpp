@@ -1,4 +1,9 @@
 // The viewer's data (view/pack.hpp, view/web.hpp) against the .rgs values it was packed from.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -217,6 +222,29 @@ TEST(ViewCli, MissingOrCorruptModelIsRefusedBeforeServing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(test::is_one_error_line(r.err)) << r.err;
   EXPECT_NE(r.err.find("bad.rgs"), std::string::npos) << r.err;
+}
+
+TEST(ViewCli, PortInUseIsRefused) {
+  // A listening socket on a free port of 127.0.0.1, held by this test.
+  const int sock = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(sock, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof(address);
+  ASSERT_EQ(bind(sock, reinterpret_cast<sockaddr*>(&address), length), 0);
+  ASSERT_EQ(listen(sock, 1), 0);
+  ASSERT_EQ(getsockname(sock, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  const int port = ntohs(address.sin_port);
+  test::TempDir dir;
+  model::write_model(dir / "model.rgs", test::view_fixture_model(20, 2));
+  const auto r = test::run_cli("view --model " + (dir / "model.rgs").string() + " --port " +
+                               std::to_string(port));
+  close(sock);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_TRUE(test::is_one_error_line(r.err)) << r.err;
+  EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:" + std::to_string(port)), std::string::npos)
+      << r.err;
 }
 
 TEST(ViewCli, ExportWebWritesTheViewerWithTheScene) {
