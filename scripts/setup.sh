@@ -15,7 +15,11 @@ packages=(
   colmap                   # prepare --points colmap (feature_extractor, point_triangulator)
   libgtest-dev libgmock-dev libbenchmark-dev
   slurm-wlm munge          # scripts/test_slurm.sh: a throw-away Slurm cluster for `retimegs slurm`
+  libcpp-httplib-dev       # retimegs view: the viewer's HTTP server
 )
+# Packages a caller needs beside the build's (scripts/test.sh: the browser test's Chromium).
+read -ra extra_packages <<< "${RETIMEGS_EXTRA_PACKAGES:-}"
+packages+=("${extra_packages[@]}")
 
 missing=()
 for p in "${packages[@]}"; do

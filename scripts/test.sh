@@ -2,6 +2,13 @@
 # Sets up (packages + build) and runs the whole test suite; ends with ctest's summary line.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-"$root/scripts/setup.sh"
+# Tests only: Chromium for the browser viewer test (web/test/viewer.test.mjs), and Node with npm
+# where the machine has none; then playwright-core from web/package-lock.json.
+test_packages=(chromium)
+command -v npm > /dev/null || test_packages+=(nodejs npm)
+RETIMEGS_EXTRA_PACKAGES="${test_packages[*]}" "$root/scripts/setup.sh"
+if [ ! -d "$root/web/node_modules" ]; then
+  (cd "$root/web" && npm ci --no-audit --no-fund)
+fi
 cd "$root/build"
 ctest --output-on-failure -j "$(nproc)"

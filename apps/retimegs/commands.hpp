@@ -15,5 +15,6 @@ void add_train_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_slurm_command(CLI::App& app);
+void add_view_command(CLI::App& app);
 
 }  // namespace retimegs::app

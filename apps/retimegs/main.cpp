@@ -67,6 +67,7 @@ int main(int argc, char** argv) {
   retimegs::app::add_sheet_command(app);
   retimegs::app::add_merge_command(app);
   retimegs::app::add_slurm_command(app);
+  retimegs::app::add_view_command(app);
 
   try {
     app.parse(argc, argv);

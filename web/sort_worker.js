@@ -1,0 +1,80 @@
+// Depth sort at the current time, off the main thread. Given the packed positions and windows
+// (posted once) and a request {id, t, zRow, near}, it evaluates every primitive's position at t,
+// keeps those the vertex shader draws (σ·σ_τ(t) >= 1/255, camera z >= near) and returns their
+// indices ordered back to front by camera z, the order the renderer composites in reverse.
+import { temporalOpacity, trajectoryCoefficients } from './time_model.js';
+
+let model = null;  // {count, mu, v1, v2, v3, opacity, settings, minOpacity}
+let depthBits = new Uint32Array(0), keysA = new Uint32Array(0), keysB = new Uint32Array(0);
+let idsA = new Uint32Array(0), idsB = new Uint32Array(0);
+
+function ensure(n) {
+  if (depthBits.length >= n) return;
+  depthBits = new Uint32Array(n);
+  keysA = new Uint32Array(n), keysB = new Uint32Array(n);
+  idsA = new Uint32Array(n), idsB = new Uint32Array(n);
+}
+
+// LSD radix sort of (key, id) pairs on 32-bit keys, 11-bit digits: stable, O(n).
+function radixSort(n) {
+  let keys = keysA, ids = idsA, keysOut = keysB, idsOut = idsB;
+  const counts = new Uint32Array(2048);
+  for (let shift = 0; shift < 32; shift += 11) {
+    counts.fill(0);
+    for (let i = 0; i < n; ++i) counts[(keys[i] >>> shift) & 2047]++;
+    let sum = 0;
+    for (let d = 0; d < 2048; ++d) {
+      const c = counts[d];
+      counts[d] = sum;
+      sum += c;
+    }
+    for (let i = 0; i < n; ++i) {
+      const at = counts[(keys[i] >>> shift) & 2047]++;
+      keysOut[at] = keys[i];
+      idsOut[at] = ids[i];
+    }
+    [keys, keysOut] = [keysOut, keys];
+    [ids, idsOut] = [idsOut, ids];
+  }
+  return ids;  // 3 passes: the result is in the B arrays
+}
+
+function sortAt(request) {
+  const { count, mu, v1, v2, v3, opacity, settings, minOpacity } = model;
+  const [r0, r1, r2] = request.zRow;
+  const tz = request.tz, near = request.near, t = request.t;
+  const c = new Float64Array(3);
+  const f32 = new Float32Array(1), bits = new Uint32Array(f32.buffer);
+  let visible = 0;
+  for (let i = 0; i < count; ++i) {
+    const k = 4 * i;
+    const w = temporalOpacity(settings, mu[k + 3], v1[k + 3], v2[k + 3], v3[k + 3], t);
+    if (opacity[i] * w < minOpacity) continue;
+    trajectoryCoefficients(settings, mu[k + 3], t, c);
+    const x = mu[k] + c[0] * v1[k] + c[1] * v2[k] + c[2] * v3[k];
+    const y = mu[k + 1] + c[0] * v1[k + 1] + c[1] * v2[k + 1] + c[2] * v3[k + 1];
+    const z = mu[k + 2] + c[0] * v1[k + 2] + c[1] * v2[k + 2] + c[2] * v3[k + 2];
+    const depth = r0 * x + r1 * y + r2 * z + tz;
+    if (!(depth >= near)) continue;
+    // Positive floats order as their bit patterns; the complement sorts far to near.
+    f32[0] = depth;
+    keysA[visible] = ~bits[0] >>> 0;
+    idsA[visible] = i;
+    ++visible;
+  }
+  const ids = radixSort(visible);
+  return ids.slice(0, visible);
+}
+
+self.onmessage = (event) => {
+  const message = event.data;
+  if (message.type === 'model') {
+    model = message.model;
+    ensure(model.count);
+    return;
+  }
+  const start = performance.now();
+  const order = sortAt(message);
+  const ms = performance.now() - start;
+  self.postMessage({ id: message.id, order, ms }, [order.buffer]);
+};
