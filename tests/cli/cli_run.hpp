@@ -28,11 +28,13 @@ struct TimedResult {
   std::string err;  // stderr
 };
 
-// `retimegs ARGS` through the shell under `timeout`, stdout discarded.
-inline TimedResult run_cli_timed(const std::string& args, int seconds = 60) {
+// `retimegs ARGS` through the shell under `timeout`, stdout discarded; `shell_prefix` runs first
+// in the same shell (e.g. "ulimit -f 1; ").
+inline TimedResult run_cli_timed(const std::string& args, int seconds = 60,
+                                 const std::string& shell_prefix = "") {
   TempDir scratch;
   const auto err_file = scratch / "stderr.txt";
-  const std::string command = "timeout " + std::to_string(seconds) + " " +
+  const std::string command = shell_prefix + "timeout " + std::to_string(seconds) + " " +
                               std::string(RETIMEGS_BINARY) + " " + args + " >/dev/null 2>" +
                               err_file.string() + " </dev/null";
   const int raw = std::system(command.c_str());

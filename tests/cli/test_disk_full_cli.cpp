@@ -1,7 +1,9 @@
 // Writes that fail: on a full disk every writer fails in one line naming its file, with exit 2 and
 // no (0-byte) output left, and `train` stops before its first step; a video into a read-only folder
-// names the folder's problem, not the encoder. The file systems are small tmpfs mounts, which need
-// root (CI runs as root); elsewhere the tests are skipped.
+// names the folder's problem, not the encoder. A file-size limit (ulimit -f, with SIGXFSZ ignored:
+// writes fail with EFBIG) stands for a full disk on any machine; the real full and read-only file
+// systems are small tmpfs mounts, which need root and the right to mount, and are skipped
+// without them.
 #include <sys/mount.h>
 #include <unistd.h>
 
@@ -97,6 +99,34 @@ TEST_F(DiskFullCli, EveryCommandFailsInOneLineNamingTheFileAndLeavesNothing) {
     EXPECT_TRUE(test::is_one_error_line(r.err)) << c.args << "\n" << r.err;
     EXPECT_NE(r.err.find(c.named.string()), std::string::npos) << c.args << "\n" << r.err;
     EXPECT_EQ(leftovers(f), "") << c.args;
+  }
+}
+
+TEST_F(DiskFullCli, AFileSizeLimitFailsEveryWriterInOneLineAndLeavesNothing) {
+  const std::string scene = " --scene " + (dir_ / "scene").string();
+  auto r = test::run_cli_timed("train" + scene + " --out " + (dir_ / "run").string() +
+                               " --iters 2 --cap 300 --threads 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string model = " --model " + (dir_ / "run" / "model.rgs").string();
+  const fs::path f = dir_ / "limited";
+  fs::create_directories(f);
+  // 512 bytes: less than any of these outputs, more than the error line on stderr.
+  const std::string limit = "trap '' XFSZ; ulimit -f 1; ";
+  const std::vector<std::pair<std::string, fs::path>> cases = {
+      {"eval" + model + scene + " --frames 1 --out " + (f / "m.json").string(), f / "m.json"},
+      {"render" + model + scene + " --camera cam00 --time 1 --out " + (f / "r.png").string(),
+       f / "r.png"},
+      {"export" + model + " --time 1 --out " + (f / "e.ply").string(), f / "e.ply"},
+      {"sheet" + scene + " --out " + (f / "s.png").string(), f / "s.png"},
+      {"train" + scene + " --out " + (f / "run").string() + " --iters 50 --cap 300",
+       f / "run" / "config.json"},
+  };
+  for (const auto& [args, named] : cases) {
+    r = test::run_cli_timed(args, 60, limit);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
+    EXPECT_TRUE(test::is_one_error_line(r.err)) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(named.string()), std::string::npos) << args << "\n" << r.err;
+    EXPECT_TRUE(fs::is_empty(f)) << args << ": " << leftovers(f);
   }
 }
 
