@@ -33,6 +33,10 @@ class BadInputCli : public testing::Test {
                             (d / "run").string() + " --iters 4 --cap 300 --threads 2");
     ASSERT_EQ(r.status, 0) << r.err;
     fs::copy_file(d / "run" / "model.rgs", d / "model.rgs");
+    // The device outputs: a link to /dev/null, so that a regression that replaces the output
+    // (a build whose refusal is broken once replaced /dev/null itself by a folder) only replaces
+    // the link.
+    fs::create_symlink("/dev/null", d / "null");
   }
   static void TearDownTestSuite() {
     delete root_;
@@ -151,7 +155,7 @@ TEST_F(BadInputCli, IssueFindingsExitTwoInOneLineAndLeaveNothing) {
        {"{D}/scene/scene.json", "scene file"}},
       {"sheet" + kScene + " --force --out {D}/scene/images/cam00/00000.png",
        {"{D}/scene/images/cam00/00000.png", "scene's images folder"}},
-      {"eval" + kModel + kScene + " --frames 1 --force --out /dev/null", {"/dev/null", "device"}},
+      {"eval" + kModel + kScene + " --frames 1 --force --out {D}/null", {"{D}/null", "device"}},
       {"import colmap --in {D}/scene --out {D}/scene --force", {"{D}/scene", "source"}},
       {"render" + kModel + kScene + " --camera cam00 --times 0:2:1 --force --out {D}/model.rgs",
        {"{D}/model.rgs", "is the model"}},
@@ -251,11 +255,11 @@ TEST_F(BadInputCli, MoreHostileCasesExitTwoInOneLineAndLeaveNothing) {
          fifo(d / "flow_scene" / "flow" / "cam00" / "00000_00002.flo");
        }},
       // Outputs onto inputs, devices and FIFOs.
-      {render + " --time 1 --out /dev/null", {"/dev/null", "device"}},
+      {render + " --time 1 --out {D}/null", {"{D}/null", "device"}},
       {render + " --time 1 --force --out {D}/out.fifo",
        {"{D}/out.fifo", "FIFO"},
        [](const fs::path& d) { fifo(d / "out.fifo"); }},
-      {"synth --preset minimal --force --out /dev/null", {"/dev/null", "device"}},
+      {"synth --preset minimal --force --out {D}/null", {"{D}/null", "device"}},
       {"eval" + kModel + kScene +
            " --frames 1 --force --save-renders {D}/scene/images --out "
            "{D}/m.json",
