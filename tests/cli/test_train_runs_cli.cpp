@@ -1,7 +1,8 @@
 // Run folders and signals: Ctrl-C finishes the step, writes a checkpoint and exits 130, and the
 // resumed run ends byte-identical to an uninterrupted one; a second train into a locked run folder
-// is refused naming the holder; SIGTERM exits 143; --resume continues to a new --iters; a run
-// killed before config.json restarts cleanly; temporaries left by kills are removed.
+// is refused naming the holder; SIGTERM exits 143; a render stopped by Ctrl-C leaves nothing;
+// --resume continues to a new --iters; a run killed before config.json restarts cleanly;
+// temporaries left by kills are removed.
 #include <signal.h>
 
 #include <filesystem>
@@ -164,6 +165,31 @@ TEST(TrainRunsCli, ARunKilledBeforeItsConfigRestartsCleanly) {
       fs::remove_all(dir / "run" / name);
     test::write_text(dir / "run" / "log.jsonl", "{\"iteration\": 999}\n");
   }
+}
+
+// Other commands stop between two frames on Ctrl-C, remove their unfinished output and exit 130.
+TEST(TrainRunsCli, CtrlCStopsARenderAndRemovesItsUnfinishedFolder) {
+  test::TempDir dir;
+  const fs::path scene = make_scene(dir);
+  auto r = test::run_cli_timed("train --scene " + scene.string() + " --out " +
+                               (dir / "run").string() + " --iters 2 --cap 400 --threads 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  test::CliProcess render({"render", "--model", (dir / "run" / "model.rgs").string(), "--scene",
+                           scene.string(), "--camera", "cam00", "--times", "0:2:0.0002",
+                           "--threads", "2", "--out", (dir / "frames").string()},
+                          dir / "render.err");
+  const auto rendered_some = [](const std::string& err) {
+    return std::regex_search(err, std::regex(R"((^|\n)render [1-9][0-9]*/)"));
+  };
+  ASSERT_TRUE(render.wait_for_err(rendered_some, 120)) << render.err();
+  render.signal(SIGINT);
+  const int status = render.wait();
+  if (status == 0) GTEST_SKIP() << "the render ended before the signal arrived";
+  EXPECT_EQ(status, 130) << render.err();
+  EXPECT_EQ(last_line(render.err()), "retimegs: interrupted by SIGINT; unfinished outputs removed");
+  EXPECT_FALSE(fs::exists(dir / "frames"));
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().find(".frames"), std::string::npos) << e.path();
 }
 
 }  // namespace
