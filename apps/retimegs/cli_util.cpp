@@ -5,6 +5,7 @@
 #include <string>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/io/training_views.hpp"
 
 namespace retimegs::app {
@@ -128,6 +129,32 @@ render::RenderOptions near_render_options(double near) {
   render::RenderOptions options;
   options.near_plane = float(near);
   return options;
+}
+
+}  // namespace retimegs::app
+
+namespace retimegs::app {
+
+CLI::Validator input_file(const std::string& what) {
+  return CLI::Validator(
+      [what](std::string& path) {
+        try {
+          check_input_file(path, what);
+        } catch (const Error& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      },
+      "FILE");
+}
+
+std::vector<InputPath> scene_inputs(const std::string& root) {
+  if (root.empty()) return {};
+  const std::filesystem::path r = root;
+  std::vector<InputPath> inputs = {{r / "scene.json", "scene file"}};
+  for (const char* part : {"images", "masks", "flow", "points"})
+    inputs.push_back({r / part, fmt::format("scene's {} folder", part), true});
+  return inputs;
 }
 
 }  // namespace retimegs::app

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "retimegs/core/atomic_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/render/options.hpp"
 
@@ -49,5 +50,17 @@ double near_plane(const std::optional<double>& near, const io::Scene& scene);
 
 // Render options with near plane `near`.
 render::RenderOptions near_render_options(double near);
+
+}  // namespace retimegs::app
+
+namespace retimegs::app {
+
+// A CLI11 check for an option naming an input file: a FIFO, device or folder is refused
+// (core/input_file.hpp) before anything opens it.
+CLI::Validator input_file(const std::string& what);
+
+// The parts of scene folder `root` a command reads, for check_output_overlap: scene.json and the
+// images, masks, flow and points trees (an output may go into the scene folder beside them).
+std::vector<InputPath> scene_inputs(const std::string& root);
 
 }  // namespace retimegs::app

@@ -31,7 +31,8 @@ void add_eval_command(CLI::App& app) {
       "eval",
       "Render held-out frames and score them against the ground truth (PSNR, SSIM, "
       "LPIPS; inside the masks when the scene has them, and on the whole image) as JSON.");
-  auto* model = cmd->add_option("--model", args->model, "model (.rgs, or a static .ply)");
+  auto* model = cmd->add_option("--model", args->model, "model (.rgs, or a static .ply)")
+                    ->check(input_file("a model"));
   auto* baseline = cmd->add_option("--baseline", args->baseline,
                                    "score a 2D in-betweening of the neighbouring training frames "
                                    "instead: crossfade (blend), nearest (copy of the closer) or "
@@ -64,6 +65,11 @@ void add_eval_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "replace an existing --out file and --save-renders folder");
   cmd->callback([args, near] {
     set_threads(args->threads);
+    std::vector<InputPath> inputs = scene_inputs(args->scene);
+    inputs.push_back({args->model, "model"});
+    inputs.push_back({args->lpips, "LPIPS weights folder", true});
+    check_output_overlap(args->out, "--out", inputs);
+    if (!args->save.empty()) check_output_overlap(args->save, "--save-renders", inputs);
     check_output_free(args->out, args->force);
     if (!args->save.empty()) check_output_free(output_path(args->save), args->force);
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");

@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
@@ -30,9 +31,10 @@ void add_export_command(CLI::App& app) {
       "export",
       "Write the 3D Gaussians of a time as a standard 3DGS .ply (Inria layout) that SuperSplat and "
       "other splat viewers open; --times writes a sequence DIR/<k:05d>.ply with DIR/times.csv; "
-      "--web "
-      "DIR writes the browser viewer with the model as a static site.");
-  cmd->add_option("--model", args->model, "4D model (.rgs)")->required();
+      "--web DIR writes the browser viewer with the model as a static site.");
+  cmd->add_option("--model", args->model, "4D model (.rgs)")
+      ->required()
+      ->check(input_file("a model"));
   auto* time = cmd->add_option("--time", args->time, "time in scene frame units");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
   time->excludes(times);
@@ -48,6 +50,9 @@ void add_export_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     if (!args->web.empty()) {
+      std::vector<InputPath> inputs = {{args->model, "model"}};
+      if (!args->scene.empty()) inputs.push_back({args->scene, "scene"});
+      check_output_overlap(args->web, "--web", inputs);
       const view::Packed packed = pack_for_web(args->model, args->scene, args->near);
       view::write_web(args->web, view::web_files(packed), args->force);
       spdlog::info("wrote the viewer to {} ({:.1f} MB of model data)", args->web,
@@ -57,6 +62,7 @@ void add_export_command(CLI::App& app) {
     if (!args->scene.empty() || args->near) fail("export: --scene and --near go with --web");
     if (!args->time && args->times.empty()) fail("export: give --time, --times or --web");
     if (args->out.empty()) fail("export: --time and --times need --out");
+    check_output_overlap(args->out, "--out", {{args->model, "model"}});
     const model::Model m = model::window_view(model::read_model(args->model));
     const std::filesystem::path out = args->out;
     if (args->time) {
@@ -72,9 +78,11 @@ void add_export_command(CLI::App& app) {
     const std::vector<double> ts = parse_time_range(args->times, "--times");
     model::check_times(m, ts, "export");
     AtomicDirectory dir(out, args->force);
-    for (std::size_t k = 0; k < ts.size(); ++k)
+    for (std::size_t k = 0; k < ts.size(); ++k) {
+      throw_if_interrupted();  // Ctrl-C: `dir` removes the unfinished folder
       io::write_splat_ply(dir.temp_path() / fmt::format("{:05d}.ply", k),
                           model::export_splats(m, ts[k]));
+    }
     io::write_times_csv(dir.temp_path() / "times.csv", ts);
     dir.commit();
     spdlog::info("exported {} times to {}", ts.size(), args->out);

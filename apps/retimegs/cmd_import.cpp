@@ -10,6 +10,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/ingest/import.hpp"
 
@@ -36,6 +37,17 @@ void add_common_options(CLI::App* sub, Args& args, const std::string& in_help) {
   sub->add_option("--threads", args.threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   sub->add_flag("--force", args.force, "replace an existing output folder");
+}
+
+// The source (and calibration) must not be replaced by the output: import --in D --out D --force
+// would delete the source before reading it.
+void check_import_output(const Args& args, const std::string& calib = {}) {
+  std::vector<InputPath> inputs = {{args.in, "source", true}};
+  if (!calib.empty()) {
+    if (!std::filesystem::is_directory(calib)) check_input_file(calib, "a calibration");
+    inputs.push_back({calib, "calibration", true});
+  }
+  check_output_overlap(args.out, "--out", inputs);
 }
 
 ingest::ImportOptions import_options(const Args& args) {
@@ -92,6 +104,7 @@ void add_videos_command(CLI::App* cmd) {
                   "frame rate (default: the videos', which must agree within 0.1 %; 30 for image "
                   "folders); overrides the videos'");
   sub->callback([args] {
+    check_import_output(*args, args->calib);
     const ingest::ImportOptions options = import_options(*args);
     ingest::VideosOptions videos;
     videos.calibration = args->calib;
@@ -159,7 +172,10 @@ void add_import_command(CLI::App& app) {
     auto args = std::make_shared<Args>();
     CLI::App* sub = cmd->add_subcommand(format.name, format.description);
     add_common_options(sub, *args, "source folder");
-    sub->callback([args, run = format.run] { run(args->in, args->out, import_options(*args)); });
+    sub->callback([args, run = format.run] {
+      check_import_output(*args);
+      run(args->in, args->out, import_options(*args));
+    });
   }
   add_videos_command(cmd);
 }

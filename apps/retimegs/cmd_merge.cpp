@@ -5,6 +5,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/model/merge.hpp"
@@ -26,9 +27,13 @@ void add_merge_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "merged model file (.rgs)")->required();
   cmd->add_option("models", args->models, "window models (.rgs), in any order")
       ->required()
-      ->expected(1, -1);
+      ->expected(1, -1)
+      ->check(input_file("a model"));
   cmd->add_flag("--force", args->force, "replace an existing --out");
   cmd->callback([args] {
+    std::vector<InputPath> inputs;
+    for (const std::string& path : args->models) inputs.push_back({path, "model"});
+    check_output_overlap(args->out, "--out", inputs);
     check_output_free(args->out, args->force);
     std::vector<model::Model> windows;
     for (const std::string& path : args->models) windows.push_back(model::read_model(path));

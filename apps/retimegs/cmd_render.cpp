@@ -41,7 +41,9 @@ void add_render_command(CLI::App& app) {
       "render",
       "Render a model at any real-valued time: one image, a folder of PNGs or a video. MODEL is a "
       "4D model (.rgs) or a static 3DGS .ply (Inria layout; time is then ignored).");
-  cmd->add_option("--model", args->model, "model file (.rgs or .ply)")->required();
+  cmd->add_option("--model", args->model, "model file (.rgs or .ply)")
+      ->required()
+      ->check(input_file("a model"));
   cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")
       ->required();
   auto* camera = cmd->add_option("--camera", args->camera,
@@ -57,6 +59,7 @@ void add_render_command(CLI::App& app) {
       "nerfstudio camera_path.json (ns-render camera-path): one camera per frame, its render_time "
       "over the model's time range (or --time T for every frame), the file's size and fps, the "
       "model's colours");
+  camera_path->check(input_file("a camera path"));
   camera_path->excludes(camera)->excludes(path_option);
   auto* time = cmd->add_option("--time", args->time,
                                "one time, in scene frame units, within the model's time range");
@@ -67,6 +70,7 @@ void add_render_command(CLI::App& app) {
   auto* retime = cmd->add_option("--retime", args->retime,
                                  "speed ramp: CSV rows output_frame,t (keyframes, linearly "
                                  "interpolated)");
+  retime->check(input_file("a retime table"));
   time->excludes(times)->excludes(slowmo)->excludes(retime);
   times->excludes(slowmo)->excludes(retime);
   slowmo->excludes(retime);
@@ -99,6 +103,11 @@ void add_render_command(CLI::App& app) {
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     set_threads(args->threads);
+    std::vector<InputPath> inputs = scene_inputs(args->scene);
+    inputs.push_back({args->model, "model"});
+    inputs.push_back({args->camera_path, "camera path file"});
+    inputs.push_back({args->retime, "retime file"});
+    check_output_overlap(args->out, "--out", inputs);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));

@@ -33,6 +33,11 @@ void add_sheet_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
+    std::vector<InputPath> inputs = scene_inputs(args->scene);
+    if (!args->renders.empty())
+      for (const auto& dir : split_list(args->renders, "--renders"))
+        inputs.push_back({dir, "render folder", true});
+    check_output_overlap(args->out, "--out", inputs);
     check_output_free(args->out, args->force);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
     eval::SheetOptions options;

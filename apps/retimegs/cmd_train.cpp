@@ -4,10 +4,11 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <sstream>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
@@ -39,8 +40,11 @@ void add_train_command(CLI::App& app) {
                   "budget preset: " + train::describe_presets() +
                       "; --config, --iters and --cap override it")
       ->capture_default_str();
-  cmd->add_option("--iters", args->iters, "iterations (milestones scale with it)");
-  cmd->add_option("--config", args->config, "JSON file overriding any hyper-parameter");
+  cmd->add_option("--iters", args->iters,
+                  "iterations (milestones scale with it); with --resume, the new total to "
+                  "continue to");
+  cmd->add_option("--config", args->config, "JSON file overriding any hyper-parameter")
+      ->check(input_file("a config"));
   cmd->add_option("--ablate", args->ablate,
                   "comma-separated: no-flow-init, no-flow-loss, no-triple, no-stretch, linear, "
                   "no-static-init, no-camera-color (no learned per-camera colour maps)");
@@ -60,21 +64,25 @@ void add_train_command(CLI::App& app) {
       ->excludes(resume);
   cmd->callback([args] {
     set_threads(args->threads);
+    // The run's outputs (removed by --force) must not be the scene's or the config's files.
+    std::vector<InputPath> inputs = scene_inputs(args->scene);
+    inputs.push_back({args->config, "config file"});
+    const std::filesystem::path out = args->out;
+    check_output_overlap(out, "--out", inputs);
+    for (const char* name : {"model.rgs", "config.json", "log.jsonl", "checkpoints"})
+      check_output_overlap(out / name, "--out", inputs);
     train::TrainRun run;
     run.out = args->out;
     run.resume = args->resume;
+    run.iters = args->iters;
     run.force = args->force;
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     if (!args->window.empty()) run.window = io::parse_frame_window(args->window, "--window");
     train::TrainConfig& config = run.config;
     config = train::with_preset(config, args->preset, "--preset");
-    if (!args->config.empty()) {
-      std::ifstream in(args->config);
-      if (!in) fail("{}: cannot open config file", args->config);
-      std::stringstream text;
-      text << in.rdbuf();
-      config = train::config_from_json(text.str(), config, args->config);
-    }
+    if (!args->config.empty())
+      config = train::config_from_json(read_text_file(args->config, "config file"), config,
+                                       args->config);
     if (args->iters) config.iters = *args->iters;
     if (args->cap) config.cap = *args->cap;
     if (args->seed) config.seed = *args->seed;

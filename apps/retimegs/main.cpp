@@ -12,7 +12,9 @@
 
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
+#include "retimegs/io/image_io.hpp"
 
 namespace {
 
@@ -56,6 +58,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "retimegs 0.1.0");
   spdlog::set_pattern("[%H:%M:%S] %v");
   retimegs::keep_freed_memory();  // training renders allocate ~100 MB per step
+  retimegs::install_interrupt_handlers();
+  retimegs::io::quiet_opencv_log();
 
   retimegs::app::add_synth_command(app);
   retimegs::app::add_import_command(app);
@@ -85,6 +89,9 @@ int main(int argc, char** argv) {
   } catch (const retimegs::Error& e) {
     std::fprintf(stderr, "retimegs: %s\n", e.what());
     return 2;
+  } catch (const retimegs::Interrupted& e) {  // Ctrl-C / SIGTERM: 130 / 143
+    std::fprintf(stderr, "retimegs: %s\n", e.what());
+    return e.exit_code();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "retimegs: unexpected error: %s\n", e.what());
     return 2;

@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <system_error>
 
@@ -33,8 +35,48 @@ fs::path output_path(fs::path path) {
 }
 
 void check_output_free(const fs::path& path, bool force) {
-  if (!force && fs::exists(path))
-    fail("{}: output already exists (pass --force to replace it)", path.string());
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status)) return;
+  if (!fs::is_regular_file(status) && !fs::is_directory(status))
+    fail("{}: is a device, FIFO or socket, not a place to write an output", path.string());
+  if (!force) fail("{}: output already exists (pass --force to replace it)", path.string());
+}
+
+namespace {
+// `path` made absolute with its symbolic links, "." and ".." resolved (as far as it exists).
+fs::path resolved(const fs::path& path) {
+  std::error_code ec;
+  fs::path p = fs::weakly_canonical(fs::absolute(output_path(path), ec), ec);
+  if (ec) p = fs::absolute(output_path(path)).lexically_normal();
+  return output_path(p);
+}
+
+// Whether `inner` is `outer` or lies below it (both resolved).
+bool within(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i)
+    if (i == inner.end() || *i != *o) return false;
+  return true;
+}
+}  // namespace
+
+void check_output_overlap(const fs::path& output, const std::string& flag,
+                          const std::vector<InputPath>& inputs) {
+  const fs::path out = resolved(output);
+  for (const InputPath& input : inputs) {
+    if (input.path.empty()) continue;
+    const fs::path in = resolved(input.path);
+    if (out == in)
+      fail("{} {}: is the {} {}; write the output elsewhere", flag, output.string(), input.what,
+           input.path.string());
+    if (within(in, out))
+      fail("{} {}: holds the {} {}; replacing it would delete it", flag, output.string(),
+           input.what, input.path.string());
+    if (input.tree && within(out, in) && fs::exists(out))
+      fail("{} {}: lies inside the {} {} and exists; replacing it would change the {}", flag,
+           output.string(), input.what, input.path.string(), input.what);
+  }
 }
 
 AtomicFile::AtomicFile(fs::path final_path)
@@ -60,9 +102,11 @@ void write_text_file(const fs::path& path, std::string_view text) {
   AtomicFile file(path);
   {
     std::ofstream out(file.temp_path());
+    errno = 0;
     out.write(text.data(), std::streamsize(text.size()));
-    out.close();
-    if (!out) fail("{}: write failed", path.string());
+    out.close();  // the last bytes reach the disk here: a full disk shows only now
+    if (!out)
+      fail("{}: write failed: {}", path.string(), errno ? std::strerror(errno) : "unknown error");
   }
   file.commit();
 }

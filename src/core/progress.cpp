@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "retimegs/core/interrupt.hpp"
+
 namespace retimegs {
 
 namespace {
@@ -18,10 +20,11 @@ std::string format_seconds(double s) {
 }
 }  // namespace
 
-Progress::Progress(std::string label, std::size_t total, bool enabled)
+Progress::Progress(std::string label, std::size_t total, bool enabled, bool interruptible)
     : label_(std::move(label)),
       total_(total),
       enabled_(enabled),
+      interruptible_(interruptible),
       tty_(::isatty(STDERR_FILENO) != 0),
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
@@ -31,6 +34,7 @@ Progress::~Progress() {
 }
 
 void Progress::tick(std::size_t n, const std::string& status) {
+  if (interruptible_) throw_if_interrupted();
   std::lock_guard lock(mutex_);
   done_ += n;
   if (!status.empty()) status_ = status;

@@ -4,6 +4,7 @@
 
 #include "retimegs/core/camera_path.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/evaluate.hpp"
@@ -33,6 +34,7 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
 }
 
 LoadedModel load_model(const std::filesystem::path& path) {
+  check_input_file(path, "a model");
   if (path.extension() == ".ply") return io::read_splat_ply(path);
   return model::window_view(model::read_model(path));  // a window model is drawn as trained
 }

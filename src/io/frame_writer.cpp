@@ -1,6 +1,8 @@
 #include "retimegs/io/frame_writer.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -70,6 +72,19 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
            out_.string(), options.bit_depth);
     kind_ = Kind::kVideo;
     file_ = std::make_unique<AtomicFile>(out_);
+    // The encoder reports any failure to create or start its file as "cannot open": try both
+    // first (a block of the size of a container header), so that a read-only folder or a full
+    // disk is named as such. The encoder then writes over this file.
+    {
+      errno = 0;
+      std::ofstream probe(file_->temp_path(), std::ios::binary);
+      const std::string block(4096, '\0');
+      probe.write(block.data(), std::streamsize(block.size()));
+      probe.close();
+      if (!probe)
+        fail("{}: cannot create the video file: {}", out_.string(),
+             errno ? std::strerror(errno) : "unknown error");
+    }
     video_ = std::make_unique<Video>();
   } else {
     fail(

@@ -1,29 +1,89 @@
 #include "retimegs/io/image_io.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
 
 namespace {
 
-// imread(IMREAD_UNCHANGED) of an 8- or 16-bit file; throws Error naming the file otherwise.
+// The standard CRC-32 of PNG chunks (ISO 3309, polynomial 0xEDB88320), table-driven.
+std::uint32_t crc32(const unsigned char* data, std::size_t size, std::uint32_t crc = 0) {
+  static const auto table = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t n = 0; n < 256; ++n) {
+      std::uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  crc = ~crc;
+  for (std::size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFF] ^ (crc >> 8);
+  return ~crc;
+}
+
+std::uint32_t big_endian32(const unsigned char* p);
+
+// libpng and libjpeg print their own errors and warnings on stderr (OpenCV installs no handler
+// that keeps them quiet), which would add lines to the command's one-line error. So a damaged
+// file is found here first: every PNG chunk whole with a correct CRC up to IEND; a JPEG starting
+// with SOI and holding an EOI marker. What still reaches the decoders intact but undecodable (a
+// crafted zlib stream with valid CRCs) is rare.
+void check_encoded(const std::vector<unsigned char>& b, const std::string& name) {
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (b.size() >= 8 && std::memcmp(b.data(), kPng, 8) == 0) {
+    for (std::size_t at = 8;;) {
+      if (b.size() - at < 12) fail("{}: truncated PNG (no IEND chunk)", name);
+      const std::uint32_t length = big_endian32(&b[at]);
+      if (length > b.size() - at - 12) fail("{}: truncated PNG (a chunk runs past the end)", name);
+      const unsigned char* type = &b[at + 4];
+      if (crc32(type, 4 + std::size_t(length)) != big_endian32(type + 4 + length))
+        fail("{}: damaged PNG (CRC mismatch in a '{}' chunk at byte {})", name,
+             std::string(reinterpret_cast<const char*>(type), 4), at);
+      if (std::memcmp(type, "IEND", 4) == 0) return;
+      at += 12 + std::size_t(length);
+    }
+  }
+  if (b.size() >= 2 && b[0] == 0xFF && b[1] == 0xD8) {
+    for (std::size_t i = b.size(); i-- > 3;)
+      if (b[i - 1] == 0xFF && b[i] == 0xD9) return;
+    fail("{}: truncated JPEG (no end-of-image marker)", name);
+  }
+}
+
+// An 8- or 16-bit image file decoded as imread(IMREAD_UNCHANGED) does; throws Error naming the
+// file otherwise.
 cv::Mat decode(const fs::path& path) {
+  check_input_file(path, "an image");
   if (!fs::is_regular_file(path)) fail("{}: no such file", path.string());
+  std::vector<unsigned char> bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail("{}: cannot open image", path.string());
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (in.bad()) fail("{}: cannot read image", path.string());
+  }
+  check_encoded(bytes, path.string());
   cv::Mat m;
   try {
-    m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     fail("{}: cannot decode image: {}", path.string(), e.err);
   }
@@ -109,6 +169,7 @@ Image read_mask(const fs::path& path) {
 }
 
 ImageSize read_image_size(const fs::path& path) {
+  check_input_file(path, "an image");
   if (!fs::is_regular_file(path)) fail("{}: no such file", path.string());
   std::ifstream in(path, std::ios::binary);
   if (!in) fail("{}: cannot open file", path.string());
@@ -141,15 +202,22 @@ void write_png(const fs::path& path, const Image& image, int bits) {
   values.convertTo(codes, bits == 8 ? CV_8U : CV_16U, bits == 8 ? 255.0 : 65535.0);
   if (c == 3) cv::cvtColor(codes, codes, cv::COLOR_RGB2BGR);
   if (c == 4) cv::cvtColor(codes, codes, cv::COLOR_RGBA2BGRA);
-  AtomicFile file(path);
+  // Encoded in memory and written through a checked stream: imwrite does not report a write that
+  // fails on a full disk.
+  std::vector<unsigned char> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(file.temp_path().string(), codes);
+    ok = cv::imencode(".png", codes, bytes);
   } catch (const cv::Exception& e) {
-    fail("{}: cannot write PNG: {}", path.string(), e.err);
+    fail("{}: cannot encode PNG: {}", path.string(), e.err);
   }
-  if (!ok) fail("{}: cannot write PNG", path.string());
-  file.commit();
+  if (!ok) fail("{}: cannot encode PNG", path.string());
+  write_text_file(path,
+                  std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+void quiet_opencv_log() {
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
 }
 
 }  // namespace retimegs::io

@@ -10,6 +10,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/io/json_file.hpp"
@@ -243,6 +244,7 @@ std::optional<Image> load_mask(const Scene& scene, int camera, int frame) {
 std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to) {
   const fs::path path = scene.flow_path(camera, from, to);
   if (!fs::exists(path)) return std::nullopt;
+  check_input_file(path, "a flow");
   Flow flow = read_flo(path);
   check_size(path, scene.cameras.at(camera), flow.width, flow.height);
   return flow;
@@ -251,6 +253,7 @@ std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to) 
 std::optional<PointCloud> load_points(const Scene& scene, int frame) {
   const fs::path path = scene.points_path(frame);
   if (!fs::exists(path)) return std::nullopt;
+  check_input_file(path, "points");
   return read_points_ply(path);
 }
 

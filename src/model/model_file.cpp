@@ -154,7 +154,8 @@ void write_model(const fs::path& path, const Model& model) {
   {
     std::ofstream o(out.temp_path(), std::ios::binary);
     o.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!o) fail("{}: write failed", out.temp_path().string());
+    o.close();  // the last bytes reach the disk here: a full disk shows only now
+    if (!o) fail("{}: write failed (disk full?)", path.string());
   }
   out.commit();
 }

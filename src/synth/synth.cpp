@@ -48,12 +48,23 @@ constexpr double kGroundPointRadius = 4;      // metres around the origin: the s
 constexpr long kFarGroundPoints = 3000;
 constexpr long kSkyPoints = 3000;
 
+// Upper bounds, checked before anything is allocated: a typo such as --size 100000x100000 would
+// otherwise end in an allocation failure naming nothing. A side as large as a render's
+// (eval/output_size.hpp); cameras and frames far beyond any capture.
+constexpr int kMaxImageSide = 16384;
+constexpr int kMaxCameras = 1000;
+constexpr int kMaxFrames = 100000;
+
 // The preset is checked by synth::build_world.
 void validate(const SynthOptions& o) {
-  if (o.cameras < 1) fail("--cameras: must be >= 1, got {}", o.cameras);
-  if (o.frames < 2) fail("--frames: must be >= 2, got {}", o.frames);
-  if (o.width < kMinImageSide || o.height < kMinImageSide)
-    fail("--size: width and height must be >= {}, got {}x{}", kMinImageSide, o.width, o.height);
+  if (o.cameras < 1 || o.cameras > kMaxCameras)
+    fail("--cameras: must lie in [1, {}], got {}", kMaxCameras, o.cameras);
+  if (o.frames < 2 || o.frames > kMaxFrames)
+    fail("--frames: must lie in [2, {}], got {}", kMaxFrames, o.frames);
+  if (o.width < kMinImageSide || o.height < kMinImageSide || o.width > kMaxImageSide ||
+      o.height > kMaxImageSide)
+    fail("--size: width and height must lie in [{}, {}], got {}x{}", kMinImageSide, kMaxImageSide,
+         o.width, o.height);
   if (o.supersample < 1) fail("supersample: must be >= 1, got {}", o.supersample);
   if (!(o.fps > 0) || !std::isfinite(o.fps)) fail("fps: must be > 0, got {}", o.fps);
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <spdlog/spdlog.h>
@@ -10,6 +11,9 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/folder_lock.hpp"
+#include "retimegs/core/input_file.hpp"
+#include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
@@ -395,58 +399,178 @@ void Trainer::load_checkpoint(const fs::path& dir) {
   rebuild_index();
 }
 
+namespace {
+
+// A kill leaves the temporary sibling of the file or checkpoint being written
+// (".<name>.tmp<pid>", core/atomic_file.hpp); with the run folder locked none is in use.
+void remove_stale_temporaries(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;
+  std::vector<fs::path> stale;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() > 1 && name[0] == '.' && name.find(".tmp") != std::string::npos)
+      stale.push_back(e.path());
+  }
+  for (const fs::path& p : stale) {
+    fs::remove_all(p, ec);
+    if (ec)
+      fail("{}: cannot remove a temporary left by an interrupted run: {}", p.string(),
+           ec.message());
+    spdlog::info("removed {} (left by an interrupted run)", p.string());
+  }
+}
+
+// The newest RUN/checkpoints/iter_NNNNNN, or empty.
+fs::path latest_checkpoint(const fs::path& checkpoints) {
+  fs::path latest;
+  std::error_code ec;
+  if (fs::is_directory(checkpoints, ec))
+    for (const auto& e : fs::directory_iterator(checkpoints))
+      if (e.is_directory() && e.path().filename().string().rfind("iter_", 0) == 0 &&
+          (latest.empty() || e.path().filename() > latest.filename()))
+        latest = e.path();
+  return latest;
+}
+
+// Keeps the lines of log.jsonl up to `iteration`: a run resumed from a checkpoint writes the
+// steps after it again.
+void trim_log(const fs::path& log, int iteration) {
+  std::error_code ec;
+  if (!fs::is_regular_file(log, ec)) return;
+  std::ifstream in(log);
+  std::string line, kept;
+  while (std::getline(in, line)) {
+    const json entry = json::parse(line, nullptr, /*allow_exceptions=*/false);
+    if (entry.is_object() && entry.value("iteration", 0) <= iteration) kept += line + "\n";
+  }
+  in.close();
+  write_text_file(log, kept);
+}
+
+// A run folder that holds a run: its model, checkpoints or config.
+bool holds_run(const fs::path& out) {
+  std::error_code ec;
+  return fs::exists(out / "model.rgs", ec) || fs::exists(out / "checkpoints", ec) ||
+         fs::exists(out / "config.json", ec);
+}
+
+}  // namespace
+
 model::Model train(const io::Scene& scene, const TrainRun& run) {
   const fs::path checkpoints = run.out / "checkpoints";
-  TrainConfig config = run.config;
-  fs::path latest;
-  if (run.resume) {
-    if (!fs::exists(run.out / "config.json"))
-      fail("{}: nothing to resume (no config.json)", run.out.string());
-    std::ifstream in(run.out / "config.json");
-    std::stringstream text;
-    text << in.rdbuf();
-    config = config_from_json(text.str(), TrainConfig{}, (run.out / "config.json").string());
-    if (fs::exists(checkpoints))
-      for (const auto& e : fs::directory_iterator(checkpoints))
-        if (e.is_directory() && e.path().filename().string().rfind("iter_", 0) == 0 &&
-            (latest.empty() || e.path().filename() > latest.filename()))
-          latest = e.path();
-  } else if (!run.force && (fs::exists(run.out / "model.rgs") || fs::exists(checkpoints))) {
+  std::error_code ec;
+  if (fs::exists(run.out, ec) && !fs::is_directory(run.out, ec))
+    fail("{}: the run folder is a file", run.out.string());
+  // Checked again once the folder is locked; here so that a refusal comes before the images load.
+  if (!run.resume && !run.force && holds_run(run.out))
     fail(
         "{}: a training run is already there (pass --resume to continue it, --force to start "
         "afresh, or choose another folder)",
         run.out.string());
-  }
+  // Every input is read before the run folder is created or changed: a bad scene leaves nothing.
   const TrainingSet set = load_training_set(scene, run.frames, run.window);
-  if (run.force && !run.resume)  // only once the scene has loaded: a bad scene keeps the old run
+  const bool created = !fs::exists(run.out, ec);
+  fs::create_directories(run.out, ec);
+  if (ec) fail("{}: cannot create the run folder: {}", run.out.string(), ec.message());
+  // Until config.json is committed, a failure removes the folder this run created.
+  struct RemoveUnlessCommitted {
+    fs::path dir;
+    bool armed;
+    ~RemoveUnlessCommitted() {
+      std::error_code ignored;
+      if (armed) fs::remove_all(dir, ignored);
+    }
+  } cleanup{run.out, created};
+  const FolderLock lock(run.out, "run folder");
+  remove_stale_temporaries(run.out);
+  remove_stale_temporaries(checkpoints);
+
+  TrainConfig config = run.config;
+  fs::path latest;
+  if (run.resume && fs::exists(run.out / "config.json")) {
+    config = config_from_json(read_text_file(run.out / "config.json", "run config"), TrainConfig{},
+                              (run.out / "config.json").string());
+    latest = latest_checkpoint(checkpoints);
+    if (run.iters) {
+      config.iters = *run.iters;  // continue to the new total
+      check_config(config, "--iters");
+    }
+  } else if (run.resume) {
+    // Killed before config.json was written: nothing was trained, so the run starts afresh.
+    if (fs::exists(checkpoints) || fs::exists(run.out / "model.rgs"))
+      fail("{}: cannot resume: the run has no config.json (start afresh with --force)",
+           run.out.string());
+    spdlog::info("{}: nothing to resume yet (no config.json): starting afresh", run.out.string());
+  } else if (holds_run(run.out)) {
+    if (!run.force)
+      fail(
+          "{}: a training run is already there (pass --resume to continue it, --force to start "
+          "afresh, or choose another folder)",
+          run.out.string());
     for (const char* name : {"model.rgs", "config.json", "log.jsonl", "checkpoints"})
       fs::remove_all(run.out / name);
-  fs::create_directories(run.out);
+  }
   Trainer trainer(set, config);
   if (!latest.empty()) {
     trainer.load_checkpoint(latest);
-    spdlog::info("resuming from {} (iteration {})", latest.string(), trainer.iteration());
+    if (trainer.iteration() > config.iters)
+      fail("{}: the run is at step {} already; --iters {} must not be smaller", run.out.string(),
+           trainer.iteration(), config.iters);
+    trim_log(run.out / "log.jsonl", trainer.iteration());
+    if (run.iters) write_text_file(run.out / "config.json", to_json(config) + "\n");
+    spdlog::info("resuming from {} (iteration {} of {})", latest.string(), trainer.iteration(),
+                 config.iters);
   } else {
-    spdlog::info("{}", trainer.initialize());
+    const std::string note = trainer.initialize();
+    fs::remove(run.out / "log.jsonl", ec);  // of a run killed before its first checkpoint
     write_text_file(run.out / "config.json", to_json(config) + "\n");
+    spdlog::info("{}", note);
   }
+  cleanup.armed = false;
   spdlog::info(
       "training {} primitives (cap {}) on {} cameras x {} frames ({:.0f} MB of images), {} flow "
       "files, {} iterations",
       trainer.model().primitives.size(), config.cap, set.cameras.size(), set.frames.size(),
       double(set.image_bytes()) / 1e6, set.flow_files(), config.iters);
   std::ofstream log(run.out / "log.jsonl", std::ios::app);
-  Progress progress("train", std::size_t(config.iters), run.progress);
+  if (!log) fail("{}: cannot open the training log", (run.out / "log.jsonl").string());
+  const auto flush_log = [&] {
+    log.flush();
+    if (!log) fail("{}: write failed (disk full?)", (run.out / "log.jsonl").string());
+  };
+  const auto checkpoint_dir = [&](int iteration) {
+    return checkpoints / fmt::format("iter_{:06d}", iteration);
+  };
+  // The loop handles Ctrl-C itself (below): its bar must not throw.
+  Progress progress("train", std::size_t(config.iters), run.progress, /*interruptible=*/false);
   progress.tick(std::size_t(trainer.iteration()));
   double psnr_avg = 0, loss_avg = 0;
   StageSeconds since_log;  // summed over the steps since the last log line
   int steps_since_log = 0;
+  const int start = trainer.iteration();
   while (trainer.iteration() < config.iters) {
+    if (const int signal = interrupt_signal()) {
+      // The step that was running when the signal came has finished: keep it.
+      progress.finish();
+      flush_log();
+      const int it = trainer.iteration();
+      if (it == 0)
+        throw Interrupted(signal, fmt::format("interrupted by {} before the first step; resume "
+                                              "with --resume (it starts afresh)",
+                                              signal_name(signal)));
+      if (!fs::exists(checkpoint_dir(it))) trainer.save_checkpoint(checkpoint_dir(it));
+      throw Interrupted(signal,
+                        fmt::format("interrupted at step {}; checkpoint written to {}; resume with "
+                                    "--resume",
+                                    it, checkpoint_dir(it).string()));
+    }
     const StepStats s = trainer.step();
     since_log += s.seconds, ++steps_since_log;
     constexpr double kSmoothing = 0.05;  // exponential moving average for the progress line
-    psnr_avg = s.iteration == 1 ? s.psnr : (1 - kSmoothing) * psnr_avg + kSmoothing * s.psnr;
-    loss_avg = s.iteration == 1 ? s.loss : (1 - kSmoothing) * loss_avg + kSmoothing * s.loss;
+    const bool first = s.iteration == start + 1;
+    psnr_avg = first ? s.psnr : (1 - kSmoothing) * psnr_avg + kSmoothing * s.psnr;
+    loss_avg = first ? s.loss : (1 - kSmoothing) * loss_avg + kSmoothing * s.loss;
     if (s.iteration % 10 == 0 || s.relocated || s.stretched) {
       const double ms = 1e3 / steps_since_log;
       log << json{{"iteration", s.iteration},
@@ -477,12 +601,15 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
       since_log = {}, steps_since_log = 0;
     }
     progress.tick(1, fmt::format("loss {:.4f} psnr {:.2f} n {}", loss_avg, psnr_avg, s.primitives));
-    if (s.iteration % config.checkpoint_every == 0 && s.iteration < config.iters) {
-      log.flush();
-      trainer.save_checkpoint(checkpoints / fmt::format("iter_{:06d}", s.iteration));
+    // Also at the last step, before the final prune: a later --resume --iters N continues from
+    // there.
+    if (s.iteration % config.checkpoint_every == 0 || s.iteration == config.iters) {
+      flush_log();
+      trainer.save_checkpoint(checkpoint_dir(s.iteration));
     }
   }
   progress.finish();
+  flush_log();
   spdlog::info("{}", trainer.finish());
   // A window's model is stored on the clip's grid with its window, for merge.
   const model::Model model =

@@ -150,7 +150,14 @@ TEST(ImageIo, MissingAndCorruptFilesNameThePath) {
 
   const std::string png = read_text(shared_data() / kPng), jpg = read_text(shared_data() / kJpeg);
   write_text(dir / "cut.png", png.substr(0, 1000));
-  expect_error([&] { read_image(dir / "cut.png"); }, {(dir / "cut.png").string(), "decode"});
+  // Damage is found before libpng / libjpeg, which would print their own lines on stderr.
+  expect_error([&] { read_image(dir / "cut.png"); }, {(dir / "cut.png").string(), "truncated PNG"});
+  std::string flipped = png;
+  flipped[100] = char(flipped[100] ^ 0x01);
+  write_text(dir / "flipped.png", flipped);
+  expect_error([&] { read_image(dir / "flipped.png"); }, {"flipped.png", "CRC mismatch"});
+  write_text(dir / "cut.jpg", jpg.substr(0, jpg.size() / 2));
+  expect_error([&] { read_image(dir / "cut.jpg"); }, {"cut.jpg", "truncated JPEG"});
   write_text(dir / "head.png", png.substr(0, 20));
   expect_error([&] { read_image_size(dir / "head.png"); }, {"head.png", "truncated PNG header"});
   write_text(dir / "head.jpg", jpg.substr(0, 100));

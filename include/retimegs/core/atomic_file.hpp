@@ -1,7 +1,9 @@
 #pragma once
 // Outputs appear whole or not at all: write to a temporary sibling name, then rename.
 #include <filesystem>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace retimegs {
 
@@ -10,8 +12,22 @@ namespace retimegs {
 std::filesystem::path output_path(std::filesystem::path path);
 
 // Throws Error naming `path` when it exists and `force` is not set: a command never overwrites an
-// output unless told to (--force).
+// output unless told to (--force). A device, FIFO or socket is refused even with `force`: the
+// rename of a finished output would replace the node itself.
 void check_output_free(const std::filesystem::path& path, bool force);
+
+// An input of a command: a file, or a folder whose whole tree the command reads (`tree`).
+struct InputPath {
+  std::filesystem::path path;
+  std::string what;  // "model", "scene", "source folder"
+  bool tree = false;
+};
+
+// Throws Error naming `flag`, the output and the input when writing `output` could overwrite or
+// delete an input, whatever --force says: `output` resolves (symbolic links, "..", "./") to the
+// input, to a folder holding it, or to an existing entry inside an input tree.
+void check_output_overlap(const std::filesystem::path& output, const std::string& flag,
+                          const std::vector<InputPath>& inputs);
 
 // A file written through temp_path() becomes `final_path` on commit(); if the object is destroyed
 // before commit() (an error was thrown), the temporary file is removed.

@@ -1,6 +1,10 @@
 #pragma once
 // A progress bar on stderr: an updating bar with rate and ETA on a terminal, plain lines
 // (every 10 %) when stderr is not a terminal. Thread-safe tick().
+//
+// tick() is also where the long loops of the commands notice Ctrl-C / SIGTERM: unless the bar
+// was made with `interruptible` off (a loop that handles the signal itself, such as training's),
+// it throws Interrupted once a signal has arrived (core/interrupt.hpp).
 #include <chrono>
 #include <cstddef>
 #include <mutex>
@@ -10,7 +14,7 @@ namespace retimegs {
 
 class Progress {
  public:
-  Progress(std::string label, std::size_t total, bool enabled = true);
+  Progress(std::string label, std::size_t total, bool enabled = true, bool interruptible = true);
   ~Progress();
   // Advances by n steps; `status` is shown after the counts (e.g. "loss 0.031 psnr 27.4").
   void tick(std::size_t n = 1, const std::string& status = {});
@@ -22,7 +26,7 @@ class Progress {
   std::string label_, status_;
   std::size_t total_, done_ = 0;
   int last_decile_ = -1;
-  bool enabled_, tty_, finished_ = false;
+  bool enabled_, interruptible_, tty_, finished_ = false;
   std::chrono::steady_clock::time_point start_, last_draw_;
   std::mutex mutex_;
 };

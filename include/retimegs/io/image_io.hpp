@@ -21,6 +21,10 @@ Image read_mask(const std::filesystem::path& path);
 // decode for other formats). Throws Error naming the file when it is missing or malformed.
 ImageSize read_image_size(const std::filesystem::path& path);
 
+// Silences OpenCV's own log lines on stderr (a failure is reported once, as the command's Error):
+// called once at program start.
+void quiet_opencv_log();
+
 // Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded).
 void write_png(const std::filesystem::path& path, const Image& image, int bits = 8);
 

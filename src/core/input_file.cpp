@@ -1,0 +1,47 @@
+#include "retimegs/core/input_file.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include "retimegs/core/error.hpp"
+
+namespace retimegs {
+namespace fs = std::filesystem;
+
+namespace {
+const char* kind_of(const fs::file_status& status) {
+  switch (status.type()) {
+    case fs::file_type::directory:
+      return "a folder";
+    case fs::file_type::fifo:
+      return "a FIFO";
+    case fs::file_type::socket:
+      return "a socket";
+    case fs::file_type::character:
+    case fs::file_type::block:
+      return "a device";
+    default:
+      return "not a regular file";
+  }
+}
+}  // namespace
+
+void check_input_file(const fs::path& path, const std::string& what) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status) || fs::is_regular_file(status)) return;
+  fail("{}: is {}, not a regular file (cannot read {} from it)", path.string(), kind_of(status),
+       what);
+}
+
+std::string read_text_file(const fs::path& path, const std::string& what) {
+  check_input_file(path, what);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("{}: cannot open {}", path.string(), what);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (in.bad()) fail("{}: cannot read {}", path.string(), what);
+  return text.str();
+}
+
+}  // namespace retimegs
