@@ -203,7 +203,8 @@ void Optimizers::step(model::Primitives& p, model::PrimitiveGrads& grads,
       groups_[k].adam.step_and_clear(values, g, rate, &rows);
   }
   if (!touched) return;
-  const std::int64_t step = groups_.front().adam.steps();  // every group counts every step
+  // Every group counts every step; step counts fit (iterations are at most 1e9).
+  const std::int32_t step = std::int32_t(groups_.front().adam.steps());
   const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t j = 0; j < count; ++j) {

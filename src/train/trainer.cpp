@@ -323,8 +323,7 @@ void save_adam(const fs::path& dir, const std::string& name, const Adam& adam, j
 
 }  // namespace
 
-void Trainer::save_checkpoint(const fs::path& dir) {
-  adam_.catch_up(model_.primitives);
+void Trainer::save_checkpoint(const fs::path& dir) const {
   AtomicDirectory out(dir, /*replace=*/true);
   model::write_model(out.temp_path() / "model.rgs", model_);
   std::ostringstream rng;
@@ -333,6 +332,12 @@ void Trainer::save_checkpoint(const fs::path& dir) {
       {"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
   for (const auto& [name, adam] : adam_) save_adam(out.temp_path(), name, adam, state);
   if (camera_color()) save_adam(out.temp_path(), kColorAdam, color_adam_, state);
+  if (!adam_.pending().empty()) {  // the lazy Adam's missed steps, applied later as they would be
+    const std::size_t rows = adam_.pending().size();
+    io::write_npy(out.temp_path() / "adam" / "lazy_pending.npy", {rows}, adam_.pending());
+    io::write_npy(out.temp_path() / "adam" / "lazy_first_missed.npy", {rows}, adam_.first_missed());
+    state["adam_last_rate"] = adam_.last_rates();
+  }
   write_text_file(out.temp_path() / "state.json", state.dump(2) + "\n");
   out.commit();
 }
@@ -384,6 +389,16 @@ void Trainer::load_checkpoint(const fs::path& dir) {
   model_.config.sh_degree = state_value<int>(state, "sh_degree", file);
   make_optimizers();
   for (auto& [name, adam] : adam_) load_adam(dir, name, state, file, adam);
+  if (fs::exists(dir / "adam" / "lazy_pending.npy")) {
+    adam_.pending() = io::read_npy(dir / "adam" / "lazy_pending.npy").to_int();
+    adam_.first_missed() = io::read_npy(dir / "adam" / "lazy_first_missed.npy").to_int();
+    adam_.last_rates() = state_value<std::vector<double>>(state, "adam_last_rate", file);
+    const std::size_t groups = std::size_t(std::distance(adam_.begin(), adam_.end()));
+    if (adam_.pending().size() != model_.primitives.size() ||
+        adam_.first_missed().size() != model_.primitives.size() ||
+        adam_.last_rates().size() != groups)
+      fail("{}: the lazy Adam state does not match the model", dir.string());
+  }
   if (camera_color()) {
     for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
       const std::string& name = set_.scene.cameras[set_.cameras[j]].name;

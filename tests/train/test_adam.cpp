@@ -161,7 +161,7 @@ TEST(Adam, LazyStepsCatchUpToDenseAdam) {
   std::vector<float> p_lazy = p_dense;
   const std::vector<std::int32_t> rows = {0, 1, 2};
   std::vector<std::int32_t> pending(kRows, 0);
-  std::vector<std::int64_t> first(kRows, 0);
+  std::vector<std::int32_t> first(kRows, 0);
   // Row 0 every step; row 1 at steps 0, 3, 4 and 25; row 2 at step 0 only.
   const auto touched_at = [](int r, int step) {
     return r == 0 || step == 0 || (r == 1 && (step == 3 || step == 4 || step == 25));
@@ -179,7 +179,7 @@ TEST(Adam, LazyStepsCatchUpToDenseAdam) {
     lazy.step_lazy(p_lazy.data(), g_lazy.data(), 0.01, rows, touched.data(),
                    {pending.data(), first.data()});
     for (int r = 0; r < kRows; ++r) {
-      if (!touched[r] && pending[r] == 0) first[r] = lazy.steps();
+      if (!touched[r] && pending[r] == 0) first[r] = std::int32_t(lazy.steps());
       pending[r] = touched[r] ? 0 : pending[r] + 1;
     }
     for (int k = 0; k < kWidth; ++k) {
@@ -211,7 +211,7 @@ TEST(Adam, LazyCatchUpEarlyInTrainingStaysCloseToDense) {
   Adam dense(1, 1), lazy(1, 1);
   float p_dense = 0, p_lazy = 0;
   std::int32_t pending = 0;
-  std::int64_t first = 0;
+  std::int32_t first = 0;
   const std::vector<std::int32_t> rows = {0};
   for (int step = 0; step < 30; ++step) {
     const bool touched = step < 5 || step == 29;
@@ -219,7 +219,7 @@ TEST(Adam, LazyCatchUpEarlyInTrainingStaysCloseToDense) {
     const std::uint8_t flag = touched;
     dense.step(&p_dense, &g, 0.01);
     lazy.step_lazy(&p_lazy, &g_lazy, 0.01, rows, &flag, {&pending, &first});
-    if (!touched && pending == 0) first = lazy.steps();
+    if (!touched && pending == 0) first = std::int32_t(lazy.steps());
     pending = touched ? 0 : pending + 1;
   }
   EXPECT_NEAR(p_lazy, p_dense, 0.03 * std::abs(p_dense));

@@ -57,7 +57,7 @@ class Adam {
   // count at the first of them.
   struct Pending {
     const std::int32_t* count;
-    const std::int64_t* first;
+    const std::int32_t* first;
   };
   // The lazy step: of the `rows`, only those with touched[r] != 0 are read; each first catches up
   // its pending missed steps, then steps with its gradient (which it clears).
@@ -127,6 +127,14 @@ class Optimizers {
   void catch_up(model::Primitives& primitives);
   // Rows with missed steps not yet applied.
   std::size_t pending_rows() const;
+  // The lazy state, for checkpoints: per row the missed steps and the step count at the first of
+  // them (empty before the first lazy step), per group the rate of the last step.
+  std::vector<std::int32_t>& pending() { return pending_; }
+  std::vector<std::int32_t>& first_missed() { return first_missed_; }
+  std::vector<double>& last_rates() { return last_rates_; }
+  const std::vector<std::int32_t>& pending() const { return pending_; }
+  const std::vector<std::int32_t>& first_missed() const { return first_missed_; }
+  const std::vector<double>& last_rates() const { return last_rates_; }
   // The means' rate of a step with these factors.
   double means_rate(double means_decay, double decay) const;
   // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows; rows moved.
@@ -146,7 +154,7 @@ class Optimizers {
   std::vector<double> last_rates_;  // per group: the rate of the last step
   // [rows] active steps missed by the lazy fields, and the step count at the first of them
   std::vector<std::int32_t> pending_;
-  std::vector<std::int64_t> first_missed_;
+  std::vector<std::int32_t> first_missed_;
 };
 
 }  // namespace retimegs::train

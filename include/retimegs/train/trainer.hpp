@@ -87,13 +87,14 @@ class Trainer {
 
   int iteration() const { return iteration_; }
   // Between steps, rows that missed steps of the lazy Adam (TrainConfig::lazy_adam) lag them until
-  // the next relocation, checkpoint or finish().
+  // their next gradient, the next relocation or stretching, or finish().
   const model::Model& model() const { return model_; }
 
   // A checkpoint folder (written atomically): model.rgs (with the camera colours), state.json,
-  // adam/<field>_{m,v}.npy and adam/camera_color_{m,v}.npy. It first applies the optimiser's
-  // pending catch-up (Optimizers::catch_up), so a resumed run continues exactly as this one.
-  void save_checkpoint(const std::filesystem::path& dir);
+  // adam/<field>_{m,v}.npy, adam/camera_color_{m,v}.npy and the lazy Adam's missed steps
+  // (adam/lazy_pending.npy, adam/lazy_first_missed.npy), so that a resumed run continues exactly
+  // as this one.
+  void save_checkpoint(const std::filesystem::path& dir) const;
   void load_checkpoint(const std::filesystem::path& dir);
 
  private:
