@@ -146,13 +146,8 @@ NpyArray read_npy(const fs::path& path) {
   return array;
 }
 
-namespace {
-
-// `descr` is the values' NumPy type, '<f4' or '<i4' (4 bytes each).
-template <typename T>
-void write_npy_as(const fs::path& path, const std::vector<std::size_t>& shape,
-                  const std::vector<T>& values, const char* descr) {
-  static_assert(sizeof(T) == 4);
+void write_npy(const fs::path& path, const std::vector<std::size_t>& shape,
+               const std::vector<float>& values) {
   std::size_t count = 1;
   std::string dims;
   for (const std::size_t dim : shape) {
@@ -166,7 +161,7 @@ void write_npy_as(const fs::path& path, const std::vector<std::size_t>& shape,
   else if (shape.size() == 1)
     dims.pop_back();
   std::string header =
-      fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': ({}), }}", descr, dims);
+      fmt::format("{{'descr': '<f4', 'fortran_order': False, 'shape': ({}), }}", dims);
   header.append((kAlign - (10 + header.size() + 1) % kAlign) % kAlign, ' ');  // 10: magic + len
   header += '\n';
   const std::uint16_t header_len = std::uint16_t(header.size());
@@ -179,18 +174,6 @@ void write_npy_as(const fs::path& path, const std::vector<std::size_t>& shape,
   out.close();
   if (!out) fail("{}: cannot write .npy file", path.string());
   file.commit();
-}
-
-}  // namespace
-
-void write_npy(const fs::path& path, const std::vector<std::size_t>& shape,
-               const std::vector<float>& values) {
-  write_npy_as(path, shape, values, "<f4");
-}
-
-void write_npy(const fs::path& path, const std::vector<std::size_t>& shape,
-               const std::vector<std::int32_t>& values) {
-  write_npy_as(path, shape, values, "<i4");
 }
 
 }  // namespace retimegs::io

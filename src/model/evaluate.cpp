@@ -250,8 +250,7 @@ template <typename T>
 void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
                        double t_in, const Camera& camera, const EvaluateOptions& options,
                        const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
-                       PrimitiveGradsT<T>& grads, ShadedT<T>* shaded,
-                       std::vector<std::uint8_t>* touched) {
+                       PrimitiveGradsT<T>& grads, ShadedT<T>* shaded) {
   const T t = T(t_in), step = T(grid.step);
   const int channels = evaluated.gaussians.channels;
   const PinholeT<T> pinhole(camera);
@@ -263,7 +262,6 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
   for (std::size_t row = 0; row < m; ++row) {
     if (!has_gradient(vg, row, channels)) continue;
     const std::size_t i = evaluated.primitive_from_gaussian[row];
-    if (touched) (*touched)[i] = 1;
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
     T* v_mu = &grads.v_mu[3 * i];
@@ -363,22 +361,22 @@ void shade_backward(const PrimitivesT<T>& p, const ModelConfig& config, const Ti
   }
 }
 
-#define RETIMEGS_INSTANTIATE(T)                                                                    \
-  template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,                \
-                            const TimeGrid&, double, Group);                                       \
-  template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,   \
-                                     double, const Camera&, const EvaluateOptions&);               \
-  template void evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,    \
-                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&,                 \
-                            const ShadedT<T>*);                                                    \
-  template void evaluate_backward<T>(                                                              \
-      const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double, const Camera&,           \
-      const EvaluateOptions&, const EvaluatedT<T>&, const GaussianGradsT<T>&, PrimitiveGradsT<T>&, \
-      ShadedT<T>*, std::vector<std::uint8_t>*);                                                    \
-  template void shade<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,       \
-                         const Camera&, const std::vector<std::int32_t>&, ShadedT<T>&);            \
-  template void shade_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,      \
-                                  double, const Camera&, const std::vector<std::int32_t>&,         \
+#define RETIMEGS_INSTANTIATE(T)                                                                  \
+  template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,              \
+                            const TimeGrid&, double, Group);                                     \
+  template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
+                                     double, const Camera&, const EvaluateOptions&);             \
+  template void evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,  \
+                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&,               \
+                            const ShadedT<T>*);                                                  \
+  template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
+                                     double, const Camera&, const EvaluateOptions&,              \
+                                     const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
+                                     PrimitiveGradsT<T>&, ShadedT<T>*);                          \
+  template void shade<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,     \
+                         const Camera&, const std::vector<std::int32_t>&, ShadedT<T>&);          \
+  template void shade_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \
+                                  double, const Camera&, const std::vector<std::int32_t>&,       \
                                   const ShadedT<T>&, PrimitiveGradsT<T>&);
 RETIMEGS_INSTANTIATE(float)
 RETIMEGS_INSTANTIATE(double)

@@ -24,7 +24,6 @@ void reorder_rows(std::vector<T>& values, int width,
 
 template void reorder_rows(std::vector<float>&, int, const std::vector<std::int32_t>&);
 template void reorder_rows(std::vector<double>&, int, const std::vector<std::int32_t>&);
-template void reorder_rows(std::vector<std::int32_t>&, int, const std::vector<std::int32_t>&);
 
 void check_primitives(const Primitives& p, const std::string& what) {
   const std::size_t n = p.size();

@@ -31,7 +31,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center, lr_temporal_scale, ssim_lambda,
     flow_weight_start, flow_weight_end, opacity_reg, scale_reg, gamma, cap, min_opacity,
     final_prune_opacity, growth, init_opacity, stretch_distance, stretch_color, stretch_speed,
-    checkpoint_every, lr_camera_color, lazy_adam)
+    checkpoint_every, lr_camera_color)
 
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag) {
   if (list.empty()) return ablate;

@@ -18,7 +18,6 @@ DensityChanges McmcStrategy::after_step(int it, double lr_means,
   inject_noise(p, active, lr_means, rng);
   if (it % config_.scaled(config_.relocate_every) == 0 &&
       it > config_.scaled(config_.relocate_start) && it < config_.scaled(config_.relocate_stop)) {
-    optimizers.catch_up(p);  // relocation copies and compares whole rows
     const Relocation moved = relocate(p, rep, config_.min_opacity, rng);
     const Relocation grown = grow(p, rep, config_.cap, config_.growth, config_.min_opacity, rng);
     optimizers.reset_rows(moved.touched);
@@ -30,7 +29,6 @@ DensityChanges McmcStrategy::after_step(int it, double lr_means,
       it % config_.scaled(config_.stretch_every) == 0 && it < config_.iters) {
     const StretchSettings settings{config_.stretch_distance * scene_extent_, config_.stretch_color,
                                    config_.stretch_speed * scene_extent_};
-    optimizers.catch_up(p);  // stretching compares neighbours' positions, colours and speeds
     const StretchResult s = stretch(p, model.config, model.grid, settings, rng);
     changes.stretched = s.stretched, changes.pruned = s.pruned;
   }

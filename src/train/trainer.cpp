@@ -211,13 +211,12 @@ void Trainer::render_pass(const RenderPass& pass, int c, int i,
                              v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
   model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
-                           grads, &shaded_, &touched_);
+                           grads, &shaded_);
   stats.seconds.evaluate_backward += clock.lap();
 }
 
 std::string Trainer::finish() {
   model::Primitives& p = model_.primitives;
-  adam_.catch_up(p);
   if (model_.config.representation == model::Representation::kStgs ||
       !(config_.final_prune_opacity > 0))
     return "final prune: off";
@@ -273,8 +272,6 @@ StepStats Trainer::step_view(int c, int i) {
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
-  touched_.resize(p.size());
-  for (const std::int32_t r : active) touched_[std::size_t(r)] = 0;
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   Stopwatch shade_clock;
   model::shade(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_);
@@ -294,7 +291,7 @@ StepStats Trainer::step_view(int c, int i) {
   // Optimiser step, then relocation, growth, noise and stretching.
   const double decay = lr_factor(it);
   const double means_decay = std::pow(config_.lr_means_final, double(it) / config_.iters);
-  adam_.step(p, grads, active, means_decay, decay, config_.lazy_adam ? &touched_ : nullptr);
+  adam_.step(p, grads, active, means_decay, decay);
   if (camera_color()) step_camera_color(c, decay);
   stats.lr_means = adam_.means_rate(means_decay, decay);
   stats.seconds.optimizer = clock.lap();
@@ -332,12 +329,6 @@ void Trainer::save_checkpoint(const fs::path& dir) const {
       {"iteration", iteration_}, {"rng", rng.str()}, {"sh_degree", model_.config.sh_degree}};
   for (const auto& [name, adam] : adam_) save_adam(out.temp_path(), name, adam, state);
   if (camera_color()) save_adam(out.temp_path(), kColorAdam, color_adam_, state);
-  if (!adam_.pending().empty()) {  // the lazy Adam's missed steps, applied later as they would be
-    const std::size_t rows = adam_.pending().size();
-    io::write_npy(out.temp_path() / "adam" / "lazy_pending.npy", {rows}, adam_.pending());
-    io::write_npy(out.temp_path() / "adam" / "lazy_first_missed.npy", {rows}, adam_.first_missed());
-    state["adam_last_rate"] = adam_.last_rates();
-  }
   write_text_file(out.temp_path() / "state.json", state.dump(2) + "\n");
   out.commit();
 }
@@ -389,16 +380,6 @@ void Trainer::load_checkpoint(const fs::path& dir) {
   model_.config.sh_degree = state_value<int>(state, "sh_degree", file);
   make_optimizers();
   for (auto& [name, adam] : adam_) load_adam(dir, name, state, file, adam);
-  if (fs::exists(dir / "adam" / "lazy_pending.npy")) {
-    adam_.pending() = io::read_npy(dir / "adam" / "lazy_pending.npy").to_int();
-    adam_.first_missed() = io::read_npy(dir / "adam" / "lazy_first_missed.npy").to_int();
-    adam_.last_rates() = state_value<std::vector<double>>(state, "adam_last_rate", file);
-    const std::size_t groups = std::size_t(std::distance(adam_.begin(), adam_.end()));
-    if (adam_.pending().size() != model_.primitives.size() ||
-        adam_.first_missed().size() != model_.primitives.size() ||
-        adam_.last_rates().size() != groups)
-      fail("{}: the lazy Adam state does not match the model", dir.string());
-  }
   if (camera_color()) {
     for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
       const std::string& name = set_.scene.cameras[set_.cameras[j]].name;

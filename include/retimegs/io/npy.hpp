@@ -23,10 +23,8 @@ struct NpyArray {
 // a malformed header or a truncated body.
 NpyArray read_npy(const std::filesystem::path& path);
 
-// Writes float32 or int32 (little-endian, C order), atomically.
+// Writes float32 (little-endian, C order), atomically.
 void write_npy(const std::filesystem::path& path, const std::vector<std::size_t>& shape,
                const std::vector<float>& values);
-void write_npy(const std::filesystem::path& path, const std::vector<std::size_t>& shape,
-               const std::vector<std::int32_t>& values);
 
 }  // namespace retimegs::io

@@ -73,14 +73,13 @@ void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const
 // `v_gaussians` (the renderer's gradient of the batch `evaluated`). Rows whose renderer gradient
 // is all zero (the Gaussians the render culled or that reached no pixel) add exactly zero and are
 // skipped. With `shaded` (as given to evaluate) the colours' gradient is added into
-// shaded->v_rgb, for shade_backward, instead of being taken through the SH. `touched`, when
-// given (sized to the primitives), gets 1 at every row that received a gradient.
+// shaded->v_rgb, for shade_backward, instead of being taken through the SH.
 template <typename T>
 void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
                        const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
-                       ShadedT<T>* shaded = nullptr, std::vector<std::uint8_t>* touched = nullptr);
+                       ShadedT<T>* shaded = nullptr);
 
 // The SH colour at (t, camera) of each of the ascending `rows` into out.rgb, and zero into their
 // out.v_rgb; `out` is sized to the primitives, keeping its other rows.

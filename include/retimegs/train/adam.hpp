@@ -9,19 +9,6 @@
 // and both moments as they are, rather than decaying their moments and moving on momentum alone
 // while they are invisible. The bias correction uses the group's step count, which every step
 // advances, as gsplat does. A row updated at every step evolves exactly as under dense Adam.
-//
-// Momentum catch-up (lazy rows). Within the active set, most rows of a real capture get no
-// gradient from the step's camera (culled, off screen). Dense Adam still moves such a row on its
-// momentum and decays both moments; streaming its parameters and moments for that costs as much as
-// a real update. A lazy field instead counts the active steps a row missed (`pending`) and, when
-// the row next has a gradient or the trainer needs every row current (catch_up), applies them in
-// closed form: after k steps without gradient from (m, v), dense Adam has m β1^k, v β2^k and has
-// moved the parameter by -lr/c1 · Σ_{j=1..k} β1^j m / (β2^(j/2) sqrt(v)/sqrt(c2) + ε)
-// = -lr sqrt(c2)/c1 · m/sqrt(v) · Σ_{j=1..k} (β1/sqrt(β2))^j. The catch-up takes the rate of the
-// step that applies it and the bias corrections c1, c2 of the first missed step, where the
-// geometric weights put most of the move (exact where they are constant over the gap, as after
-// the first few thousand steps), and ε at the start of the gap. A row's missed steps are its own
-// active steps, so a row that is never active keeps its state, as above.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -53,18 +40,6 @@ class Adam {
   // step's gradient buffer is cleared where it was read, without a pass of its own).
   void step_and_clear(float* params, float* grads, double lr,
                       const std::vector<std::int32_t>* rows = nullptr);
-  // Missed steps of lazy rows, kept by the caller (Optimizers) per row: how many, and the step
-  // count at the first of them.
-  struct Pending {
-    const std::int32_t* count;
-    const std::int32_t* first;
-  };
-  // The lazy step: of the `rows`, only those with touched[r] != 0 are read; each first catches up
-  // its pending missed steps, then steps with its gradient (which it clears).
-  void step_lazy(float* params, float* grads, double lr, const std::vector<std::int32_t>& rows,
-                 const std::uint8_t* touched, Pending pending);
-  // Applies every row's pending missed steps at rate lr (see above).
-  void catch_up(float* params, double lr, Pending pending);
   // Zeroes the moments of the given rows (their parameters were replaced).
   void reset_rows(const std::vector<std::int32_t>& rows);
   // Grows (zero state) or shrinks to `rows` rows.
@@ -83,12 +58,7 @@ class Adam {
 
  private:
   template <bool kClear, typename G>
-  void update(float* params, G* grads, double lr, const std::vector<std::int32_t>* rows,
-              const std::uint8_t* touched = nullptr, Pending pending = {});
-  // lr / c1 and 1 / sqrt(c2) at step count `step`.
-  void rates(double lr, std::int64_t step, float& step_size, float& inv_sqrt_c2) const;
-  // Row r's pending missed steps, if any.
-  void catch_up_row(float* params, std::size_t r, double lr, Pending pending);
+  void update(float* params, G* grads, double lr, const std::vector<std::int32_t>* rows);
 
   int width_ = 0;
   AdamSettings settings_;
@@ -116,25 +86,9 @@ class Optimizers {
 
   // One Adam step of every field over the ascending `rows` (the step's active set) at its base
   // rate × decay, and × means_decay too for means and velocities; leaves the rows' gradients of
-  // the optimised fields zero. With `touched` [primitives] (a row had a renderer gradient this
-  // step), the fields that only the renders differentiate (every field but the regularised
-  // log_scale and opacity_logit) step lazily: the rows not touched only count a missed step.
+  // the optimised fields zero.
   void step(model::Primitives& primitives, model::PrimitiveGrads& grads,
-            const std::vector<std::int32_t>& rows, double means_decay, double decay,
-            const std::vector<std::uint8_t>* touched = nullptr);
-  // Brings every row's parameters and moments up to date (the missed steps of lazy rows, at the
-  // last step's rates): before anything reads, copies or saves the primitives as a whole.
-  void catch_up(model::Primitives& primitives);
-  // Rows with missed steps not yet applied.
-  std::size_t pending_rows() const;
-  // The lazy state, for checkpoints: per row the missed steps and the step count at the first of
-  // them (empty before the first lazy step), per group the rate of the last step.
-  std::vector<std::int32_t>& pending() { return pending_; }
-  std::vector<std::int32_t>& first_missed() { return first_missed_; }
-  std::vector<double>& last_rates() { return last_rates_; }
-  const std::vector<std::int32_t>& pending() const { return pending_; }
-  const std::vector<std::int32_t>& first_missed() const { return first_missed_; }
-  const std::vector<double>& last_rates() const { return last_rates_; }
+            const std::vector<std::int32_t>& rows, double means_decay, double decay);
   // The means' rate of a step with these factors.
   double means_rate(double means_decay, double decay) const;
   // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows; rows moved.
@@ -151,10 +105,6 @@ class Optimizers {
  private:
   std::vector<Group> groups_;
   std::vector<double> base_rates_;  // per group
-  std::vector<double> last_rates_;  // per group: the rate of the last step
-  // [rows] active steps missed by the lazy fields, and the step count at the first of them
-  std::vector<std::int32_t> pending_;
-  std::vector<std::int32_t> first_missed_;
 };
 
 }  // namespace retimegs::train

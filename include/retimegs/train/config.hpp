@@ -73,10 +73,6 @@ struct TrainConfig {
 
   int checkpoint_every = 1000;
 
-  // Adam's momentum catch-up for rows without a renderer gradient (train/adam.hpp); false steps
-  // every active row densely.
-  bool lazy_adam = true;
-
   // Milestone `iteration` (given for 20 000 iterations) in this run's units.
   int scaled(int iteration) const;
   model::ModelConfig model_config() const;

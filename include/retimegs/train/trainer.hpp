@@ -86,14 +86,10 @@ class Trainer {
   std::string finish();
 
   int iteration() const { return iteration_; }
-  // Between steps, rows that missed steps of the lazy Adam (TrainConfig::lazy_adam) lag them until
-  // their next gradient, the next relocation or stretching, or finish().
   const model::Model& model() const { return model_; }
 
   // A checkpoint folder (written atomically): model.rgs (with the camera colours), state.json,
-  // adam/<field>_{m,v}.npy, adam/camera_color_{m,v}.npy and the lazy Adam's missed steps
-  // (adam/lazy_pending.npy, adam/lazy_first_missed.npy), so that a resumed run continues exactly
-  // as this one.
+  // adam/<field>_{m,v}.npy and adam/camera_color_{m,v}.npy.
   void save_checkpoint(const std::filesystem::path& dir) const;
   void load_checkpoint(const std::filesystem::path& dir);
 
@@ -142,9 +138,8 @@ class Trainer {
   std::vector<float> colors_, color_grads_;
   Adam color_adam_;
   Image corrected_;
-  SsimTarget ssim_target_;             // target_'s side of SSIM, shared by the step's renders
-  model::Shaded shaded_;               // the SH colours of the step's view, shared by its renders
-  std::vector<std::uint8_t> touched_;  // [rows] a renderer gradient this step (lazy Adam)
+  SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
+  model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders
   // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
   // (indexed by model::Group; a group's batch size changes little from step to step), the render
   // with its saved state and the gradient with respect to the batch.
