@@ -14,6 +14,7 @@ packages=(
   libnanoflann-dev         # nearest neighbours (initialisation, stretching)
   colmap                   # prepare --points colmap (feature_extractor, point_triangulator)
   libgtest-dev libgmock-dev libbenchmark-dev
+  clang libclang-rt-14-dev libomp-dev  # scripts/fuzz.sh: libFuzzer, ASan + UBSan (fuzz/)
 )
 
 missing=()
