@@ -78,8 +78,11 @@ void check_counts(const Header& header, std::size_t last, std::uintmax_t body_by
   std::uintmax_t needed = 0;
   for (std::size_t i = 0; i <= last; ++i) {
     const Element& e = header.elements[i];
-    if (e.count > 0 && e.properties.empty())
-      fail("{}: PLY element '{}' declares {} rows but no properties", name, e.name, e.count);
+    if (e.properties.empty()) {
+      if (e.count > 0)
+        fail("{}: PLY element '{}' declares {} rows but no properties", name, e.name, e.count);
+      continue;
+    }
     const std::size_t row = min_row_bytes(e, header.format);
     const bool fixed_rows = header.format != Format::kAscii &&
                             std::none_of(e.properties.begin(), e.properties.end(),

@@ -228,6 +228,11 @@ TEST(Ply, DeclaredCountsBeyondTheFileAreRefusedNamingTheCount) {
        "ply\nformat ascii 1.0\nelement face 1\nproperty list float float v\nelement vertex 1\n" +
            xyz + "end_header\n1e300 1\n1 2 3\n",
        "invalid list length 1e+300"},
+      // fuzz/corpus/ply/empty_element.ply: an element of 0 rows without properties divided by 0.
+      {"empty_element",
+       "ply\nformat binary_big_endian 1.0\nelement face 0\nelement vertex 1000\n" + xyz +
+           "end_header\n",
+       "truncated PLY body (vertex 0 of 1000)"},
       {"header_at_eof", "ply\nformat ascii 1.0\nelement vertex 1\n" + xyz + "end_header",
        "element 'vertex' declares 1 rows, more than the 0 bytes"},
   };
