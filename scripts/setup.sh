@@ -16,6 +16,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   slurm-wlm munge          # scripts/test_slurm.sh: a throw-away Slurm cluster for `retimegs slurm`
   libcpp-httplib-dev       # retimegs view: the viewer's HTTP server
+  clang libclang-rt-14-dev libomp-dev  # scripts/fuzz.sh: libFuzzer, ASan + UBSan (fuzz/)
 )
 # Packages a caller needs beside the build's (scripts/test.sh: the browser test's Chromium).
 read -ra extra_packages <<< "${RETIMEGS_EXTRA_PACKAGES:-}"

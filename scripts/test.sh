@@ -10,5 +10,8 @@ RETIMEGS_EXTRA_PACKAGES="${test_packages[*]}" "$root/scripts/setup.sh"
 if [ ! -d "$root/web/node_modules" ]; then
   (cd "$root/web" && npm ci --no-audit --no-fund)
 fi
+# The parsers under ASan + UBSan in build-fuzz/: their unit tests, every seed corpus, 10 s of
+# fuzzing per target. Its own ctest summary; a failure stops the run here.
+"$root/scripts/fuzz.sh" --check
 cd "$root/build"
 ctest --output-on-failure -j "$(nproc)"

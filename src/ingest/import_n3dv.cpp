@@ -52,6 +52,32 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
       videos.push_back(entry.path());
   }
   std::sort(videos.begin(), videos.end());
+
+  // Every row is checked before any video is opened (and before the video count, so that a bad
+  // row is named even when videos are missing).
+  struct Pose {
+    Eigen::Matrix4d c2w = Eigen::Matrix4d::Identity();  // OpenCV axes
+    double h = 0, w = 0, f = 0;
+  };
+  std::vector<Pose> llff(count);
+  for (int c = 0; c < count; ++c) {
+    const double* row = &poses.values[std::size_t(c) * kPoseColumns];
+    auto m = [&](int r, int col) { return row[r * 5 + col]; };  // the 3x5 LLFF matrix
+    const std::string where = c < int(videos.size()) ? fmt::format("{}: row {} ({})", poses_file, c,
+                                                                   videos[c].filename().string())
+                                                     : fmt::format("{}: row {}", poses_file, c);
+    Pose& pose = llff[c];
+    pose.h = m(0, 4), pose.w = m(1, 4), pose.f = m(2, 4);
+    if (!(pose.h > 0 && pose.w > 0 && pose.f > 0))
+      fail("{}: (h, w, f) = ({}, {}, {}) must be positive", where, pose.h, pose.w, pose.f);
+    for (int r = 0; r < 3; ++r) {
+      pose.c2w(r, 0) = m(r, 1);   // right
+      pose.c2w(r, 1) = m(r, 0);   // down
+      pose.c2w(r, 2) = -m(r, 2);  // forward = -back
+      pose.c2w(r, 3) = m(r, 3);
+    }
+    check_rigid(pose.c2w, where + " pose");
+  }
   if (int(videos.size()) != count)
     fail("{}: {} camera videos (cam*.mp4) but {} has {} pose rows", source.string(), videos.size(),
          poses_file, count);
@@ -60,38 +86,27 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
   for (const auto& path : videos) probed.push_back(detail::probe_video(path));
   int steps = probed[0].frames;
   for (const auto& v : probed) steps = std::min(steps, v.frames);
-  const auto [first, last] = detail::frame_range(options, steps, "the videos");
+  // Plain ints, not a structured binding: clang 14 (the fuzzing build) cannot capture those in
+  // lambdas.
+  const auto [first_frame, last_frame] = detail::frame_range(options, steps, "the videos");
+  const int first = first_frame, last = last_frame;
 
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = probed[0].fps;
   for (int c = 0; c < count; ++c) {
-    const double* row = &poses.values[std::size_t(c) * kPoseColumns];
-    auto m = [&](int r, int col) { return row[r * 5 + col]; };  // the 3x5 LLFF matrix
-    const std::string where =
-        fmt::format("{}: row {} ({})", poses_file, c, probed[c].path.filename().string());
-    const double h = m(0, 4), w = m(1, 4), f = m(2, 4);
-    if (!(h > 0 && w > 0 && f > 0))
-      fail("{}: (h, w, f) = ({}, {}, {}) must be positive", where, h, w, f);
-    Eigen::Matrix4d c2w = Eigen::Matrix4d::Identity();
-    for (int r = 0; r < 3; ++r) {
-      c2w(r, 0) = m(r, 1);   // right
-      c2w(r, 1) = m(r, 0);   // down
-      c2w(r, 2) = -m(r, 2);  // forward = -back
-      c2w(r, 3) = m(r, 3);
-    }
-    check_rigid(c2w, where + " pose");
+    const Pose& pose = llff[c];
     Camera cam;
     cam.name = probed[c].path.stem().string();
-    cam.world_to_camera = c2w.inverse();
+    cam.world_to_camera = pose.c2w.inverse();
     // The video may be stored at another resolution than (w, h) of the poses: scale.
     const detail::VideoInfo& v = probed[c];
-    const double sx = v.width / w, sy = v.height / h;
+    const double sx = v.width / pose.w, sy = v.height / pose.h;
     if (std::abs(sx - sy) > 0.01 * std::max(sx, sy))
       fail("{}: video is {}x{} but the poses say {}x{} (different aspect ratio)", v.path.string(),
-           v.width, v.height, w, h);
+           v.width, v.height, pose.w, pose.h);
     cam.width = v.width, cam.height = v.height;
-    cam.fx = f * sx, cam.fy = f * sy;
+    cam.fx = pose.f * sx, cam.fy = pose.f * sy;
     cam.cx = 0.5 * v.width, cam.cy = 0.5 * v.height;
     cam.split = (cam.name == "cam00" && count > 1) ? Split::kTest : Split::kTrain;
     scene.cameras.push_back(detail::downscaled(cam, options.downscale));

@@ -75,14 +75,16 @@ io::ColmapCamera intrinsics(const json& frame, const json& root, const fs::path&
     }
     return detail::finite_number(*v, file, fmt::format("{}.{}", where, key));
   };
-  int w = 0, h = 0;
-  if (lookup(frame, root, "w") && lookup(frame, root, "h")) {
-    w = int(number("w", 0, true)), h = int(number("h", 0, true));
-  } else {
-    const io::ImageSize size = io::read_image_size(image);
-    w = size.width, h = size.height;
+  // A declared size is checked against the image (its header only) before anything is sized by
+  // it: the undistortion maps are w x h.
+  const io::ImageSize size = io::read_image_size(image);
+  const int w = size.width, h = size.height;
+  if (lookup(frame, root, "w") || lookup(frame, root, "h")) {
+    const double dw = number("w", w, false), dh = number("h", h, false);
+    if (dw != w || dh != h)
+      fail("{}: {} declares image size {}x{} but {} is {}x{}", file, where, dw, dh, image.string(),
+           w, h);
   }
-  if (w < 1 || h < 1) fail("{}: {} has image size {}x{}", file, where, w, h);
   double fx = 0, fy = 0;
   if (lookup(frame, root, "fl_x")) {
     fx = number("fl_x", 0, true);
@@ -258,7 +260,10 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
     for (const auto& e : entries) camera_names.push_back(e.camera);
   }
   const int steps = int(times.size());
-  const auto [first, last] = detail::frame_range(options, steps, "the source");
+  // Plain ints, not a structured binding: clang 14 (the fuzzing build) cannot capture those in
+  // lambdas.
+  const auto [first_frame, last_frame] = detail::frame_range(options, steps, "the source");
+  const int first = first_frame, last = last_frame;
 
   // grid[camera][frame] = entry index.
   std::map<std::string, int> camera_index;

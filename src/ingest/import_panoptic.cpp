@@ -115,7 +115,10 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
     if (int(c.files.size()) != steps)
       fail("{}: train and test metadata have different frame counts ({} vs {})", source.string(),
            steps, c.files.size());
-  const auto [first, last] = detail::frame_range(options, steps, "the source");
+  // Plain ints, not a structured binding: clang 14 (the fuzzing build) cannot capture those in
+  // lambdas.
+  const auto [first_frame, last_frame] = detail::frame_range(options, steps, "the source");
+  const int first = first_frame, last = last_frame;
 
   io::Scene scene;
   scene.num_frames = last - first + 1;

@@ -62,6 +62,42 @@ struct Header {
   std::vector<Element> elements;
 };
 
+// The fewest bytes one row of `e` takes: binary scalars their size, a list at least its count;
+// in ASCII every value at least one digit and one separator.
+std::size_t min_row_bytes(const Element& e, Format format) {
+  if (format == Format::kAscii) return 2 * e.properties.size();
+  std::size_t n = 0;
+  for (const Property& p : e.properties) n += size_of(p.is_list ? p.count_type : p.type);
+  return n;
+}
+
+// Sizes declared in the header are checked against the bytes that follow it before anything is
+// allocated or looped over: a 62-byte file must not announce 10^9 vertices.
+void check_counts(const Header& header, std::size_t last, std::uintmax_t body_bytes,
+                  const std::string& name) {
+  std::uintmax_t needed = 0;
+  for (std::size_t i = 0; i <= last; ++i) {
+    const Element& e = header.elements[i];
+    if (e.properties.empty()) {
+      if (e.count > 0)
+        fail("{}: PLY element '{}' declares {} rows but no properties", name, e.name, e.count);
+      continue;
+    }
+    const std::size_t row = min_row_bytes(e, header.format);
+    const bool fixed_rows = header.format != Format::kAscii &&
+                            std::none_of(e.properties.begin(), e.properties.end(),
+                                         [](const Property& p) { return p.is_list; });
+    if (fixed_rows && i == last) break;  // read_vertex_table checks it exactly, naming the row
+    // +1: the last ASCII value needs no separator after it.
+    if (e.count > (body_bytes + 1 - std::min(needed, body_bytes)) / row)
+      fail(
+          "{}: PLY element '{}' declares {} rows, more than the {} bytes after the header can "
+          "hold (truncated or corrupted)",
+          name, e.name, e.count, body_bytes);
+    needed += e.count * row;
+  }
+}
+
 // One binary scalar, byte-swapped first when the file is big-endian.
 template <typename T>
 double as(const char* p, bool swap) {
@@ -201,7 +237,8 @@ void skip_element(std::istream& in, const Element& e, Format format, std::uintma
         continue;
       }
       if (!scalar(p.count_type)) truncated(row);
-      if (value < 0) fail("{}: negative list length in PLY element '{}' row {}", name, e.name, row);
+      if (!(value >= 0) || value != std::floor(value) || value > double(file_size))
+        fail("{}: invalid list length {} in PLY element '{}' row {}", name, value, e.name, row);
       for (std::size_t k = 0, n = std::size_t(value); k < n; ++k)
         if (!scalar(p.type)) truncated(row);
     }
@@ -219,10 +256,15 @@ VertexTable read_vertex_table(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) fail("{}: cannot open file", name);
   const Header header = parse_header(in, name);
+  // A header that ends the file leaves the stream at EOF, where tellg() fails.
+  const std::streamoff header_end = in.tellg();
+  const std::uintmax_t body_bytes =
+      header_end < 0 ? 0 : file_size - std::min<std::uintmax_t>(file_size, header_end);
 
   const auto vertex = std::find_if(header.elements.begin(), header.elements.end(),
                                    [](const Element& e) { return e.name == "vertex"; });
   if (vertex == header.elements.end()) fail("{}: PLY file has no vertex element", name);
+  check_counts(header, std::size_t(vertex - header.elements.begin()), body_bytes, name);
   VertexTable out;
   PlyTable& table = out.table;
   for (const Property& p : vertex->properties) {
@@ -365,8 +407,12 @@ PointCloud read_points_ply(const fs::path& path) {
       scale = 1.0f / 65535.0f;
     else if (vt.types[c] != Scalar::kFloat32 && vt.types[c] != Scalar::kFloat64)
       fail("{}: PLY colour '{}' must be uchar, ushort, float or double", name, channels[k]);
-    for (std::size_t i = 0; i < table.count; ++i)
-      points.rgb[3 * i + k] = table.columns[c][i] * scale;
+    for (std::size_t i = 0; i < table.count; ++i) {
+      const float v = table.columns[c][i];
+      if (!std::isfinite(v))
+        fail("{}: non-finite colour '{}' {} at vertex {}", name, channels[k], v, i);
+      points.rgb[3 * i + k] = v * scale;
+    }
   }
   return points;
 }

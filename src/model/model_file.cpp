@@ -182,21 +182,38 @@ Model read_model(const fs::path& path) {
     fail("{}: malformed model header: {}", file, e.what());
   }
 
+  if (!header.is_object()) fail("{}: malformed model header: not a JSON object", file);
+  // Header numbers are type- and range-checked before use: the JSON library would wrap a negative
+  // count and turn 1e20 into an arbitrary int.
+  const auto integer = [&](const json& v, const char* key, std::int64_t low, std::int64_t high) {
+    if (!v.is_number_integer() || (v.is_number_unsigned() && v.get<std::uint64_t>() > 1ull << 62) ||
+        v.get<std::int64_t>() < low || v.get<std::int64_t>() > high)
+      fail("{}: model header '{}' must be an integer in [{}, {}], got {}", file, key, low, high,
+           v.dump());
+    return v.get<std::int64_t>();
+  };
+  const auto number = [&](const json& v, const char* key) {
+    if (!v.is_number() || !std::isfinite(v.get<double>()))
+      fail("{}: model header '{}' must be a finite number, got {}", file, key, v.dump());
+    return v.get<double>();
+  };
+
   Model model;
   std::size_t n = 0;
   try {
-    n = header.at("count").get<std::size_t>();
+    n = std::size_t(integer(header.at("count"), "count", 0, std::int64_t(1) << 62));
     const json& grid = header.at("time_grid");
-    model.grid = {grid.at("first").get<double>(), grid.at("step").get<double>(),
-                  grid.at("count").get<int>()};
+    model.grid = {number(grid.at("first"), "time_grid.first"),
+                  number(grid.at("step"), "time_grid.step"),
+                  int(integer(grid.at("count"), "time_grid.count", 1, 1'000'000'000))};
     const json& m = header.at("model");
     model.config.representation =
         m.at("representation") == "stgs" ? Representation::kStgs : Representation::kRetime;
     model.config.trajectory =
         m.at("trajectory") == "linear" ? TrajectoryKind::kLinear : TrajectoryKind::kCatmullRom;
-    model.config.gamma = m.at("gamma").get<double>();
-    model.config.epsilon = m.at("epsilon").get<double>();
-    model.config.sh_degree = m.at("sh_degree").get<int>();
+    model.config.gamma = number(m.at("gamma"), "model.gamma");
+    model.config.epsilon = number(m.at("epsilon"), "model.epsilon");
+    model.config.sh_degree = int(integer(m.at("sh_degree"), "model.sh_degree", 0, 3));
     model.training_config = header.value("training_config", json::object()).dump();
     model.camera_colors = camera_colors_from(header, file);
     if (header.contains("window")) {
@@ -209,34 +226,44 @@ Model read_model(const fs::path& path) {
   } catch (const json::exception& e) {
     fail("{}: malformed model header: {}", file, e.what());
   }
-  if (!(model.grid.step > 0) || model.grid.count < 1 || model.config.sh_degree < 0 ||
-      model.config.sh_degree > 3 || !(model.config.gamma > 0))
+  if (!(model.grid.step > 0) || !std::isfinite(model.grid.last()) || !(model.config.gamma > 0))
     fail("{}: model header has an invalid time grid or config", file);
 
+  // The declared count is checked against the file's size before anything is allocated for it.
   const std::size_t data_start = kPrefix + header_size;
   const std::size_t data_size = bytes.size() - data_start - sizeof(std::uint64_t);
-  model.primitives.resize(n);
-  std::size_t expected = 0;
-  for (const auto& f : model.primitives.fields()) expected += f.values->size() * sizeof(float);
-  if (data_size != expected)
-    fail("{}: truncated or padded model file ({} data bytes for {} primitives, expected {})", file,
-         data_size, n, expected);
+  std::size_t row_bytes = 0;
+  for (const auto& f : model.primitives.fields()) row_bytes += f.width * sizeof(float);
+  if (n > data_size / row_bytes || n * row_bytes != data_size)
+    fail(
+        "{}: header count {} does not match the file ({} data bytes; {} primitives of {} bytes "
+        "expected): truncated, padded or edited",
+        file, n, data_size, data_size / row_bytes, row_bytes);
   std::uint64_t stored = 0;
   std::memcpy(&stored, bytes.data() + bytes.size() - sizeof stored, sizeof stored);
   if (stored != fnv1a64(bytes.data(), bytes.size() - sizeof stored))
     fail("{}: checksum mismatch: the model file is corrupted", file);
+  model.primitives.resize(n);
 
-  const json& table = header.value("fields", json::array());
+  const json table = header.value("fields", json::array());
+  if (!table.is_array()) fail("{}: model header 'fields' is not an array", file);
   for (const auto& f : model.primitives.fields()) {
-    const auto it = std::find_if(table.begin(), table.end(),
-                                 [&](const json& e) { return e.value("name", "") == f.name; });
+    const auto it = std::find_if(table.begin(), table.end(), [&](const json& e) {
+      return e.is_object() && e.contains("name") && e["name"] == f.name;
+    });
     if (it == table.end()) fail("{}: model file lacks field '{}'", file, f.name);
-    const std::size_t offset = it->value("offset", std::size_t(0));
     const std::size_t size = f.values->size() * sizeof(float);
-    if (it->value("width", 0) != f.width || it->value("dtype", "") != "<f4" ||
-        it->value("bytes", std::size_t(0)) != size || offset + size > data_size)
-      fail("{}: field '{}' has an unexpected layout", file, f.name);
-    std::memcpy(f.values->data(), bytes.data() + data_start + offset, size);
+    const auto entry = [&](const char* key) -> const json& {
+      static const json none;
+      return it->contains(key) ? (*it)[key] : none;
+    };
+    const bool layout_ok = entry("width") == f.width && entry("dtype") == "<f4" &&
+                           entry("bytes") == size && entry("offset").is_number_unsigned() &&
+                           entry("offset").get<std::uint64_t>() <= data_size - size;
+    if (!layout_ok) fail("{}: field '{}' has an unexpected layout", file, f.name);
+    if (size > 0)  // memcpy from an empty vector's null data() is undefined
+      std::memcpy(f.values->data(),
+                  bytes.data() + data_start + entry("offset").get<std::uint64_t>(), size);
   }
   check_primitives(model.primitives, file);
   return model;

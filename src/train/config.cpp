@@ -145,9 +145,8 @@ TrainConfig config_from_json(const std::string& text, TrainConfig config, const 
       if (!value.is_number_integer())
         fail("{}: '{}' must be an integer, got {}", what, key, value.dump());
       const bool any_size = key == "seed";  // a 64-bit generator seed
-      if (!any_size &&
-          (value.is_number_unsigned() ? value.get<std::uint64_t>() > kMaxInteger
-                                      : std::abs(value.get<std::int64_t>()) > kMaxInteger))
+      if (!any_size && (value.is_number_unsigned() ? value.get<std::uint64_t>() > kMaxInteger
+                                                   : std::abs(value.get<double>()) > kMaxInteger))
         fail("{}: '{}' = {} is out of range", what, key, value.dump());
       if (like.is_number_unsigned() && !value.is_number_unsigned() && value.get<std::int64_t>() < 0)
         fail("{}: '{}' must be >= 0, got {}", what, key, value.dump());

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -67,6 +68,42 @@ TEST(ColmapModelIo, TextAndBinaryRoundTrip) {
   io::write_colmap_model_bin(m, dir / "bin");
   expect_same(io::read_colmap_model(dir / "txt"), m);
   expect_same(io::read_colmap_model(dir / "bin"), m);
+}
+
+// Counts in the binary files are checked against the file's size before allocating (issue 26):
+// each edited count is refused naming the file and the count.
+TEST(ColmapModelIo, BinaryCountsBeyondTheFileAreRefusedNamingThem) {
+  test::TempDir dir;
+  io::ColmapModel m = sample_model();
+  m.points[0].track_length = 0;
+  io::write_colmap_model_bin(m, dir / "good");
+  struct Case {
+    const char* file;
+    std::size_t offset;  // of the uint64 count
+    std::uint64_t count;
+    const char* fragment;
+  };
+  // images.bin: count (8), id (4), qvec + tvec (56), camera id (4), "a.png\0" (6): 2-D points.
+  // points3D.bin: count (8), id (8), xyz (24), rgb (3), error (8): track length.
+  const Case cases[] = {
+      {"cameras.bin", 0, 1'000'000'000, "1000000000 cameras do not fit in the file"},
+      {"cameras.bin", 0, ~std::uint64_t(0), "18446744073709551615 cameras do not fit"},
+      {"images.bin", 0, 1'000'000'000, "1000000000 images do not fit in the file"},
+      {"images.bin", 8 + 4 + 56 + 4 + 6, 1'000'000'000, "1000000000 2-D points do not fit"},
+      {"points3D.bin", 0, 1'000'000'000, "1000000000 points do not fit in the file"},
+      {"points3D.bin", 8 + 8 + 24 + 3 + 8, ~std::uint64_t(0) / 2,
+       "9223372036854775807 track elements do not fit"},
+  };
+  for (const Case& c : cases) {
+    fs::remove_all(dir / "bad");
+    fs::copy(dir / "good", dir / "bad");
+    std::string bytes = test::read_text(dir / "bad" / c.file);
+    std::memcpy(bytes.data() + c.offset, &c.count, sizeof c.count);
+    test::write_text(dir / "bad" / c.file, bytes);
+    SCOPED_TRACE(std::string(c.file) + " " + c.fragment);
+    test::expect_error([&] { io::read_colmap_model(dir / "bad"); },
+                       {(dir / "bad" / c.file).string(), c.fragment});
+  }
 }
 
 // COLMAP's own converter writes the binary files: an independent check of the binary reader.

@@ -212,6 +212,18 @@ TEST_F(NerfstudioBadInput, NoFocalLength) {
   expect_error({"frames[0]", "no focal length"});
 }
 
+// A declared size is checked against the image before anything is sized by it (fuzz/: w = 1e10
+// overflowed an int; a large one sized the undistortion maps before the image was read).
+TEST_F(NerfstudioBadInput, DeclaredImageSizeMustMatchTheImage) {
+  for (const auto& [w, h] :
+       {std::pair<double, double>{1e10, kH}, {kW, 1e9}, {kW + 1, kH}, {-1, kH}, {kW, 0.5}}) {
+    j_["w"] = w;
+    j_["h"] = h;
+    SCOPED_TRACE(j_.dump());
+    expect_error({"transforms.json", "frames[0]", "declares image size", "is 40x30"});
+  }
+}
+
 TEST_F(NerfstudioBadInput, MalformedJson) {
   test::write_text(dir_ / "src" / "transforms.json", "{\"frames\": [");
   const auto r = test::run_cli("import nerfstudio --in " + (dir_ / "src").string() + " --out " +

@@ -202,5 +202,32 @@ TEST(FlowIo, HeaderProblemsAreErrors) {
   expect_error([&] { read_flo(dir / "missing.flo"); }, {"missing.flo", "no such file"});
 }
 
+// The declared size is checked against the file's size before allocating (issue 26).
+TEST(FlowIo, DeclaredSizeBeyondTheFileIsRefusedNamingIt) {
+  TempDir dir;
+  struct Case {
+    const char* name;
+    std::int32_t width, height;
+    const char* fragment;
+  };
+  const Case cases[] = {
+      {"big", 60000, 60000, "truncated .flo (expected 28800000012 bytes, found 20)"},
+      {"wide", 65536, 1, "invalid .flo size 65536x1"},
+      {"max", INT32_MAX, INT32_MAX, "invalid .flo size 2147483647x2147483647"},
+      {"zero", 0, 7, "invalid .flo size 0x7"},
+  };
+  for (const Case& c : cases) {
+    std::string bytes(20, '\0');
+    const float tag = 202021.25f;
+    std::memcpy(bytes.data(), &tag, 4);
+    std::memcpy(bytes.data() + 4, &c.width, 4);
+    std::memcpy(bytes.data() + 8, &c.height, 4);
+    const auto path = dir / (std::string(c.name) + ".flo");
+    write_text(path, bytes);
+    SCOPED_TRACE(c.name);
+    expect_error([&] { read_flo(path); }, {path.string(), c.fragment});
+  }
+}
+
 }  // namespace
 }  // namespace retimegs::io

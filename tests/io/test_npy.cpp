@@ -157,5 +157,32 @@ TEST(Npy, ToIntRejectsFractions) {
   expect_error([&] { a.to_int(); }, {"2.5", "index 1"});
 }
 
+// The declared shape is checked against the file's size before allocating (issue 26).
+TEST(Npy, DeclaredShapeBeyondTheFileIsRefusedNamingIt) {
+  TempDir dir;
+  const std::string body = raw_bytes(std::vector<float>(4, 0.0f));
+  struct Case {
+    const char* name;
+    const char* dict;
+    const char* fragment;
+  };
+  const Case cases[] = {
+      {"billion", "{'descr': '<f4', 'fortran_order': False, 'shape': (1000000000, 17), }",
+       "truncated .npy body (expected 68000000000 bytes, found 16)"},
+      {"overflow",
+       "{'descr': '<f8', 'fortran_order': False, 'shape': (4294967296, 4294967296, 8), }",
+       ".npy shape is too large"},
+      {"max", "{'descr': '<i4', 'fortran_order': False, 'shape': (18446744073709551615,), }",
+       ".npy shape is too large"},
+      {"negative", "{'descr': '<f4', 'fortran_order': False, 'shape': (-4,), }", "bad shape"},
+  };
+  for (const Case& c : cases) {
+    const auto path = dir / (std::string(c.name) + ".npy");
+    write_text(path, npy_file(c.dict, body));
+    SCOPED_TRACE(c.name);
+    expect_error([&] { read_npy(path); }, {path.string(), c.fragment});
+  }
+}
+
 }  // namespace
 }  // namespace retimegs::io

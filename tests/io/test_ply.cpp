@@ -180,7 +180,83 @@ TEST(Ply, TruncatedBodyIsError) {
              "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
              "end_header\n1 2\n3\n");
   expect_error([&] { read_ply(dir / "cut.txt"); },
-               {"cut.txt", "truncated PLY body (vertex 1 of 2)"});
+               {"cut.txt", "element 'vertex' declares 2 rows, more than the 6 bytes"});
+  write_text(dir / "cut2.txt",
+             "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+             "end_header\n1 2\n3   \n");
+  expect_error([&] { read_ply(dir / "cut2.txt"); },
+               {"cut2.txt", "truncated PLY body (vertex 1 of 2)"});
+}
+
+// Counts declared in the header are checked against the file's size before anything is allocated
+// or looped over (issue 26: a 62-byte PLY declaring 10^9 vertices allocated 3.9 GB; an element
+// without properties looped 10^18 times).
+TEST(Ply, DeclaredCountsBeyondTheFileAreRefusedNamingTheCount) {
+  TempDir dir;
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\n";
+  struct Case {
+    const char* name;
+    std::string text;
+    const char* fragment;
+  };
+  const Case cases[] = {
+      {"ascii_1e9",
+       "ply\nformat ascii 1.0\nelement vertex 1000000000\n" + xyz + "end_header\n1 2 3\n",
+       "element 'vertex' declares 1000000000 rows"},
+      {"binary_1e9",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n" + xyz + "end_header\n",
+       "truncated PLY body (vertex 0 of 1000000000)"},
+      {"max_count",
+       "ply\nformat binary_big_endian 1.0\nelement vertex 18446744073709551615\n" + xyz +
+           "end_header\n0123456789ab",
+       "truncated PLY body (vertex 1 of 18446744073709551615)"},
+      {"face_before_vertex",
+       "ply\nformat binary_little_endian 1.0\nelement face 1000000000\nproperty list uchar int "
+       "vertex_index\nelement vertex 1\n" +
+           xyz + "end_header\n",
+       "element 'face' declares 1000000000 rows"},
+      {"no_properties",
+       "ply\nformat ascii 1.0\nelement edge 1000000000000000000\nelement vertex 1\n" + xyz +
+           "end_header\n1 2 3\n",
+       "element 'edge' declares 1000000000000000000 rows but no properties"},
+      {"huge_list",
+       "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list uint float v\n"
+       "element vertex 1\n" +
+           xyz + "end_header\n\xff\xff\xff\xff",
+       "invalid list length 4294967295"},
+      {"float_list_length",
+       "ply\nformat ascii 1.0\nelement face 1\nproperty list float float v\nelement vertex 1\n" +
+           xyz + "end_header\n1e300 1\n1 2 3\n",
+       "invalid list length 1e+300"},
+      // fuzz/corpus/ply/empty_element.ply: an element of 0 rows without properties divided by 0.
+      {"empty_element",
+       "ply\nformat binary_big_endian 1.0\nelement face 0\nelement vertex 1000\n" + xyz +
+           "end_header\n",
+       "truncated PLY body (vertex 0 of 1000)"},
+      {"header_at_eof", "ply\nformat ascii 1.0\nelement vertex 1\n" + xyz + "end_header",
+       "element 'vertex' declares 1 rows, more than the 0 bytes"},
+  };
+  for (const Case& c : cases) {
+    const auto path = dir / (std::string(c.name) + ".ply");
+    write_text(path, c.text);
+    SCOPED_TRACE(c.name);
+    expect_error([&] { read_points_ply(path); }, {path.string(), c.fragment});
+  }
+}
+
+// NaN or infinite colours are refused like coordinates (they became 0 silently).
+TEST(Ply, NonFiniteColourIsError) {
+  TempDir dir;
+  for (const char* value : {"nan", "inf", "-inf"}) {
+    write_text(dir / "c.ply",
+               std::string("ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty "
+                           "float y\nproperty float z\nproperty float red\nproperty float "
+                           "green\nproperty float blue\nend_header\n0 0 0 1 1 1\n1 1 1 0.5 ") +
+                   value + " 0\n");
+    SCOPED_TRACE(value);
+    expect_error([&] { read_points_ply(dir / "c.ply"); },
+                 {"c.ply", "non-finite colour 'green'", "vertex 1"});
+  }
 }
 
 TEST(Ply, NanCoordinateIsError) {

@@ -1,6 +1,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -114,6 +115,55 @@ std::string with_header(const std::string& bytes, const Edit& edit) {
   for (const char ch : out) hash = (hash ^ static_cast<unsigned char>(ch)) * 0x100000001b3ull;
   out.append(reinterpret_cast<const char*>(&hash), 8);
   return out;
+}
+
+// Edited headers (issue 26; fuzz/corpus/rgs): a count or a number that the file cannot back is
+// refused with the key and value named, before anything is allocated for it (a count of 10^9
+// allocated 3 GB before saying "truncated").
+TEST(ModelFile, EditedHeadersAreRefusedNamingTheValue) {
+  test::TempDir dir;
+  write_model(dir / "m.rgs", random_model(4, 8));
+  const std::string bytes = test::read_text(dir / "m.rgs");
+  struct Case {
+    const char* name;
+    std::function<void(nlohmann::json&)> edit;
+    const char* fragment;
+  };
+  const Case cases[] = {
+      {"count_1e9", [](auto& h) { h["count"] = 1'000'000'000; }, "header count 1000000000"},
+      {"count_2e18", [](auto& h) { h["count"] = 2'000'000'000'000'000'000ull; },
+       "header count 2000000000000000000"},
+      {"count_1e19", [](auto& h) { h["count"] = 10'000'000'000'000'000'000ull; },
+       "'count' must be an integer"},
+      {"count_negative", [](auto& h) { h["count"] = -1; }, "'count' must be an integer"},
+      {"count_float", [](auto& h) { h["count"] = 4.5; }, "'count' must be an integer"},
+      {"count_5", [](auto& h) { h["count"] = 5; }, "header count 5"},
+      {"grid_count_1e20", [](auto& h) { h["time_grid"]["count"] = 1e20; },
+       "'time_grid.count' must be an integer"},
+      {"step_string", [](auto& h) { h["time_grid"]["step"] = "1"; },
+       "'time_grid.step' must be a finite number"},
+      {"sh_degree_9", [](auto& h) { h["model"]["sh_degree"] = 9; }, "'model.sh_degree'"},
+      {"fields_object",
+       [](auto& h) {
+         h["fields"] = {{"name", "mu"}};
+       },
+       "'fields' is not an array"},
+      {"fields_numbers",
+       [](auto& h) {
+         h["fields"] = {1, 2};
+       },
+       "lacks field 'mu'"},
+      {"offset_negative", [](auto& h) { h["fields"][0]["offset"] = -8; }, "unexpected layout"},
+      {"offset_past_end", [](auto& h) { h["fields"][0]["offset"] = 1u << 30; },
+       "unexpected layout"},
+      {"header_array", [](auto& h) { h = nlohmann::json::array(); }, "not a JSON object"},
+  };
+  for (const Case& c : cases) {
+    const fs::path path = dir / (std::string(c.name) + ".rgs");
+    test::write_text(path, with_header(bytes, c.edit));
+    SCOPED_TRACE(c.name);
+    expect_refused(path, c.fragment);
+  }
 }
 
 TEST(ModelFile, CameraColorsRoundTripByCameraName) {
