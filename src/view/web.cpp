@@ -1,11 +1,15 @@
 #include "retimegs/view/web.hpp"
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
+#include <thread>
 
 #include <httplib.h>
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs::view {
 
@@ -59,7 +63,24 @@ void serve(const std::vector<WebFile>& files, const std::string& host, int port,
     fail("view: cannot listen on {}:{} (in use, or not an address of this machine)", host, port);
   const std::string shown = host.find(':') != std::string::npos ? "[" + host + "]" : host;
   on_listening("http://" + shown + ":" + std::to_string(bound) + "/");
-  if (!server.listen_after_bind()) fail("view: the server on {}:{} stopped", host, bound);
+  // Ctrl-C and SIGTERM only record the signal (core/interrupt.hpp): a watcher stops the server on
+  // one, and the command ends as any interrupted command does (exit 130 / 143).
+  std::atomic<bool> done = false;
+  std::thread watcher([&] {
+    while (!done) {
+      if (interrupt_signal()) {
+        server.stop();
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  });
+  const bool served = server.listen_after_bind();
+  done = true;
+  watcher.join();
+  if (const int signal = interrupt_signal())
+    throw Interrupted(signal, "view: stopped by " + signal_name(signal));
+  if (!served) fail("view: the server on {}:{} stopped", host, bound);
 }
 
 }  // namespace retimegs::view

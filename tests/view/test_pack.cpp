@@ -4,14 +4,18 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_run.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/view/pack.hpp"
@@ -245,6 +249,42 @@ TEST(ViewCli, PortInUseIsRefused) {
   EXPECT_TRUE(test::is_one_error_line(r.err)) << r.err;
   EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:" + std::to_string(port)), std::string::npos)
       << r.err;
+}
+
+// The server answers on its port until a signal, then exits as any interrupted command: 130 after
+// Ctrl-C, 143 after SIGTERM, in one line.
+TEST(ViewCli, CtrlCAndSigtermStopTheServer) {
+  test::TempDir dir;
+  model::write_model(dir / "model.rgs", test::view_fixture_model(20, 2));
+  for (const int sig : {SIGINT, SIGTERM}) {
+    // A free port of 127.0.0.1: bound, read, released.
+    const int probe = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof(address);
+    ASSERT_EQ(bind(probe, reinterpret_cast<sockaddr*>(&address), length), 0);
+    ASSERT_EQ(getsockname(probe, reinterpret_cast<sockaddr*>(&address), &length), 0);
+    close(probe);
+    test::CliProcess server({"view", "--model", (dir / "model.rgs").string(), "--port",
+                             std::to_string(ntohs(address.sin_port))},
+                            dir / "view.err");
+    const auto accepts = [&] {
+      const int sock = socket(AF_INET, SOCK_STREAM, 0);
+      const bool ok = connect(sock, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0;
+      close(sock);
+      return ok;
+    };
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!accepts() && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_TRUE(accepts()) << server.err();
+    server.signal(sig);
+    const auto ended = [](const std::string& err) { return !err.empty(); };
+    ASSERT_TRUE(server.wait_for_err(ended, 30)) << "still serving after signal " << sig;
+    EXPECT_EQ(server.wait(), 128 + sig);
+    EXPECT_TRUE(test::is_one_error_line(server.err())) << server.err();
+  }
 }
 
 TEST(ViewCli, ExportWebWritesTheViewerWithTheScene) {

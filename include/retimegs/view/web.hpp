@@ -29,7 +29,8 @@ std::vector<WebFile> web_files(const Packed& packed);
 // unless `force`.
 void write_web(const std::filesystem::path& out, const std::vector<WebFile>& files, bool force);
 
-// Serves `files` over HTTP on host:port (port 0: any free port) until the process ends. Calls
+// Serves `files` over HTTP on host:port (port 0: any free port) until Ctrl-C or SIGTERM, then
+// throws Interrupted (core/interrupt.hpp). Calls
 // `on_listening` with the viewer's URL once the socket is bound. Throws Error naming host and
 // port when it cannot bind.
 void serve(const std::vector<WebFile>& files, const std::string& host, int port,
