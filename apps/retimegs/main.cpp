@@ -14,6 +14,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
+#include "retimegs/core/one_line.hpp"
 #include "retimegs/io/image_io.hpp"
 
 namespace {
@@ -78,22 +79,23 @@ int main(int argc, char** argv) {
   } catch (const CLI::RequiredError& e) {
     const bool subcommand = std::string(e.what()).find("subcommand") != std::string::npos;
     std::fprintf(stderr, "%s\n",
-                 subcommand ? subcommand_message(app).c_str()
-                            : ("retimegs: " + std::string(e.what())).c_str());
+                 retimegs::one_line(subcommand ? subcommand_message(app)
+                                               : "retimegs: " + std::string(e.what()))
+                     .c_str());
     return 2;
   } catch (const CLI::ParseError& e) {
     // --help and --version exit 0; usage errors exit 2 with CLI11's one-line message.
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::fprintf(stderr, "retimegs: %s\n", e.what());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
     return 2;
   } catch (const retimegs::Error& e) {
-    std::fprintf(stderr, "retimegs: %s\n", e.what());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
     return 2;
   } catch (const retimegs::Interrupted& e) {  // Ctrl-C / SIGTERM: 130 / 143
-    std::fprintf(stderr, "retimegs: %s\n", e.what());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
     return e.exit_code();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "retimegs: unexpected error: %s\n", e.what());
+    std::fprintf(stderr, "retimegs: unexpected error: %s\n", retimegs::one_line(e.what()).c_str());
     return 2;
   }
   return 0;

@@ -299,5 +299,28 @@ TEST_F(BadInputCli, MoreHostileCasesExitTwoInOneLineAndLeaveNothing) {
   run_cases(root_->path(), cases);
 }
 
+// User strings that hold control characters (a newline, an ESC) are quoted in the message as
+// visible escapes: the message stays one line and cannot drive the terminal.
+TEST_F(BadInputCli, ControlCharactersInQuotedNamesAreEscaped) {
+  const std::vector<Case> cases = {
+      // A scene path with a newline (single quotes: the shell passes it as it is).
+      {"train --scene '{D}/no\nscene' --out {D}/new_run", {"{D}/no\\nscene"}},
+      {"sheet --scene '{D}/tab\tscene' --out {D}/sheet.png", {"{D}/tab\\tscene"}},
+      // A camera name with a newline and an ESC (JSON escapes in scene.json).
+      {"sheet --scene {D}/ctrl_scene --out {D}/sheet.png",
+       {"cam\\n\\x1b[31m00", "cannot be a folder name"},
+       [](const fs::path& d) {
+         fs::create_directories(d / "ctrl_scene");
+         std::string json = test::read_text(d / "scene" / "scene.json");
+         json.replace(json.find("\"cam00\""), 7, R"("cam\n\u001b[31m00")");
+         write(d / "ctrl_scene" / "scene.json", json);
+       }},
+      // A camera asked for by a name with a newline and a DEL.
+      {"render" + kModel + kScene + " --camera 'cam\n0\x7f' --time 1 --out {D}/t.png",
+       {"cam\\n0\\x7f"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
 }  // namespace
 }  // namespace retimegs
