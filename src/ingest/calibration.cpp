@@ -9,6 +9,7 @@
 #include <initializer_list>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
@@ -16,6 +17,7 @@
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::ingest::detail {
 namespace fs = std::filesystem;
@@ -50,6 +52,15 @@ Numbers numbers(const cv::FileNode& node, const std::string& where, const std::s
     // !!opencv-matrix (YAML) / {"type_id": "opencv-matrix", ...} (JSON): rows, cols, dt, data.
     if (node["data"].empty() || node["rows"].empty() || node["cols"].empty())
       fail("{}: '{}' must be numbers or an !!opencv-matrix (rows, cols, dt, data)", where, field);
+    // OpenCV allocates rows x cols before it counts 'data': the declared size is checked against
+    // the numbers given first, so that a few bytes cannot ask for gigabytes.
+    const cv::FileNode rows = node["rows"], cols = node["cols"], data = node["data"];
+    if (!rows.isInt() || !cols.isInt() || int(rows) < 1 || int(cols) < 1)
+      fail("{}: '{}' rows and cols must be positive integers", where, field);
+    const std::size_t given = data.isSeq() ? data.size() : 1;
+    if (std::size_t(int(rows)) * std::size_t(int(cols)) != given)
+      fail("{}: '{}' is declared {}x{} but its data holds {} number{}", where, field, int(rows),
+           int(cols), given, given == 1 ? "" : "s");
     cv::Mat m;
     try {
       node >> m;
@@ -254,26 +265,26 @@ std::string parse_problem(const cv::Exception& e, int shift) {
   return fmt::format("line {}: {}", line, what.substr(close + 3));
 }
 
-// The format follows the extension. OpenCV's YAML parser needs the "%YAML:1.0" first line, which
+// The rig's text parsed from memory (cv::FileStorage::MEMORY), so that read_rig and the fuzzing
+// harness share one path. OpenCV's YAML parser needs the "%YAML:1.0" first line, which
 // hand-written files lack: it is prepended then.
-cv::FileStorage open_rig(const fs::path& file) {
-  const bool json = lower(file.extension().string()) == ".json";
-  std::ifstream in(file, std::ios::binary);
-  if (!in) fail("{}: cannot open the rig file", file.string());
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const bool memory = !json && ss.str().rfind("%YAML", 0) != 0;
+cv::FileStorage open_rig(std::string_view text, bool json, const std::string& file) {
+  // OpenCV's parsers read a NUL as the end of the text and report an empty file as "invalid":
+  // both are refused here with their own message.
+  if (text.find('\0') != std::string_view::npos)
+    fail("{}: cannot parse the rig file (it holds a NUL byte: not a text file)", file);
+  if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
+    fail("{}: the rig file is empty", file);
+  const bool prepend = !json && text.rfind("%YAML", 0) != 0;
+  const std::string content = (prepend ? "%YAML:1.0\n" : "") + std::string(text);
   cv::FileStorage storage;
   try {
-    if (memory)
-      storage.open("%YAML:1.0\n" + ss.str(), cv::FileStorage::READ | cv::FileStorage::MEMORY);
-    else
-      storage.open(file.string(), cv::FileStorage::READ | (json ? cv::FileStorage::FORMAT_JSON
-                                                                : cv::FileStorage::FORMAT_YAML));
+    storage.open(content, cv::FileStorage::READ | cv::FileStorage::MEMORY |
+                              (json ? cv::FileStorage::FORMAT_JSON : cv::FileStorage::FORMAT_YAML));
   } catch (const cv::Exception& e) {
-    fail("{}: cannot parse the rig file ({})", file.string(), parse_problem(e, memory ? 1 : 0));
+    fail("{}: cannot parse the rig file ({})", file, parse_problem(e, prepend ? 1 : 0));
   }
-  if (!storage.isOpened()) fail("{}: cannot parse the rig file", file.string());
+  if (!storage.isOpened()) fail("{}: cannot parse the rig file", file);
   return storage;
 }
 
@@ -288,7 +299,13 @@ std::string unquoted(std::string key) {
 
 std::vector<CalibratedCamera> read_rig(const fs::path& path) {
   const std::string file = path.string();
-  cv::FileStorage storage = open_rig(path);
+  return read_rig_text(read_text_file(path, "the rig file"),
+                       lower(path.extension().string()) == ".json", file);
+}
+
+std::vector<CalibratedCamera> read_rig_text(std::string_view text, bool json,
+                                            const std::string& file) {
+  cv::FileStorage storage = open_rig(text, json, file);
   const cv::FileNode cameras = storage["cameras"];
   std::vector<CalibratedCamera> out;
   try {

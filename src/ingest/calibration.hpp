@@ -4,6 +4,7 @@
 // detail::Undistorter resamples distorted footage exactly as `import colmap` does.
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -33,6 +34,11 @@ std::vector<CalibratedCamera> read_colmap_calibration(const std::filesystem::pat
 // The rig file's cameras, in file order (checked: names unique, K / dist / R / t well formed,
 // finite, R a rotation).
 std::vector<CalibratedCamera> read_rig(const std::filesystem::path& file);
+
+// The same from the file's text (`json`: JSON, else YAML); `file` names it in errors. The one
+// parser behind read_rig, and the entry point of the fuzzing harness (fuzz/calibration_fuzz.cpp).
+std::vector<CalibratedCamera> read_rig_text(std::string_view text, bool json,
+                                            const std::string& file);
 
 // `camera` resized to width x height: focal lengths and principal point scaled, distortion kept
 // (it acts on normalised coordinates). Size 0 (a rig without size) takes the footage's; a

@@ -445,6 +445,14 @@ TEST_F(VideosBadInput, RigValuesAreChecked) {
       {"    K: [60, 0.5, 32, 0, 60, 24, 0, 0, 1]\n" + r + t, {"'K'", "no skew"}},
       {"    K: [-60, 0, 32, 0, 60, 24, 0, 0, 1]\n" + r + t, {"'K'", "positive"}},
       {k + "    R: [1, 0, 0, 0, one, 0, 0, 0, 1]\n" + t, {"'R'", "numbers", "one"}},
+      // A matrix's declared size is checked against its data before OpenCV allocates it.
+      {"    K: !!opencv-matrix\n      rows: 100000\n      cols: 100000\n      dt: d\n"
+       "      data: [1]\n" +
+           r + t,
+       {"'K'", "declared 100000x100000", "holds 1 number"}},
+      {"    K: !!opencv-matrix\n      rows: -3\n      cols: 3\n      dt: d\n      data: [1]\n" + r +
+           t,
+       {"'K'", "rows and cols must be positive integers"}},
   };
   for (const auto& [body, parts] : cases) {
     test::write_text(dir_ / "rig.yaml", "cameras:\n  cam00:\n" + body);
@@ -464,6 +472,8 @@ TEST_F(VideosBadInput, RigFileStructure) {
       {"rig:\n  cam00: {}\n", "missing top-level 'cameras'"},
       {"cameras:\n  - K: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n", "cameras[0]: 'name'"},
       {"cameras:\n  cam00: [1, 2\n", "cannot parse the rig file (line 2"},
+      {" \n\n", "the rig file is empty"},
+      {std::string("cameras:\0\n", 10), "NUL byte"},
   };
   for (const auto& [text, part] : cases) {
     test::write_text(dir_ / "rig.yaml", text);
