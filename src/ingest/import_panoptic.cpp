@@ -9,6 +9,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/one_line.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/image_io.hpp"
@@ -27,6 +28,22 @@ struct SourceCamera {
   Camera camera;
   std::vector<std::string> files;  // [T] "<cam>/<frame:06d>.jpg", relative to ims/
 };
+
+// An 'fn' entry names an image below ims/ (and its mask below seg/): a relative path that stays
+// there. Absolute paths and '..' components would read any file of the machine into the scene;
+// an empty name would be the folder itself; a NUL would cut the name short.
+void check_frame_file(const std::string& value, const std::string& file, const std::string& where) {
+  const auto refuse = [&](const char* why) {
+    // one_line: a NUL would end the message's C string (what()) there.
+    fail("{}: 'fn{}' is '{}': {} (a path relative to ims/ is expected)", file, where,
+         one_line(value), why);
+  };
+  if (value.empty()) refuse("an empty name");
+  if (value.find('\0') != std::string::npos) refuse("it holds a NUL byte");
+  if (value.front() == '/') refuse("an absolute path");
+  for (const auto& part : fs::path(value))
+    if (part == "..") refuse("a '..' component leaves the source folder");
+}
 
 // Reads one of train_meta.json / test_meta.json into cameras (static: time step 0 defines them;
 // later steps must agree).
@@ -59,6 +76,7 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
       if (!ids[t][c].is_number_integer() || ids[t][c] != ids[0][c])
         fail("{}: 'cam_id{}' differs from time step 0", file, where);
       if (!fn[t][c].is_string()) fail("{}: 'fn{}' must be a string", file, where);
+      check_frame_file(fn[t][c].get<std::string>(), file, where);
       cams[c].files.push_back(fn[t][c].get<std::string>());
       if (t > 0) continue;
       Camera& cam = cams[c].camera;

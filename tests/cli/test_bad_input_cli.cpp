@@ -88,6 +88,13 @@ void run_cases(const fs::path& d, const std::vector<Case>& cases) {
   }
 }
 
+// A Panoptic train_meta.json of one camera and one frame whose 'fn' is `file`.
+std::string panoptic_meta(const std::string& file) {
+  return R"({"w":32,"h":24,"k":[[[[30,0,16],[0,30,12],[0,0,1]]]],)"
+         R"("w2c":[[[[1,0,0,0],[0,1,0,0],[0,0,1,4],[0,0,0,1]]]],"fn":[[")" +
+         file + R"("]],"cam_id":[[0]]})";
+}
+
 const std::string kScene = " --scene {D}/scene";
 const std::string kModel = " --model {D}/model.rgs";
 
@@ -292,6 +299,18 @@ TEST_F(BadInputCli, MoreHostileCasesExitTwoInOneLineAndLeaveNothing) {
       {"train" + kScene + " --out {D}/new_run --threads 5000", {"--threads"}},
       {"prepare" + kScene + " --points ply", {"--points"}},
       {"import colmap --in {D}/nowhere --out {D}/imported", {"{D}/nowhere"}},
+      // Panoptic 'fn' entries that leave the source's ims/ folder.
+      {"import panoptic --in {D}/pan_abs --out {D}/imported",
+       {"{D}/pan_abs/train_meta.json", "'fn[0][0]'", "'/etc/hostname'", "absolute path"},
+       [](const fs::path& d) {
+         write(d / "pan_abs" / "train_meta.json", panoptic_meta("/etc/hostname"));
+       }},
+      {"import panoptic --in {D}/pan_up --out {D}/imported",
+       {"{D}/pan_up/train_meta.json", "'fn[0][0]'", "'../../scene/images/cam00/00000.png'", "'..'"},
+       [](const fs::path& d) {
+         write(d / "pan_up" / "train_meta.json",
+               panoptic_meta("../../scene/images/cam00/00000.png"));
+       }},
       // A second run into a finished one, and a resume with fewer steps than it has.
       {"train" + kScene + " --out {D}/run", {"{D}/run", "--resume"}},
       {"train" + kScene + " --out {D}/run --resume --iters 2", {"{D}/run", "step 4"}},

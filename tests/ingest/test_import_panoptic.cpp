@@ -229,6 +229,23 @@ TEST_F(PanopticBadInput, MissingImage) {
   expect_error({"000099.jpg", "missing"});
 }
 
+// 'fn' names a file below ims/: an absolute path, a '..' component, an empty name or a NUL is
+// refused, naming the file, the entry and the value (a NUL shown as \x00).
+TEST_F(PanopticBadInput, FrameFileOutsideTheSourceIsRefused) {
+  const std::pair<std::string, std::string> cases[] = {
+      {"/etc/hostname", "absolute path"},          {"../ims/3/000000.jpg", "'..'"},
+      {"3/../../ims/3/000000.jpg", "'..'"},        {"", "empty name"},
+      {std::string("3/000000.jpg\0x", 14), "NUL"},
+  };
+  for (const auto& [value, why] : cases) {
+    auto j = metas_["train_meta.json"];
+    j["fn"][1][2] = value;
+    test::write_text(dir_ / "src" / "train_meta.json", j.dump());
+    const std::string shown = value.find('\0') == std::string::npos ? value : "3/000000.jpg\\x00x";
+    expect_error({"train_meta.json", "'fn[1][2]'", "'" + shown + "'", why});
+  }
+}
+
 TEST_F(PanopticBadInput, FrameRangeOutside) {
   const auto r = test::run_cli("import panoptic --in " + (dir_ / "src").string() + " --out " +
                                (dir_ / "out").string() + " --frames 0:5");
