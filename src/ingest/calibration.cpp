@@ -265,6 +265,36 @@ std::string parse_problem(const cv::Exception& e, int shift) {
   return fmt::format("line {}: {}", line, what.substr(close + 3));
 }
 
+// OpenCV 4.6's YAML parser loops forever when text follows the first top-level collection and
+// starts with '-' (not "---"): after a collection that ends early (a flow [..] / {..}, a block
+// that a less indented line ends, "...") it skips three characters and then never advances
+// (fuzzing found " T:]\n1, -\n:"). A rig's top level is a block map ('cameras:'): its first
+// line starts at column 0 and no line starts with "...", so that the map runs to the end.
+void check_yaml_top_level(std::string_view text, const std::string& file) {
+  bool first = true;
+  for (std::size_t at = 0; at < text.size();) {
+    std::size_t end = text.find('\n', at);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view line = text.substr(at, end - at);
+    at = end + 1;
+    if (line.rfind("...", 0) == 0)
+      fail("{}: cannot parse the rig file (a line starts with '...': one YAML document expected)",
+           file);
+    const std::size_t content = line.find_first_not_of(" \t\r");
+    const bool document_start =  // "---" alone on its line
+        line.rfind("---", 0) == 0 && line.find_first_not_of(" \t\r", 3) == std::string_view::npos;
+    if (!first || content == std::string_view::npos || line[content] == '#' ||
+        line[content] == '%' || document_start)
+      continue;
+    first = false;
+    if (content != 0 || line[0] == '-' || line[0] == '[' || line[0] == '{')
+      fail(
+          "{}: cannot parse the rig file (its top level must be a map, 'cameras:' at the start "
+          "of a line)",
+          file);
+  }
+}
+
 // The rig's text parsed from memory (cv::FileStorage::MEMORY), so that read_rig and the fuzzing
 // harness share one path. OpenCV's YAML parser needs the "%YAML:1.0" first line, which
 // hand-written files lack: it is prepended then.
@@ -275,6 +305,7 @@ cv::FileStorage open_rig(std::string_view text, bool json, const std::string& fi
     fail("{}: cannot parse the rig file (it holds a NUL byte: not a text file)", file);
   if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
     fail("{}: the rig file is empty", file);
+  if (!json) check_yaml_top_level(text, file);
   const bool prepend = !json && text.rfind("%YAML", 0) != 0;
   const std::string content = (prepend ? "%YAML:1.0\n" : "") + std::string(text);
   cv::FileStorage storage;
@@ -283,6 +314,10 @@ cv::FileStorage open_rig(std::string_view text, bool json, const std::string& fi
                               (json ? cv::FileStorage::FORMAT_JSON : cv::FileStorage::FORMAT_YAML));
   } catch (const cv::Exception& e) {
     fail("{}: cannot parse the rig file ({})", file, parse_problem(e, prepend ? 1 : 0));
+  } catch (const std::exception& e) {
+    // OpenCV's parsers let standard exceptions through on some malformed texts (fuzzing found a
+    // std::length_error from a YAML file cut short inside a flow sequence).
+    fail("{}: cannot parse the rig file ({})", file, e.what());
   }
   if (!storage.isOpened()) fail("{}: cannot parse the rig file", file);
   return storage;
@@ -306,9 +341,12 @@ std::vector<CalibratedCamera> read_rig(const fs::path& path) {
 std::vector<CalibratedCamera> read_rig_text(std::string_view text, bool json,
                                             const std::string& file) {
   cv::FileStorage storage = open_rig(text, json, file);
-  const cv::FileNode cameras = storage["cameras"];
   std::vector<CalibratedCamera> out;
   try {
+    // FileStorage::operator[] asserts that the top level is a map: a file holding a sequence or
+    // a scalar is told apart first.
+    const cv::FileNode root = storage.root();
+    const cv::FileNode cameras = root.isMap() ? root["cameras"] : cv::FileNode();
     if (cameras.isMap()) {
       for (auto it = cameras.begin(); it != cameras.end(); ++it)
         out.push_back(read_rig_camera(*it, unquoted((*it).name()), file));
@@ -329,6 +367,10 @@ std::vector<CalibratedCamera> read_rig_text(std::string_view text, bool json,
     }
   } catch (const cv::Exception& e) {
     fail("{}: cannot read the rig file ({})", file, e.err);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // as in open_rig
+    fail("{}: cannot read the rig file ({})", file, e.what());
   }
   if (out.empty()) fail("{}: 'cameras' is empty", file);
   std::set<std::string> names;

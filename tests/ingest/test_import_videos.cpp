@@ -473,6 +473,18 @@ TEST_F(VideosBadInput, RigFileStructure) {
       {"cameras:\n  - K: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n", "cameras[0]: 'name'"},
       {"cameras:\n  cam00: [1, 2\n", "cannot parse the rig file (line 2"},
       {" \n\n", "the rig file is empty"},
+      // OpenCV's YAML parser throws std::length_error on this (found by fuzzing).
+      {"  K:d\n  :", "cannot parse the rig file"},
+      // A top level that is not a map: OpenCV asserts on storage["cameras"] (found by fuzzing).
+      {"- a\n- b\n", "top level must be a map"},
+      {"%cameras:\n  - name: \"YAML:0.07\"\n    K:", "rig.yaml"},
+      // OpenCV's YAML parser never returns on text after the top-level collection that starts
+      // with '-' (found by fuzzing): the top level must be a block map from column 0.
+      {" T:]\n1, -\n ", "top level must be a map"},
+      {" T:]\n1, -\n:", "top level must be a map"},
+      {"{a: 1}\n- x\n", "top level must be a map"},
+      {"cameras: {}\n...\n- x\n", "starts with '...'"},
+      {"----\n\nz\nras:\n  K:\xff", "top level must be a map"},
       {std::string("cameras:\0\n", 10), "NUL byte"},
   };
   for (const auto& [text, part] : cases) {
