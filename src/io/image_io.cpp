@@ -2,14 +2,18 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cctype>
+#include <csetjmp>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 #include <string>
 #include <vector>
 
+#include <png.h>
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -41,11 +45,11 @@ std::uint32_t crc32(const unsigned char* data, std::size_t size, std::uint32_t c
 
 std::uint32_t big_endian32(const unsigned char* p);
 
-// libpng and libjpeg print their own errors and warnings on stderr (OpenCV installs no handler
-// that keeps them quiet), which would add lines to the command's one-line error. So a damaged
-// file is found here first: every PNG chunk whole with a correct CRC up to IEND; a JPEG starting
-// with SOI and holding an EOI marker. What still reaches the decoders intact but undecodable (a
-// crafted zlib stream with valid CRCs) is rare.
+// libjpeg prints its own errors and warnings on stderr through imdecode (OpenCV installs no
+// handler that keeps it quiet), which would add lines to the command's one-line error. So a
+// damaged file is found here first: every PNG chunk whole with a correct CRC up to IEND (named
+// precisely; decode_png reports the rest silently); a JPEG starting with SOI and holding an EOI
+// marker.
 void check_encoded(const std::vector<unsigned char>& b, const std::string& name) {
   static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (b.size() >= 8 && std::memcmp(b.data(), kPng, 8) == 0) {
@@ -68,6 +72,98 @@ void check_encoded(const std::vector<unsigned char>& b, const std::string& name)
   }
 }
 
+// PNG through libpng directly, with handlers that keep it silent: imdecode leaves libpng's
+// default handlers in place, which print "libpng warning: iCCP: known incorrect sRGB profile"
+// for a valid file and "libpng error: ..." before a failure, lines beside the command's own.
+// Warnings are dropped (the image decodes as it would anyway); an error is kept for the Error.
+struct PngSource {
+  const std::vector<unsigned char>* bytes;
+  std::size_t at = 0;
+  char message[256] = {};
+};
+
+void png_on_error(png_structp png, png_const_charp message) {
+  auto* source = static_cast<PngSource*>(png_get_error_ptr(png));
+  std::snprintf(source->message, sizeof source->message, "%s", message);
+  png_longjmp(png, 1);
+}
+
+void png_on_warning(png_structp, png_const_charp) {}
+
+void png_read_bytes(png_structp png, png_bytep out, png_size_t size) {
+  auto* source = static_cast<PngSource*>(png_get_io_ptr(png));
+  if (size > source->bytes->size() - source->at) png_error(png, "the file ends early");
+  std::memcpy(out, source->bytes->data() + source->at, size);
+  source->at += size;
+}
+
+// OpenCV's limits on a decoded image (CV_IO_MAX_IMAGE_WIDTH / _HEIGHT / _PIXELS): a header
+// cannot ask for more memory than imread would have given it.
+constexpr png_uint_32 kMaxSide = 1u << 20;
+constexpr std::uint64_t kMaxPixels = std::uint64_t(1) << 30;
+
+// The pixels of the PNG in `source` into `image`, as imread(IMREAD_UNCHANGED) gives them: 8-bit
+// (bit depths 1, 2, 4 widened to 8) or 16-bit; grey 1 channel, colour BGR, 4 channels BGRA when
+// the file has alpha (grey + alpha becomes BGRA too) or a tRNS chunk on a colour / palette image.
+// False with source.message set on a libpng error. `image` and `rows` live in the caller's frame:
+// libpng's errors return here by longjmp, which must not cross a frame with objects to destroy.
+bool read_png_pixels(png_structp png, png_infop info, PngSource& source, cv::Mat& image,
+                     std::vector<png_bytep>& rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_read_fn(png, &source, png_read_bytes);
+  png_set_user_limits(png, kMaxSide, kMaxSide);
+  png_read_info(png, info);
+  png_uint_32 width = 0, height = 0;
+  int bit_depth = 0, color_type = 0;
+  png_get_IHDR(png, info, &width, &height, &bit_depth, &color_type, nullptr, nullptr, nullptr);
+  if (std::uint64_t(width) * height > kMaxPixels) png_error(png, "the image is too large");
+  int channels = 1;
+  if (color_type == PNG_COLOR_TYPE_RGB || color_type == PNG_COLOR_TYPE_PALETTE)
+    channels = png_get_valid(png, info, PNG_INFO_tRNS) ? 4 : 3;
+  else if (color_type == PNG_COLOR_TYPE_GRAY_ALPHA || color_type == PNG_COLOR_TYPE_RGB_ALPHA)
+    channels = 4;
+  if (bit_depth == 16 && std::endian::native == std::endian::little) png_set_swap(png);
+  if (channels < 4)
+    png_set_strip_alpha(png);
+  else
+    png_set_tRNS_to_alpha(png);
+  if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+  if ((color_type & PNG_COLOR_MASK_COLOR) == 0 && bit_depth < 8)
+    png_set_expand_gray_1_2_4_to_8(png);
+  if (color_type & PNG_COLOR_MASK_COLOR)
+    png_set_bgr(png);
+  else if (channels > 1)
+    png_set_gray_to_rgb(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  const int depth = bit_depth == 16 ? CV_16U : CV_8U;
+  if (png_get_rowbytes(png, info) != std::size_t(width) * channels * (depth == CV_16U ? 2 : 1))
+    png_error(png, "unexpected row size");
+  image.create(int(height), int(width), CV_MAKETYPE(depth, channels));
+  rows.resize(height);
+  for (png_uint_32 y = 0; y < height; ++y) rows[y] = image.ptr(int(y));
+  png_read_image(png, rows.data());
+  png_read_end(png, nullptr);
+  return true;
+}
+
+cv::Mat decode_png(const std::vector<unsigned char>& bytes, const std::string& name) {
+  PngSource source{&bytes};
+  png_structp png =
+      png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, png_on_error, png_on_warning);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_read_struct(&png, nullptr, nullptr);
+    fail("{}: cannot decode PNG (out of memory)", name);
+  }
+  cv::Mat image;
+  std::vector<png_bytep> rows;
+  const bool ok = read_png_pixels(png, info, source, image, rows);
+  png_destroy_read_struct(&png, &info, nullptr);
+  if (!ok) fail("{}: cannot decode PNG ({})", name, source.message);
+  return image;
+}
+
 // An 8- or 16-bit image file decoded as imread(IMREAD_UNCHANGED) does; throws Error naming the
 // file otherwise.
 cv::Mat decode(const fs::path& path) {
@@ -81,6 +177,9 @@ cv::Mat decode(const fs::path& path) {
     if (in.bad()) fail("{}: cannot read image", path.string());
   }
   check_encoded(bytes, path.string());
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0)
+    return decode_png(bytes, path.string());
   cv::Mat m;
   try {
     m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);

@@ -1,5 +1,6 @@
 #pragma once
-// Image files through OpenCV: 8/16-bit PNG and JPG in, PNG out (written atomically).
+// Image files: 8/16-bit PNG (libpng, silent: its warnings are dropped, its errors become the
+// Error) and JPG (OpenCV) in, PNG out (written atomically).
 #include <filesystem>
 
 #include "retimegs/core/image.hpp"
