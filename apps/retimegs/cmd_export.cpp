@@ -52,6 +52,8 @@ void add_export_command(CLI::App& app) {
     if (!args->web.empty()) {
       std::vector<InputPath> inputs = {{args->model, "model"}};
       if (!args->scene.empty()) inputs.push_back({args->scene, "scene"});
+      // Nor may it replace the scene's own files (scene.json, images, ...), even with --force.
+      for (const InputPath& in : scene_inputs(args->scene)) inputs.push_back(in);
       check_output_overlap(args->web, "--web", inputs);
       const view::Packed packed = pack_for_web(args->model, args->scene, args->near);
       view::write_web(args->web, view::web_files(packed), args->force);

@@ -10,9 +10,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/cluster/slurm.hpp"
+#include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/train/config.hpp"
 
 namespace retimegs::app {
 
@@ -44,7 +49,8 @@ void add_slurm_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--iters", args->iters, "iterations of each window");
   cmd->add_option("--preset", args->preset, "budget preset of each window (as for train)");
-  cmd->add_option("--config", args->config, "training config file of each window");
+  cmd->add_option("--config", args->config, "training config file of each window")
+      ->check(input_file("a config"));
   cmd->add_option("--cap", args->cap, "primitive budget of each window");
   cmd->add_option("--seed", args->seed, "random seed of each window");
   cmd->add_option("--sbatch-arg", args->sbatch_args,
@@ -57,6 +63,29 @@ void add_slurm_command(CLI::App& app) {
                 "rewrite the run's scripts when they differ (other settings); the same ones are "
                 "kept, so that submitting again resumes");
   cmd->callback([args] {
+    namespace fs = std::filesystem;
+    // RUN receives the windows' runs, their merged model and the scripts: it must be a folder (or
+    // not exist yet) and hold none of the scene's files or the config.
+    std::vector<InputPath> inputs = scene_inputs(args->scene);
+    inputs.push_back({args->scene, "scene"});
+    if (!args->config.empty()) inputs.push_back({args->config, "config file"});
+    const fs::path run = args->out;
+    for (const fs::path& out : {run, run / "slurm", run / "windows", run / "model.rgs"})
+      check_output_overlap(out, "--out", inputs);
+    if (fs::exists(run) && !fs::is_directory(run))
+      fail("--out {}: is not a folder (the run folder of the windows, their merge and the scripts)",
+           run.string());
+    // Every window's training settings are checked here, as train checks them, so that a typo
+    // is refused now rather than by every array task on the cluster.
+    train::TrainConfig config = train::with_preset(
+        train::TrainConfig{}, args->preset.empty() ? "default" : args->preset, "--preset");
+    if (!args->config.empty())
+      config = train::config_from_json(read_text_file(args->config, "config file"), config,
+                                       args->config);
+    if (args->iters) config.iters = *args->iters;
+    if (args->cap) config.cap = *args->cap;
+    if (args->seed) config.seed = *args->seed;
+    train::check_config(config, "--iters / --cap");
     cluster::SlurmJob job;
     job.force = args->force;
     job.binary = std::filesystem::read_symlink("/proc/self/exe");

@@ -41,7 +41,9 @@ void add_view_command(CLI::App& app) {
       "view",
       "Serve the browser viewer for a 4D model: play, scrub and slow down time, orbit or fly, "
       "snap to the scene's cameras. Prints the URL and serves until Ctrl-C.");
-  cmd->add_option("--model", args->model, "4D model (.rgs)")->required();
+  cmd->add_option("--model", args->model, "4D model (.rgs)")
+      ->required()
+      ->check(input_file("a model"));
   cmd->add_option("--scene", args->scene,
                   "scene folder: its cameras (snap to them, camera=NAME links), up vector and "
                   "near plane");

@@ -95,6 +95,19 @@ std::string panoptic_meta(const std::string& file) {
          file + R"("]],"cam_id":[[0]]})";
 }
 
+// Two window models of the scene, D/w0 (frames 0..1) and D/w1 (1..2), every frame a training
+// frame.
+void train_windows(const fs::path& d) {
+  for (const char* window : {"0:1", "1:2"}) {
+    const std::string out = (d / (std::string("w") + window[0])).string();
+    const auto r = test::run_cli_timed("train --scene " + (d / "scene").string() +
+                                       " --train-frames all --iters 2 --cap 300 --threads 2 "
+                                       "--window " +
+                                       window + " --out " + out);
+    ASSERT_EQ(r.status, 0) << r.err;
+  }
+}
+
 const std::string kScene = " --scene {D}/scene";
 const std::string kModel = " --model {D}/model.rgs";
 
@@ -337,6 +350,68 @@ TEST_F(BadInputCli, ControlCharactersInQuotedNamesAreEscaped) {
       // A camera asked for by a name with a newline and a DEL.
       {"render" + kModel + kScene + " --camera 'cam\n0\x7f' --time 1 --out {D}/t.png",
        {"cam\\n0\\x7f"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
+// Commands that came after the first hostile pass: time windows (train / prepare --window),
+// merge, slurm, view and export --web.
+TEST_F(BadInputCli, WindowMergeSlurmViewAndWebCasesExitTwoInOneLineAndLeaveNothing) {
+  const std::string train = "train" + kScene + " --out {D}/new_run --iters 3";
+  const std::string prepare = "prepare" + kScene;
+  const std::string slurm = "slurm" + kScene + " --out {D}/slurm_run";
+  const std::string merge = "merge --out {D}/merged.rgs ";
+  const std::string w0 = "{D}/w0/model.rgs", w1 = "{D}/w1/model.rgs";
+  const std::string web = "export" + kModel + kScene;
+  const std::vector<Case> cases = {
+      // train / prepare --window: reversed, not numbers, past the clip, negative, empty, and a
+      // window whose ends are not training frames (even frames by default).
+      {train + " --window 5:3", {"--window", "'5:3'"}},
+      {train + " --window a:b", {"--window", "'a:b'"}},
+      {train + " --window 0:100000", {"window 0:100000", "not a training frame"}},
+      {train + " --window=-1:4", {"--window", "'-1:4'"}},
+      {train + " --window 0:0", {"--window", "'0:0'"}},
+      {train + " --window 1:2", {"window 1:2", "frame 1 is not a training frame"}},
+      {prepare + " --window 5:3", {"--window", "'5:3'"}},
+      {prepare + " --window a:b", {"--window", "'a:b'"}},
+      {prepare + " --window 0:100000", {"window 0:100000", "not a training frame"}},
+      {prepare + " --window=-1:4", {"--window", "'-1:4'"}},
+      {prepare + " --window 1:2", {"window 1:2", "frame 1 is not a training frame"}},
+      // merge: the same window twice, a whole-clip model with a window, a missing model, a
+      // folder, the output onto an input or onto the folder holding one.
+      {merge + w0 + " " + w0, {w0, "overlap"}, train_windows},
+      {merge + "{D}/model.rgs " + w1, {"{D}/model.rgs", w1, "time grids"}},
+      {merge + w0 + " {D}/nowhere.rgs", {"{D}/nowhere.rgs"}},
+      {merge + w0 + " {D}/scene", {"{D}/scene", "folder"}},
+      {"merge --force --out " + w0 + " " + w0 + " " + w1, {"--out " + w0, "is the model"}},
+      {"merge --force --out {D}/w0 " + w0 + " " + w1, {"--out {D}/w0", "holds the model"}},
+      // slurm: window counts out of range, sbatch options that are not one option, run folders
+      // on the scene, a file or a device, training settings that train would refuse.
+      {slurm + " --windows 0", {"--windows 0"}},
+      {slurm + " --windows 1000000", {"--windows 1000000"}},
+      {slurm + " --windows 1 '--sbatch-arg=--time=1\n#SBATCH --x'",
+       {"--sbatch-arg", "--time=1\\n#SBATCH --x"}},
+      {slurm + " --windows 1 --sbatch-arg=partition=gpu", {"--sbatch-arg", "'partition=gpu'"}},
+      {"slurm" + kScene + " --out {D}/scene --windows 1", {"--out {D}/scene", "scene file"}},
+      {"slurm" + kScene + " --out {D}/scene/images --windows 1 --force",
+       {"--out {D}/scene/images", "scene's images folder"}},
+      {"slurm" + kScene + " --out {D}/model.rgs --windows 1", {"{D}/model.rgs", "not a folder"}},
+      {"slurm" + kScene + " --out {D}/null --windows 1", {"{D}/null", "not a folder"}},
+      {slurm + " --windows 1 --iters 0", {"'iters'"}},
+      {slurm + " --windows 1 --config {D}/nowhere.json", {"{D}/nowhere.json"}},
+      {slurm + " --windows 1 --preset bogus", {"--preset", "bogus"}},
+      // view: ports out of range, a missing model, a folder or a device as the model.
+      {"view" + kModel + " --port 70000", {"--port", "70000"}},
+      {"view" + kModel + " --port=-1", {"--port", "-1"}},
+      {"view --model {D}/nowhere.rgs", {"{D}/nowhere.rgs"}},
+      {"view --model {D}/scene", {"{D}/scene", "folder"}},
+      {"view --model /dev/zero", {"/dev/zero", "device"}},
+      // export --web onto the model, an existing file, the scene's files, a device.
+      {web + " --web {D}/model.rgs --force", {"--web {D}/model.rgs", "is the model"}},
+      {web + " --web {D}/run/config.json", {"{D}/run/config.json", "exists"}},
+      {web + " --web {D}/scene/images --force", {"--web {D}/scene/images", "images folder"}},
+      {web + " --web {D}/scene/scene.json --force", {"--web {D}/scene/scene.json", "scene file"}},
+      {web + " --web {D}/null --force", {"{D}/null", "device"}},
   };
   run_cases(root_->path(), cases);
 }
