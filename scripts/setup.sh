@@ -16,7 +16,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   slurm-wlm munge          # scripts/test_slurm.sh: a throw-away Slurm cluster for `retimegs slurm`
   libcpp-httplib-dev       # retimegs view: the viewer's HTTP server
-  libpng-dev               # io/image_io.cpp decodes PNG itself, with silent warning / error handlers
+  libpng-dev libjpeg-dev    # io/image_io.cpp decodes PNG / JPEG itself, with silent handlers
   clang libclang-rt-14-dev libomp-dev  # scripts/fuzz.sh: libFuzzer, ASan + UBSan (fuzz/)
 )
 # Packages a caller needs beside the build's (scripts/test.sh: the browser test's Chromium).

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <jpeglib.h>
 #include <png.h>
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -45,11 +46,9 @@ std::uint32_t crc32(const unsigned char* data, std::size_t size, std::uint32_t c
 
 std::uint32_t big_endian32(const unsigned char* p);
 
-// libjpeg prints its own errors and warnings on stderr through imdecode (OpenCV installs no
-// handler that keeps it quiet), which would add lines to the command's one-line error. So a
-// damaged file is found here first: every PNG chunk whole with a correct CRC up to IEND (named
-// precisely; decode_png reports the rest silently); a JPEG starting with SOI and holding an EOI
-// marker.
+// A damaged file is named precisely here first: every PNG chunk whole with a correct CRC up to
+// IEND; a JPEG starting with SOI and holding an EOI marker. decode_png / decode_jpeg report the
+// rest, silently.
 void check_encoded(const std::vector<unsigned char>& b, const std::string& name) {
   static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (b.size() >= 8 && std::memcmp(b.data(), kPng, 8) == 0) {
@@ -164,6 +163,74 @@ cv::Mat decode_png(const std::vector<unsigned char>& bytes, const std::string& n
   return image;
 }
 
+// JPEG through libjpeg(-turbo) directly, for the same reason as PNG: imdecode's error manager
+// prints libjpeg's warnings ("Corrupt JPEG data: 2 extraneous bytes before marker 0xd9") and
+// errors on stderr. Here warnings and trace messages are dropped and an error returns by longjmp
+// with its text kept for the Error.
+struct JpegErrors {
+  jpeg_error_mgr manager;  // first: libjpeg hands back a pointer to it
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX] = {};
+};
+
+void jpeg_on_error(j_common_ptr info) {
+  auto* errors = reinterpret_cast<JpegErrors*>(info->err);
+  (*info->err->format_message)(info, errors->message);
+  std::longjmp(errors->jump, 1);
+}
+
+void jpeg_on_message(j_common_ptr, int) {}
+void jpeg_on_output(j_common_ptr) {}
+
+enum class JpegResult { kDecoded, kFailed, kCmyk };
+
+// The pixels as imread(IMREAD_UNCHANGED) gives them: grey (one component) as 1 channel, colour as
+// BGR. Four-component (CMYK / YCCK) files are left to imdecode (kCmyk), which converts them.
+// `image` lives in the caller's frame: libjpeg's errors return here by longjmp.
+JpegResult read_jpeg_pixels(jpeg_decompress_struct& info, JpegErrors& errors,
+                            const std::vector<unsigned char>& bytes, cv::Mat& image) {
+  if (setjmp(errors.jump)) return JpegResult::kFailed;
+  jpeg_mem_src(&info, bytes.data(), static_cast<unsigned long>(bytes.size()));
+  jpeg_read_header(&info, TRUE);
+  if (info.num_components == 4) return JpegResult::kCmyk;
+  if (info.image_width > kMaxSide || info.image_height > kMaxSide ||
+      std::uint64_t(info.image_width) * info.image_height > kMaxPixels) {
+    std::snprintf(errors.message, sizeof errors.message, "the image is too large (%ux%u)",
+                  info.image_width, info.image_height);
+    return JpegResult::kFailed;
+  }
+  const bool grey = info.num_components == 1;
+  info.out_color_space = grey ? JCS_GRAYSCALE : JCS_EXT_BGR;
+  jpeg_start_decompress(&info);
+  image.create(int(info.output_height), int(info.output_width), grey ? CV_8UC1 : CV_8UC3);
+  while (info.output_scanline < info.output_height) {
+    JSAMPROW row = image.ptr(int(info.output_scanline));
+    jpeg_read_scanlines(&info, &row, 1);
+  }
+  jpeg_finish_decompress(&info);
+  return JpegResult::kDecoded;
+}
+
+// The decoded JPEG, or an empty Mat for a four-component file (decoded by imdecode instead).
+cv::Mat decode_jpeg(const std::vector<unsigned char>& bytes, const std::string& name) {
+  jpeg_decompress_struct info{};
+  JpegErrors errors;
+  info.err = jpeg_std_error(&errors.manager);
+  errors.manager.error_exit = jpeg_on_error;
+  errors.manager.emit_message = jpeg_on_message;
+  errors.manager.output_message = jpeg_on_output;
+  cv::Mat image;
+  JpegResult result = JpegResult::kFailed;
+  if (!setjmp(errors.jump)) {  // jpeg_create_decompress reports a failure through error_exit
+    jpeg_create_decompress(&info);
+    result = read_jpeg_pixels(info, errors, bytes, image);
+  }
+  jpeg_destroy_decompress(&info);
+  if (result == JpegResult::kFailed) fail("{}: cannot decode JPEG ({})", name, errors.message);
+  if (result == JpegResult::kCmyk) return {};
+  return image;
+}
+
 // An 8- or 16-bit image file decoded as imread(IMREAD_UNCHANGED) does; throws Error naming the
 // file otherwise.
 cv::Mat decode(const fs::path& path) {
@@ -180,6 +247,10 @@ cv::Mat decode(const fs::path& path) {
   static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0)
     return decode_png(bytes, path.string());
+  if (bytes.size() >= 2 && bytes[0] == 0xFF && bytes[1] == 0xD8) {
+    cv::Mat jpeg = decode_jpeg(bytes, path.string());
+    if (!jpeg.empty()) return jpeg;
+  }
   cv::Mat m;
   try {
     m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);

@@ -1,13 +1,15 @@
-// PNG decoding (io/image_io.cpp decodes PNG with libpng itself): every colour type and bit depth
-// decodes as imdecode(IMREAD_UNCHANGED) does, libpng's warnings print nothing, and a file that
-// fails inside the compressed data becomes one Error naming it, with nothing on stderr.
-// The PNGs are built here byte by byte (stored deflate blocks, correct CRCs).
+// PNG and JPEG decoding (io/image_io.cpp decodes them with libpng and libjpeg itself): every PNG
+// colour type and bit depth, grey and colour JPEGs decode as imdecode(IMREAD_UNCHANGED) does, the
+// libraries' warnings print nothing, and a file that fails inside its data becomes one Error
+// naming it, with nothing on stderr. The PNGs are built here byte by byte (stored deflate
+// blocks, correct CRCs).
 #include <unistd.h>
 
 #include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -273,6 +275,78 @@ TEST(PngDecode, DamagedDataBehindValidCrcsIsOneErrorNamingTheFile) {
     EXPECT_NE(message.find(path.string() + ": cannot decode PNG ("), std::string::npos)
         << name << ": " << message;
   }
+}
+
+Bytes encode_jpeg(const cv::Mat& m) {
+  std::vector<unsigned char> bytes;
+  EXPECT_TRUE(cv::imencode(".jpg", m, bytes, {cv::IMWRITE_JPEG_QUALITY, 90}));
+  return bytes;
+}
+
+// A smooth pattern with edges, `channels` 1 or 3, odd sizes (partial MCUs).
+cv::Mat pattern(int width, int height, int channels) {
+  cv::Mat m(height, width, CV_8UC(channels));
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < channels; ++c)
+        m.ptr<std::uint8_t>(y)[x * channels + c] =
+            std::uint8_t((x * 7 + y * 3 + c * 60 + (x > width / 2 ? 90 : 0)) % 256);
+  return m;
+}
+
+TEST(JpegDecode, GreyAndColourDecodeAsImdecodeUnchanged) {
+  test::TempDir dir;
+  for (const auto& [width, height, channels] :
+       {std::tuple{17, 9, 3}, {64, 48, 3}, {33, 21, 1}, {8, 8, 1}}) {
+    const Bytes bytes = encode_jpeg(pattern(width, height, channels));
+    write_bytes(dir / "a.jpg", bytes);
+    const Image expected = reference_image(bytes);
+    Image got;
+    EXPECT_EQ(stderr_of([&] { got = read_image(dir / "a.jpg"); }), "");
+    ASSERT_EQ(got.width, width);
+    ASSERT_EQ(got.height, height);
+    EXPECT_EQ(got.data, expected.data) << width << "x" << height << "x" << channels;
+    const Image mask = read_mask(dir / "a.jpg");
+    EXPECT_EQ(mask.width, width);
+  }
+}
+
+// Two stray bytes between two header segments: libjpeg warns ("Corrupt JPEG data: 2
+// extraneous bytes before marker 0xdb"), which imdecode prints; read_image prints nothing and
+// gives the pixels of the clean file.
+TEST(JpegDecode, WarningsPrintNothingAndChangeNothing) {
+  test::TempDir dir;
+  const Bytes clean = encode_jpeg(pattern(24, 16, 3));
+  Bytes stray = clean;
+  const std::size_t after_app0 = 4 + (clean[4] << 8 | clean[5]);  // SOI, then APP0 (JFIF)
+  ASSERT_EQ(clean[after_app0], 0xFF);
+  stray.insert(stray.begin() + after_app0, {0x12, 0x34});
+  const std::string opencv_err = stderr_of([&] { cv::imdecode(stray, cv::IMREAD_UNCHANGED); });
+  EXPECT_NE(opencv_err.find("Corrupt JPEG data"), std::string::npos) << opencv_err;
+  write_bytes(dir / "clean.jpg", clean);
+  write_bytes(dir / "stray.jpg", stray);
+  Image a;
+  EXPECT_EQ(stderr_of([&] { a = read_image(dir / "stray.jpg"); }), "");
+  EXPECT_EQ(a.data, read_image(dir / "clean.jpg").data);
+}
+
+// A frame header libjpeg refuses (12-bit precision is not in the 8-bit library): one Error naming
+// the file and libjpeg's reason, nothing printed.
+TEST(JpegDecode, ErrorsAreOneErrorNamingTheFile) {
+  test::TempDir dir;
+  Bytes bytes = encode_jpeg(pattern(24, 16, 3));
+  std::size_t sof = 2;
+  while (sof + 4 < bytes.size() && !(bytes[sof] == 0xFF && bytes[sof + 1] == 0xC0))
+    sof += 2 + (bytes[sof + 2] << 8 | bytes[sof + 3]);
+  ASSERT_LT(sof + 4, bytes.size());
+  bytes[sof + 4] = 7;  // sample precision
+  const fs::path path = dir / "bad.jpg";
+  write_bytes(path, bytes);
+  std::string message;
+  const std::string err = stderr_of([&] { message = test::message_of([&] { read_image(path); }); });
+  EXPECT_EQ(err, "");
+  EXPECT_NE(message.find(path.string() + ": cannot decode JPEG ("), std::string::npos) << message;
+  EXPECT_NE(message.find("precision"), std::string::npos) << message;
 }
 
 }  // namespace

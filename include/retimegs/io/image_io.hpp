@@ -1,6 +1,6 @@
 #pragma once
-// Image files: 8/16-bit PNG (libpng, silent: its warnings are dropped, its errors become the
-// Error) and JPG (OpenCV) in, PNG out (written atomically).
+// Image files: 8/16-bit PNG and JPG in (libpng / libjpeg, silent: their warnings are dropped,
+// their errors become the Error), PNG out (written atomically).
 #include <filesystem>
 
 #include "retimegs/core/image.hpp"
