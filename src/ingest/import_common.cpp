@@ -10,6 +10,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
 
@@ -197,6 +198,7 @@ VideoInfo probe_video(const std::filesystem::path& path) {
   // one-line error; OpenCV reads this variable once, when its FFmpeg backend starts. A value the
   // user set wins.
   ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+  check_input_file(path, "a video");            // FFmpeg would wait on a FIFO for ever
   cv::VideoCapture cap(path.string(), cv::CAP_FFMPEG);
   if (!cap.isOpened()) fail("{}: cannot open video (FFmpeg could not decode it)", path.string());
   VideoInfo v;

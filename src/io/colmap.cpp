@@ -13,6 +13,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -53,7 +54,10 @@ const ModelInfo* model_by_name(const std::string& name) {
 // Little-endian binary reader that names the file on truncation.
 class BinReader {
  public:
-  explicit BinReader(const fs::path& path) : in_(path, std::ios::binary), name_(path.string()) {
+  // check_input_file before the stream opens: opening a FIFO blocks until a writer appears.
+  explicit BinReader(const fs::path& path)
+      : in_((check_input_file(path, "a COLMAP model file"), path), std::ios::binary),
+        name_(path.string()) {
     if (!in_) fail("{}: cannot open COLMAP model file", name_);
     in_.seekg(0, std::ios::end);
     size_ = std::uint64_t(in_.tellg());
@@ -122,6 +126,7 @@ void check_image(const ColmapImage& im, const std::string& file) {
 // Lines of a COLMAP text file without comments; `keep_empty` keeps blank lines (images.txt uses
 // an empty line for an image without 2-D points).
 std::vector<std::pair<int, std::string>> text_lines(const fs::path& path, bool keep_empty) {
+  check_input_file(path, "a COLMAP model file");
   std::ifstream in(path);
   if (!in) fail("{}: cannot open COLMAP model file", path.string());
   std::vector<std::pair<int, std::string>> lines;

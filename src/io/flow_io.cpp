@@ -7,6 +7,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -18,6 +19,7 @@ constexpr std::int32_t kMaxFloSide = 1 << 16;
 
 Flow read_flo(const fs::path& path) {
   const std::string name = path.string();
+  check_input_file(path, "a .flo file");
   if (!fs::is_regular_file(path)) fail("{}: no such file", name);
   const std::uintmax_t found = fs::file_size(path);
   if (found < 12) fail("{}: truncated .flo (expected at least 12 bytes, found {})", name, found);

@@ -11,6 +11,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/io/image_io.hpp"
 
 namespace retimegs::io {
@@ -170,6 +171,7 @@ void write_times_csv(const fs::path& path, const std::vector<double>& times) {
 }
 
 std::vector<double> read_retime_csv(const fs::path& path) {
+  check_input_file(path, "a retime file");
   std::ifstream in(path);
   if (!in) fail("{}: cannot open retime file", path.string());
   std::map<int, double> keys;

@@ -3,6 +3,7 @@
 #include <fstream>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 
@@ -10,9 +11,7 @@ namespace fs = std::filesystem;
 
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& what) {
   // A FIFO or a device would block or never end: only regular files are read.
-  std::error_code ec;
-  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
-    fail("{}: not a regular file (cannot read {} from it)", path.string(), what);
+  check_input_file(path, what);
   std::ifstream in(path);
   if (!in) fail("{}: cannot open {}", path.string(), what);
   try {

@@ -9,6 +9,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -82,6 +83,7 @@ std::vector<std::int32_t> NpyArray::to_int() const {
 
 NpyArray read_npy(const fs::path& path) {
   const std::string name = path.string();
+  check_input_file(path, "a .npy file");
   if (!fs::is_regular_file(path)) fail("{}: no such file", name);
   std::string file(fs::file_size(path), '\0');
   std::ifstream in(path, std::ios::binary);

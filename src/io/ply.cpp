@@ -11,6 +11,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -251,6 +252,7 @@ struct VertexTable {
 
 VertexTable read_vertex_table(const fs::path& path) {
   const std::string name = path.string();
+  check_input_file(path, "a PLY file");
   if (!fs::is_regular_file(path)) fail("{}: no such file", name);
   const std::uintmax_t file_size = fs::file_size(path);
   std::ifstream in(path, std::ios::binary);

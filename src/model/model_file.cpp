@@ -12,6 +12,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 
 namespace retimegs::model {
 namespace fs = std::filesystem;
@@ -162,6 +163,7 @@ void write_model(const fs::path& path, const Model& model) {
 
 Model read_model(const fs::path& path) {
   const std::string file = path.string();
+  check_input_file(path, "a model");
   std::ifstream in(path, std::ios::binary);
   if (!in) fail("{}: cannot open model file", file);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -1,3 +1,5 @@
+#include <sys/stat.h>
+
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -232,6 +234,17 @@ TEST(ModelFile, NonFiniteParametersAreNotWritten) {
     EXPECT_NE(std::string(e.what()).find("primitive 1"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(dir / "nan.rgs"));
+}
+
+// read_model refuses a FIFO itself (opening one would block until a writer came) and a folder.
+TEST(ModelFile, FifoAndFolderAreRefusedNamingThePath) {
+  test::TempDir dir;
+  const fs::path fifo = dir / "model.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  const std::string on_fifo = test::message_of([&] { read_model(fifo); });
+  EXPECT_NE(on_fifo.find(fifo.string() + ": is a FIFO"), std::string::npos) << on_fifo;
+  const std::string on_folder = test::message_of([&] { read_model(dir.path()); });
+  EXPECT_NE(on_folder.find("is a folder"), std::string::npos) << on_folder;
 }
 
 }  // namespace
