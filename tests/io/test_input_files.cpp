@@ -42,7 +42,9 @@ TEST(InputFiles, EveryParserRefusesFifosAndFoldersNamingThePath) {
       {"read_camera_path_json", [](const fs::path& p) { read_camera_path_json(p); }},
       {"read_image", [](const fs::path& p) { read_image(p); }},
   };
-  for (const auto& [name, parse] : parsers) {
+  for (const auto& entry : parsers) {  // no structured binding: clang 14 cannot capture one
+    const std::string& name = entry.first;
+    const auto& parse = entry.second;
     const std::string on_fifo = test::message_of([&] { parse(fifo); });
     EXPECT_NE(on_fifo.find(fifo.string()), std::string::npos) << name << ": " << on_fifo;
     EXPECT_NE(on_fifo.find("FIFO"), std::string::npos) << name << ": " << on_fifo;
