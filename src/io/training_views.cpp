@@ -87,8 +87,9 @@ TrainingViews training_views(const Scene& scene, FrameSelection which, const Fra
   views.flow_pairs.clear();
   for (const int k : clip)
     if (k >= window.first && k <= window.last) views.frames.push_back(k);
-  for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
-    views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);
+  for (std::size_t i = 0; i + 1 < clip.size(); ++i)
+    if (clip[i + 1] >= window.first && clip[i] <= window.last)
+      views.flow_pairs.emplace_back(clip[i], clip[i + 1]);
   return views;
 }
 

@@ -51,13 +51,10 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
     const int cam = set.cameras[c], k = set.frames[i];
     set.images[c][i] = pack(io::load_image(scene, cam, k), scene.image_path(cam, k).string());
     set.masks[c][i] = io::load_mask(scene, cam, k);
-    if (i < views.flow_pairs.size()) {
-      const auto [from, to] = views.flow_pairs[i];  // (k, t_{i+1})
-      set.forward[c][i] = io::load_flow(scene, cam, from, to);
-    }
-    if (i > 0) {
-      const auto [to, from] = views.flow_pairs[i - 1];  // (t_{i-1}, k)
-      set.backward[c][i] = io::load_flow(scene, cam, from, to);
+    // Forward: k to the next clip training frame; backward: k to the previous one.
+    for (const auto& [a, b] : views.flow_pairs) {
+      if (a == k) set.forward[c][i] = io::load_flow(scene, cam, a, b);
+      if (b == k) set.backward[c][i] = io::load_flow(scene, cam, b, a);
     }
     if (c == 0) set.points[i] = io::load_points(scene, k);
   });

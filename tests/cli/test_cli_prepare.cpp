@@ -44,8 +44,9 @@ fs::path bare_scene(const test::TempDir& dir) {
   return scene;
 }
 
-// --window 2:4 prepares what train --window 2:4 reads: the flows between 2 and 4, the points of
-// 2 and 4, nothing of frame 0; the rest of the clip follows with a later run.
+// --window 2:4 prepares what train --window 2:4 reads: the flows between 2 and 4 and out of its
+// first frame to 0, the points of 2 and 4, not those of frame 0; the rest of the clip follows
+// with a later run, which finds the shared flows made.
 TEST(PrepareCli, WindowPreparesOnlyItsFrames) {
   test::TempDir dir;
   const fs::path scene = bare_scene(dir);
@@ -53,16 +54,17 @@ TEST(PrepareCli, WindowPreparesOnlyItsFrames) {
   int status = -1;
   const std::string out = run_stdout(cmd + " --window 2:4", dir, status);
   ASSERT_EQ(status, 0);
-  EXPECT_NE(out.find("6 files written"), std::string::npos) << out;  // 3 cameras x 2 directions
-  for (const char* name : {"00002_00004.flo", "00004_00002.flo"})
+  // 3 cameras x 2 pairs x 2 directions.
+  EXPECT_NE(out.find("12 files written"), std::string::npos) << out;
+  for (const char* name :
+       {"00002_00004.flo", "00004_00002.flo", "00000_00002.flo", "00002_00000.flo"})
     EXPECT_TRUE(fs::exists(scene / "flow" / "cam01" / name)) << name;
-  EXPECT_FALSE(fs::exists(scene / "flow" / "cam01" / "00000_00002.flo"));
   EXPECT_TRUE(fs::exists(scene / "points" / "00002.ply"));
   EXPECT_TRUE(fs::exists(scene / "points" / "00004.ply"));
   EXPECT_FALSE(fs::exists(scene / "points" / "00000.ply"));
   const std::string rest = run_stdout(cmd + " --window 0:2", dir, status);
   ASSERT_EQ(status, 0);
-  EXPECT_NE(rest.find("6 files written"), std::string::npos) << rest;
+  EXPECT_NE(rest.find("0 files written"), std::string::npos) << rest;  // 0 <-> 2, 2 <-> 4 made
   EXPECT_TRUE(fs::exists(scene / "points" / "00000.ply"));
   // Not a training frame; masks learn from the whole clip.
   auto r = test::run_cli(cmd + " --window 1:4");

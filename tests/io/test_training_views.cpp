@@ -25,9 +25,17 @@ TEST(TrainingViews, WindowKeepsItsFramesAndTheClipsScale) {
   const TrainingViews whole = training_views(scene, FrameSelection::kEven);
   const TrainingViews w = training_views(scene, FrameSelection::kEven, FrameWindow{8, 16});
   EXPECT_EQ(w.frames, (std::vector<int>{8, 10, 12, 14, 16}));
-  ASSERT_EQ(w.flow_pairs.size(), 4u);
-  EXPECT_EQ(w.flow_pairs.front(), (std::pair{8, 10}));
-  EXPECT_EQ(w.flow_pairs.back(), (std::pair{14, 16}));
+  // Within the window, and out of each end to the clip frame beyond (none before frame 0).
+  ASSERT_EQ(w.flow_pairs.size(), 6u);
+  EXPECT_EQ(w.flow_pairs.front(), (std::pair{6, 8}));
+  EXPECT_EQ(w.flow_pairs[1], (std::pair{8, 10}));
+  EXPECT_EQ(w.flow_pairs.back(), (std::pair{16, 18}));
+  const TrainingViews first = training_views(scene, FrameSelection::kEven, FrameWindow{0, 8});
+  ASSERT_EQ(first.flow_pairs.size(), 5u);
+  EXPECT_EQ(first.flow_pairs.front(), (std::pair{0, 2}));
+  EXPECT_EQ(first.flow_pairs.back(), (std::pair{8, 10}));
+  EXPECT_EQ(training_views(scene, FrameSelection::kEven, FrameWindow{24, 32}).flow_pairs.back(),
+            (std::pair{30, 32}));
   EXPECT_EQ(w.clip_frames, whole.frames);
   EXPECT_EQ(w.cameras, whole.cameras);
   EXPECT_EQ(w.extent, whole.extent);

@@ -27,9 +27,13 @@ TEST(Window, TrainingSetHoldsOnlyTheWindowsFrames) {
   EXPECT_EQ(set.grid.count, 2);
   ASSERT_TRUE(set.clip_grid);
   EXPECT_EQ(set.clip_grid->count, 3);
-  ASSERT_TRUE(set.forward[0][0]);    // 2 -> 4
-  EXPECT_FALSE(set.backward[0][0]);  // 2 -> 0 is outside the window
-  EXPECT_FALSE(set.forward[0][1]);
+  ASSERT_TRUE(set.forward[0][0]);   // 2 -> 4
+  ASSERT_TRUE(set.backward[0][0]);  // 2 -> 0: out of the window's first frame, to the clip's
+  ASSERT_TRUE(set.backward[0][1]);  // 4 -> 2
+  EXPECT_FALSE(set.forward[0][1]);  // frame 4 ends the clip
+  // The flows out of the window's ends are the clip's own files, as a whole-clip run loads them.
+  const TrainingSet whole = load_training_set(scene, io::FrameSelection::kEven);
+  EXPECT_EQ(set.backward[0][0]->uv, whole.backward[0][1]->uv);
   EXPECT_FALSE(load_training_set(scene, io::FrameSelection::kEven).clip_grid);
   test::expect_error(
       [&] {

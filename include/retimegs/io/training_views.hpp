@@ -38,8 +38,12 @@ struct TrainingViews {
   // keeps the clip's time grid, so that windows share one grid.
   std::vector<int> clip_frames;
   int step = 1;  // 2 (kEven) or 1 (kAll)
-  // Consecutive training frames (frames[i], frames[i + 1]): every training camera has a flow
-  // between them in both directions.
+  // Consecutive training frames of the clip (a, b) with a flow between them in both directions
+  // for every training camera: those of `frames`, and for a window also the pair leaving each of
+  // its ends for the clip frame beyond. The flow out of a window's end frame supervises the motion
+  // of its last (first) interval's primitives there, through the tangent of their trajectory, as
+  // the next interval's flow does in a whole-clip run; without it that tangent is free, and the
+  // frames next to a seam are drawn on a guessed path.
   std::vector<std::pair<int, int>> flow_pairs;
   // 1.1 x the largest distance of a training camera's centre from their mean (gsplat's scene
   // scale; 1 when they coincide or there are none): the unit of learning rates and distances.
@@ -65,8 +69,9 @@ std::vector<int> held_out_frames(int num_frames, FrameSelection which);
 
 // Empty lists are not errors here: each command checks for what it needs.
 TrainingViews training_views(const Scene& scene, FrameSelection which);
-// The views of the training frames within `window` and the flow pairs between them; cameras and
-// extent stay the whole clip's (every window trains with the same learning rates and near plane).
+// The views of the training frames within `window`, the flow pairs between them and those leaving
+// its ends; cameras and extent stay the whole clip's (every window trains with the same learning
+// rates and near plane).
 // Throws Error naming the scene unless both ends are training frames of the clip.
 TrainingViews training_views(const Scene& scene, FrameSelection which, const FrameWindow& window);
 
