@@ -28,8 +28,6 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
@@ -156,7 +154,7 @@ std::string camera_key(const json& frame, const fs::path& image) {
   return image.parent_path().filename().string();
 }
 
-// The alpha channel of an RGBA / grey+alpha PNG as a mask (alpha > 127 of 255), else nullopt.
+// The alpha channel of an RGBA / grey+alpha PNG as a mask (io::read_alpha_mask), else nullopt.
 // Only the PNG header is read for images without alpha.
 std::optional<Image> alpha_mask(const fs::path& path) {
   unsigned char header[26] = {};  // signature (8), IHDR length + type (8), size (8), depth, colour
@@ -164,15 +162,7 @@ std::optional<Image> alpha_mask(const fs::path& path) {
   if (!in.read(reinterpret_cast<char*>(header), sizeof header) ||
       std::memcmp(header, "\x89PNG", 4) != 0 || (header[25] != 4 && header[25] != 6))
     return std::nullopt;
-  cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty() || (m.channels() != 2 && m.channels() != 4)) return std::nullopt;
-  cv::Mat alpha;
-  cv::extractChannel(m, alpha, m.channels() - 1);
-  Image mask(m.cols, m.rows, 1);
-  cv::Mat out(m.rows, m.cols, CV_32FC1, mask.data.data());
-  cv::threshold(alpha, alpha, m.depth() == CV_8U ? 127 : 127 * 257, 1, cv::THRESH_BINARY);
-  alpha.convertTo(out, CV_32F);
-  return mask;
+  return io::read_alpha_mask(path);
 }
 
 bool same_intrinsics(const io::ColmapCamera& a, const io::ColmapCamera& b) {

@@ -310,6 +310,17 @@ ImageSize jpeg_size(std::istream& in, const std::string& name) {
   }
 }
 
+// 1 where the one-channel `m` is > 127 on the 8-bit scale (65535 = 255 * 257, so 127 * 257 on the
+// 16-bit one), else 0.
+Image threshold_mask(cv::Mat m) {
+  const double threshold = m.depth() == CV_8U ? 127 : 127 * 257;
+  Image mask(m.cols, m.rows, 1);
+  cv::Mat out(m.rows, m.cols, CV_32FC1, mask.data.data());
+  cv::threshold(m, m, threshold, 1, cv::THRESH_BINARY);
+  m.convertTo(out, CV_32F);
+  return mask;
+}
+
 }  // namespace
 
 Image read_image(const fs::path& path) {
@@ -329,13 +340,15 @@ Image read_mask(const fs::path& path) {
   if (m.channels() == 2) cv::extractChannel(m, m, 0);
   if (m.channels() >= 3)
     cv::cvtColor(m, m, m.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
-  // > 127 on the 8-bit scale; 65535 = 255 * 257, so the 16-bit threshold is 127 * 257.
-  const double threshold = m.depth() == CV_8U ? 127 : 127 * 257;
-  Image mask(m.cols, m.rows, 1);
-  cv::Mat out(m.rows, m.cols, CV_32FC1, mask.data.data());
-  cv::threshold(m, m, threshold, 1, cv::THRESH_BINARY);
-  m.convertTo(out, CV_32F);
-  return mask;
+  return threshold_mask(m);
+}
+
+std::optional<Image> read_alpha_mask(const fs::path& path) {
+  const cv::Mat m = decode(path);
+  if (m.channels() != 2 && m.channels() != 4) return std::nullopt;
+  cv::Mat alpha;
+  cv::extractChannel(m, alpha, m.channels() - 1);
+  return threshold_mask(alpha);
 }
 
 ImageSize read_image_size(const fs::path& path) {

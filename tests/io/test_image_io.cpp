@@ -105,6 +105,26 @@ TEST(ImageIo, MaskThresholdIs127OnTheEightBitScale) {
   }
 }
 
+TEST(ImageIo, AlphaMaskIsTheAlphaChannelThresholdedAt127) {
+  TempDir dir;
+  cv::Mat rgba8(1, 4, CV_8UC4, cv::Scalar(200, 100, 50, 0));
+  for (int x = 0; x < 4; ++x) rgba8.at<cv::Vec4b>(0, x)[3] = std::uint8_t(x == 0 ? 0 : 126 + x);
+  cv::Mat rgba16(1, 4, CV_16UC4, cv::Scalar(9, 9, 9, 0));
+  for (int x = 0; x < 4; ++x)
+    rgba16.at<cv::Vec4w>(0, x)[3] = std::uint16_t(x < 2 ? x * 127 * 257 : 127 * 257 + x);
+  ASSERT_TRUE(cv::imwrite((dir / "a8.png").string(), rgba8));
+  ASSERT_TRUE(cv::imwrite((dir / "a16.png").string(), rgba16));
+  ASSERT_TRUE(cv::imwrite((dir / "rgb.png").string(), cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 2, 3))));
+  for (const char* name : {"a8.png", "a16.png"}) {
+    const std::optional<Image> mask = read_alpha_mask(dir / name);
+    ASSERT_TRUE(mask) << name;
+    ASSERT_EQ(mask->channels, 1);
+    EXPECT_EQ(mask->data, (std::vector<float>{0, 0, 1, 1})) << name;
+  }
+  EXPECT_FALSE(read_alpha_mask(dir / "rgb.png"));
+  test::expect_error([&] { read_alpha_mask(dir / "missing.png"); }, {"missing.png"});
+}
+
 TEST(ImageIo, ReadsJpegLikeOpenCv) {
   RETIMEGS_REQUIRE_DATA(kJpeg);
   const auto path = shared_data() / kJpeg;

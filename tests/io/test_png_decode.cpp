@@ -174,22 +174,31 @@ Image reference_image(const Bytes& bytes) {
   return out;
 }
 
+PngSpec spec(std::string label, int width, int height, int bit_depth, int color_type,
+             bool trns = false, bool interlaced = false) {
+  PngSpec s;
+  s.label = std::move(label);
+  s.width = width, s.height = height, s.bit_depth = bit_depth, s.color_type = color_type;
+  s.trns = trns, s.interlaced = interlaced;
+  return s;
+}
+
 std::vector<PngSpec> every_kind() {
   std::vector<PngSpec> specs;
-  for (int depth : {1, 2, 4, 8, 16}) specs.push_back({"grey", 5, 3, depth, 0});
-  specs.push_back({"grey+tRNS", 5, 3, 8, 0, true});
+  for (int depth : {1, 2, 4, 8, 16}) specs.push_back(spec("grey", 5, 3, depth, 0));
+  specs.push_back(spec("grey+tRNS", 5, 3, 8, 0, true));
   for (int depth : {8, 16}) {
-    specs.push_back({"grey+alpha", 5, 3, depth, 4});
-    specs.push_back({"rgb", 5, 3, depth, 2});
-    specs.push_back({"rgb+tRNS", 5, 3, depth, 2, true});
-    specs.push_back({"rgba", 5, 3, depth, 6});
+    specs.push_back(spec("grey+alpha", 5, 3, depth, 4));
+    specs.push_back(spec("rgb", 5, 3, depth, 2));
+    specs.push_back(spec("rgb+tRNS", 5, 3, depth, 2, true));
+    specs.push_back(spec("rgba", 5, 3, depth, 6));
   }
   for (int depth : {1, 2, 4, 8}) {
-    specs.push_back({"palette", 7, 3, depth, 3});
-    specs.push_back({"palette+tRNS", 7, 3, depth, 3, true});
+    specs.push_back(spec("palette", 7, 3, depth, 3));
+    specs.push_back(spec("palette+tRNS", 7, 3, depth, 3, true));
   }
-  specs.push_back({"rgb interlaced", 11, 9, 8, 2, false, true});
-  specs.push_back({"grey16 interlaced", 3, 10, 16, 0, false, true});
+  specs.push_back(spec("rgb interlaced", 11, 9, 8, 2, false, true));
+  specs.push_back(spec("grey16 interlaced", 3, 10, 16, 0, false, true));
   return specs;
 }
 
@@ -216,7 +225,7 @@ TEST(PngDecode, EveryKindDecodesAsImdecodeUnchanged) {
 // of the same file without the chunk.
 TEST(PngDecode, WarningsPrintNothingAndChangeNothing) {
   test::TempDir dir;
-  PngSpec plain{"rgb", 6, 4, 8, 2};
+  PngSpec plain = spec("rgb", 6, 4, 8, 2);
   PngSpec with_iccp = plain;
   with_iccp.extra_chunk_type = {'i', 'C', 'C', 'P'};
   with_iccp.extra_chunk = {'x', 0, 0};  // profile name "x", compression 0, then the profile
@@ -241,7 +250,7 @@ TEST(PngDecode, WarningsPrintNothingAndChangeNothing) {
 // reason, nothing printed.
 TEST(PngDecode, DamagedDataBehindValidCrcsIsOneErrorNamingTheFile) {
   test::TempDir dir;
-  const Bytes good = build_png({"rgb", 40, 30, 8, 2});
+  const Bytes good = build_png(spec("rgb", 40, 30, 8, 2));
   // The IDAT chunk cut to half its data (length and CRC rewritten).
   Bytes cut(good.begin(), good.begin() + 33);  // signature + IHDR
   const std::uint32_t length =

@@ -2,6 +2,7 @@
 // Image files: 8/16-bit PNG and JPG in (libpng / libjpeg, silent: their warnings are dropped,
 // their errors become the Error), PNG out (written atomically).
 #include <filesystem>
+#include <optional>
 
 #include "retimegs/core/image.hpp"
 
@@ -17,6 +18,10 @@ Image read_image(const std::filesystem::path& path);
 
 // Single-channel mask: 1 where the stored value is > 127 (8-bit scale), else 0.
 Image read_mask(const std::filesystem::path& path);
+
+// The alpha channel of an image that has one (RGBA, grey + alpha) as a mask: 1 where alpha > 127
+// (8-bit scale), else 0; nullopt for an image without alpha. Throws Error as read_image does.
+std::optional<Image> read_alpha_mask(const std::filesystem::path& path);
 
 // Width and height from the PNG / JPEG header without decoding the pixels (falls back to a full
 // decode for other formats). Throws Error naming the file when it is missing or malformed.
