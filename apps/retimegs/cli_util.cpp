@@ -158,3 +158,21 @@ std::vector<InputPath> scene_inputs(const std::string& root) {
 }
 
 }  // namespace retimegs::app
+
+namespace retimegs::app {
+
+train::TrainConfig training_config(const std::string& preset, const std::string& config_file,
+                                   std::optional<int> iters, std::optional<std::size_t> cap,
+                                   std::optional<std::uint64_t> seed) {
+  train::TrainConfig config = train::with_preset(train::TrainConfig{}, preset, "--preset");
+  if (!config_file.empty())
+    config =
+        train::config_from_json(read_text_file(config_file, "config file"), config, config_file);
+  if (iters) config.iters = *iters;
+  if (cap) config.cap = *cap;
+  if (seed) config.seed = *seed;
+  train::check_config(config, "--iters / --cap");
+  return config;
+}
+
+}  // namespace retimegs::app

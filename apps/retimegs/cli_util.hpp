@@ -10,6 +10,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/render/options.hpp"
+#include "retimegs/train/config.hpp"
 
 namespace retimegs::app {
 
@@ -62,5 +63,16 @@ CLI::Validator input_file(const std::string& what);
 // The parts of scene folder `root` a command reads, for check_output_overlap: scene.json and the
 // images, masks, flow and points trees (an output may go into the scene folder beside them).
 std::vector<InputPath> scene_inputs(const std::string& root);
+
+}  // namespace retimegs::app
+
+namespace retimegs::app {
+
+// The training settings of `train`, and of each window `slurm` writes: preset `preset`, then the
+// keys of `config_file` (when not empty), then --iters, --cap and --seed when given; checked as
+// train checks them (Error naming the option or the file's key).
+train::TrainConfig training_config(const std::string& preset, const std::string& config_file,
+                                   std::optional<int> iters, std::optional<std::size_t> cap,
+                                   std::optional<std::uint64_t> seed);
 
 }  // namespace retimegs::app

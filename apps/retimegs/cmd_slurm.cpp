@@ -15,9 +15,7 @@
 #include "retimegs/cluster/slurm.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/input_file.hpp"
 #include "retimegs/io/scene.hpp"
-#include "retimegs/train/config.hpp"
 
 namespace retimegs::app {
 
@@ -77,15 +75,8 @@ void add_slurm_command(CLI::App& app) {
            run.string());
     // Every window's training settings are checked here, as train checks them, so that a typo
     // is refused now rather than by every array task on the cluster.
-    train::TrainConfig config = train::with_preset(
-        train::TrainConfig{}, args->preset.empty() ? "default" : args->preset, "--preset");
-    if (!args->config.empty())
-      config = train::config_from_json(read_text_file(args->config, "config file"), config,
-                                       args->config);
-    if (args->iters) config.iters = *args->iters;
-    if (args->cap) config.cap = *args->cap;
-    if (args->seed) config.seed = *args->seed;
-    train::check_config(config, "--iters / --cap");
+    training_config(args->preset.empty() ? "default" : args->preset, args->config, args->iters,
+                    args->cap, args->seed);
     cluster::SlurmJob job;
     job.force = args->force;
     job.binary = std::filesystem::read_symlink("/proc/self/exe");

@@ -8,7 +8,6 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
@@ -79,14 +78,7 @@ void add_train_command(CLI::App& app) {
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     if (!args->window.empty()) run.window = io::parse_frame_window(args->window, "--window");
     train::TrainConfig& config = run.config;
-    config = train::with_preset(config, args->preset, "--preset");
-    if (!args->config.empty())
-      config = train::config_from_json(read_text_file(args->config, "config file"), config,
-                                       args->config);
-    if (args->iters) config.iters = *args->iters;
-    if (args->cap) config.cap = *args->cap;
-    if (args->seed) config.seed = *args->seed;
-    train::check_config(config, "--iters / --cap");
+    config = training_config(args->preset, args->config, args->iters, args->cap, args->seed);
     if (!args->baseline.empty()) config.stgs_baseline = true;
     config.ablate = train::parse_ablations(args->ablate, config.ablate, "--ablate");
     const io::Scene scene = io::read_scene(args->scene);
