@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -94,6 +95,12 @@ int main(int argc, char** argv) {
   } catch (const retimegs::Interrupted& e) {  // Ctrl-C / SIGTERM: 130 / 143
     std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
     return e.exit_code();
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the system refused outside the checks that name it (too long a name, a loop of
+    // links, no permission): the path and the reason, as an Error would give them.
+    const std::string where = e.path1().empty() ? "" : e.path1().string() + ": ";
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(where + e.code().message()).c_str());
+    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "retimegs: unexpected error: %s\n", retimegs::one_line(e.what()).c_str());
     return 2;

@@ -34,6 +34,14 @@ void check_input_file(const fs::path& path, const std::string& what) {
        what);
 }
 
+fs::file_status input_status(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec && status.type() != fs::file_type::not_found)
+    fail("{}: cannot look it up ({})", path.string(), ec.message());
+  return status;
+}
+
 std::string read_text_file(const fs::path& path, const std::string& what) {
   check_input_file(path, what);
   std::ifstream in(path, std::ios::binary);

@@ -10,6 +10,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/image_io.hpp"
@@ -87,7 +88,8 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
     check_rigid(cam.world_to_camera, fmt::format("{}: image {}", model_dir.string(), im.name));
     scene.cameras.push_back(detail::downscaled(cam, options.downscale));
     const fs::path file = image_dir / im.name;
-    if (!fs::is_regular_file(file)) fail("{}: missing image of the COLMAP model", file.string());
+    if (!fs::is_regular_file(input_status(file)))
+      fail("{}: missing image of the COLMAP model", file.string());
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 

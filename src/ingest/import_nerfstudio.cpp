@@ -32,6 +32,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/image_io.hpp"
@@ -135,8 +136,11 @@ fs::path resolve(const fs::path& base, const json& value, const std::string& fil
     fail("{}: '{}' must be a non-empty string", file, field);
   fs::path p = base / value.get<std::string>();
   // Blender synthetic scenes leave the extension out ("./train/r_0").
-  if (!fs::exists(p) && !p.has_extension() && fs::exists(fs::path(p) += ".png")) p += ".png";
-  if (!fs::is_regular_file(p)) fail("{}: {}: missing file {}", file, field, p.string());
+  if (!fs::exists(input_status(p)) && !p.has_extension() &&
+      fs::exists(input_status(fs::path(p) += ".png")))
+    p += ".png";
+  if (!fs::is_regular_file(input_status(p)))
+    fail("{}: {}: missing file {}", file, field, p.string());
   return p.lexically_normal();
 }
 

@@ -9,6 +9,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/input_file.hpp"
 #include "retimegs/core/one_line.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/ingest/import.hpp"
@@ -154,10 +155,11 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
   for (int c = 0; c < int(cams.size()); ++c)
     for (int k = first; k <= last; ++k) {
       Job job{c, k - first, source / "ims" / cams[c].files[k], {}};
-      if (!fs::exists(job.image)) fail("{}: missing Panoptic image", job.image.string());
+      if (!fs::exists(input_status(job.image)))
+        fail("{}: missing Panoptic image", job.image.string());
       fs::path mask = source / "seg" / cams[c].files[k];
       mask.replace_extension(".png");
-      if (fs::exists(mask)) job.mask = mask;
+      if (fs::exists(input_status(mask))) job.mask = mask;
       jobs.push_back(std::move(job));
     }
 

@@ -354,6 +354,18 @@ TEST_F(BadInputCli, ControlCharactersInQuotedNamesAreEscaped) {
   run_cases(root_->path(), cases);
 }
 
+// Paths the system cannot look up: a name longer than the file system allows is reported with
+// the path and the system's reason, never as an "unexpected error".
+TEST_F(BadInputCli, PathsTheSystemRefusesAreNamedWithTheReason) {
+  const std::string long_name = "{D}/" + std::string(300, 'n');
+  const std::vector<Case> cases = {
+      {"train --scene " + long_name + " --out {D}/new_run", {"File name too long"}},
+      {"import colmap --in " + long_name + " --out {D}/imported", {"File name too long"}},
+      {"sheet --scene " + long_name + " --out {D}/sheet.png", {"File name too long"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
 // Commands that came after the first hostile pass: time windows (train / prepare --window),
 // merge, slurm, view and export --web.
 TEST_F(BadInputCli, WindowMergeSlurmViewAndWebCasesExitTwoInOneLineAndLeaveNothing) {

@@ -68,6 +68,20 @@ TEST(InputFile, FifosDevicesAndFoldersAreRefusedByName) {
   EXPECT_EQ(read_text_file(dir / "ok.json", "a config"), "{}");
 }
 
+TEST(InputStatus, MissingIsNotFoundAndAnUnsearchablePathIsAnError) {
+  test::TempDir dir;
+  test::write_text(dir / "ok.png", "x");
+  EXPECT_TRUE(fs::is_regular_file(input_status(dir / "ok.png")));
+  EXPECT_EQ(input_status(dir / "missing.png").type(), fs::file_type::not_found);
+  EXPECT_TRUE(fs::is_directory(input_status(dir.path())));
+  const fs::path long_name = dir / (std::string(300, 'x') + ".png");
+  EXPECT_THROW(static_cast<void>(fs::exists(long_name)), fs::filesystem_error);
+  test::expect_error([&] { input_status(long_name); },
+                     {long_name.string(), "cannot look it up", "File name too long"});
+  fs::create_symlink(dir / "loop", dir / "loop");
+  test::expect_error([&] { input_status(dir / "loop"); }, {"loop", "cannot look it up"});
+}
+
 TEST(OutputOverlap, AnOutputThatIsOrHoldsAnInputIsRefused) {
   test::TempDir dir;
   test::write_text(dir / "scene" / "scene.json", "{}");

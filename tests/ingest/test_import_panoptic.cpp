@@ -246,6 +246,16 @@ TEST_F(PanopticBadInput, FrameFileOutsideTheSourceIsRefused) {
   }
 }
 
+// A name the file system cannot look up (a component longer than NAME_MAX, found by fuzzing) is an
+// Error naming it, not std::filesystem's exception.
+TEST_F(PanopticBadInput, FrameFileNameTooLongIsAnError) {
+  auto j = metas_["train_meta.json"];
+  const std::string name = "3/" + std::string(300, 'x') + ".jpg";
+  j["fn"][1][2] = name;
+  test::write_text(dir_ / "src" / "train_meta.json", j.dump());
+  expect_error({name, "cannot look it up", "File name too long"});
+}
+
 TEST_F(PanopticBadInput, FrameRangeOutside) {
   const auto r = test::run_cli("import panoptic --in " + (dir_ / "src").string() + " --out " +
                                (dir_ / "out").string() + " --frames 0:5");

@@ -11,6 +11,13 @@ namespace retimegs {
 // reader names it.
 void check_input_file(const std::filesystem::path& path, const std::string& what);
 
+// The status of `path` (symbolic links followed): file_type::not_found when nothing is there. A
+// path the system cannot look up (a name longer than the file system allows, a loop of links, a
+// folder without permission) throws Error naming it and the reason, where std::filesystem's own
+// queries throw filesystem_error. For paths read from metadata files (image names in a Panoptic,
+// nerfstudio or COLMAP model), which can be anything.
+std::filesystem::file_status input_status(const std::filesystem::path& path);
+
 // The whole of text file `path` (check_input_file first); throws Error "<path>: cannot open
 // <what>" otherwise.
 std::string read_text_file(const std::filesystem::path& path, const std::string& what);
