@@ -133,14 +133,16 @@ int Scene::camera_index(const std::string& name) const {
 }
 
 void check_camera_name(const std::string& name, const std::string& where) {
+  // A folder name holds at most 255 bytes on the common file systems (NAME_MAX).
+  constexpr std::size_t kMaxName = 255;
   const bool control = std::any_of(name.begin(), name.end(),
                                    [](unsigned char ch) { return ch < 0x20 || ch == 0x7f; });
-  if (name.empty() || name == "." || name == ".." || control ||
+  if (name.empty() || name == "." || name == ".." || control || name.size() > kMaxName ||
       name.find_first_of("/\\") != std::string::npos)
     fail(
-        "{}: camera name '{}' cannot be a folder name (one path component, no '/', '\\', "
-        "control characters, '.' or '..')",
-        where, name);
+        "{}: camera name '{}' cannot be a folder name (one path component of at most {} bytes, "
+        "no '/', '\\', control characters, '.' or '..')",
+        where, name, kMaxName);
 }
 
 namespace {

@@ -95,6 +95,9 @@ TEST(Scene, CameraNamesAreSinglePathComponents) {
     EXPECT_THROW(io::check_camera_name(name, "scene.json"), Error) << name;
   for (const char* name : {"cam00", "0", "left.1", "A_b-c"})
     EXPECT_NO_THROW(io::check_camera_name(name, "scene.json")) << name;
+  EXPECT_NO_THROW(io::check_camera_name(std::string(255, 'c'), "scene.json"));
+  test::expect_error([] { io::check_camera_name(std::string(256, 'c'), "scene.json"); },
+                     {"scene.json", "at most 255 bytes"});
   test::TempDir dir;
   write_small_scene(dir / "s");
   auto j = nlohmann::json::parse(test::read_text(dir / "s" / "scene.json"));

@@ -37,8 +37,9 @@ struct Scene {
   std::filesystem::path points_path(int frame) const;
 };
 
-// A camera name becomes a folder name: it must be one path component, not empty, "." or "..",
-// without '/', '\\' or control characters. Throws Error naming `where` and the name.
+// A camera name becomes a folder name: it must be one path component of at most 255 bytes, not
+// empty, "." or "..", without '/', '\\' or control characters. Throws Error naming `where` and
+// the name.
 void check_camera_name(const std::string& name, const std::string& where);
 
 enum class SceneCheck {
