@@ -18,6 +18,7 @@ packages=(
   libcpp-httplib-dev       # retimegs view: the viewer's HTTP server
   libpng-dev libjpeg-dev    # io/image_io.cpp decodes PNG / JPEG itself, with silent handlers
   clang libclang-rt-14-dev libomp-dev  # scripts/fuzz.sh: libFuzzer, ASan + UBSan (fuzz/)
+  python3                  # bench/windows.sh and bench/own_capture.sh read JSON results
 )
 # Packages a caller needs beside the build's (scripts/test.sh: the browser test's Chromium).
 read -ra extra_packages <<< "${RETIMEGS_EXTRA_PACKAGES:-}"
