@@ -27,7 +27,7 @@
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/train/relocation.hpp"
-#include "retimegs/train/trainer.hpp"
+#include "retimegs/train/cpu_step.hpp"
 
 namespace {
 
@@ -113,7 +113,7 @@ void BM_TrainStep(benchmark::State& state) {
   train::TrainConfig config;
   config.cap = total;
   config.sh_degree_every = 1;  // the full SH degree from the first steps on, as in most of training
-  train::Trainer trainer(set, config);
+  train::CpuStep trainer(set, config);
   const model::Primitives primitives = synthetic_primitives(total, active);
   trainer.initialize(primitives);
   for (int c = 0; c < 3; ++c) trainer.step_view(c, kStepFrame);  // SH degree 3, warm caches

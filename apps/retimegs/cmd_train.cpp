@@ -11,7 +11,7 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
-#include "retimegs/train/trainer.hpp"
+#include "retimegs/train/run.hpp"
 
 namespace retimegs::app {
 

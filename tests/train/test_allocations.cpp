@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "retimegs/train/trainer.hpp"
+#include "retimegs/train/cpu_step.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 
@@ -59,7 +59,7 @@ TEST(Allocations, ASteadyStateStepAllocatesNoLargeBlock) {
   TrainConfig config;
   config.iters = 40;
   config.cap = 3000;
-  Trainer trainer(set, config);
+  CpuStep trainer(set, config);
   trainer.initialize();
   const int frame = 1;  // interior: triple rendering
   for (int c = 0; c < int(set.cameras.size()); ++c) trainer.step_view(c, frame);

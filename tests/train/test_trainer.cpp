@@ -17,7 +17,8 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/train/relocation.hpp"
-#include "retimegs/train/trainer.hpp"
+#include "retimegs/train/cpu_step.hpp"
+#include "retimegs/train/run.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 
@@ -66,7 +67,7 @@ TEST(Trainer, StepViewStagesAndExplicitPrimitives) {
   TrainConfig config;
   config.iters = 40;
   config.cap = 1500;
-  Trainer drawn(set, config), given(set, config);
+  CpuStep drawn(set, config), given(set, config);
   drawn.initialize();
   given.initialize(drawn.model().primitives);
   const StepStats a = drawn.step();
@@ -100,7 +101,7 @@ TEST(Trainer, AStepChangesOnlyItsActiveRows) {
     config.iters = 40;
     config.cap = 1500;
     config.stgs_baseline = stgs;
-    Trainer trainer(set, config);
+    CpuStep trainer(set, config);
     trainer.initialize();
     const model::Primitives before = trainer.model().primitives;
     const model::TemporalIndex index(before, trainer.model().config, trainer.model().grid);
@@ -144,7 +145,7 @@ TEST(Trainer, FinishRemovesTheFaintShortLivedRows) {
   TrainConfig config;
   config.iters = 4;
   config.cap = 600;
-  Trainer trainer(set, config);
+  CpuStep trainer(set, config);
   trainer.initialize();
   model::Primitives start = trainer.model().primitives;
   for (std::size_t r = 0; r < start.size(); r += 4) start.opacity_logit[r] = -5.0f;  // σ ≈ 0.007
@@ -184,7 +185,7 @@ TEST(Trainer, KeepsItsRowsInLocalityOrder) {
   TrainConfig config;
   config.iters = 60;  // milestones scaled: relocation and growth every step, stretching at 9
   config.cap = 1500;
-  Trainer drawn(set, config);
+  CpuStep drawn(set, config);
   drawn.initialize();
   model::Primitives shuffled = drawn.model().primitives;
   std::vector<std::int32_t> old_from_new(shuffled.size());
@@ -200,7 +201,7 @@ TEST(Trainer, KeepsItsRowsInLocalityOrder) {
   };
   ASSERT_TRUE(in_order(drawn.model().primitives));
   ASSERT_FALSE(in_order(shuffled));
-  Trainer trainer(set, config);
+  CpuStep trainer(set, config);
   trainer.initialize(shuffled);
   EXPECT_TRUE(in_order(trainer.model().primitives));
   const auto rows = [](const model::Primitives& p) {  // the rows' means and colours, sorted
@@ -308,7 +309,7 @@ TEST(Trainer, CameraColorRecoversAKnownGain) {
   config.cap = 1000;
   config.lr_camera_color = 1e-2;
   config.max_sh_degree = 0;
-  Trainer trainer(set, config);
+  CpuStep trainer(set, config);
   trainer.initialize();
   while (trainer.iteration() < config.iters) trainer.step();
   const auto& colors = trainer.model().camera_colors;

@@ -9,7 +9,7 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/train/dataset.hpp"
-#include "retimegs/train/trainer.hpp"
+#include "retimegs/train/run.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 

@@ -62,7 +62,7 @@ EvaluatedT<T> evaluate(const PrimitivesT<T>& primitives, const ModelConfig& conf
                        const TimeGrid& grid, double t, const Camera& camera,
                        const EvaluateOptions& options);
 // The same batch written into `out`, whose arrays keep their capacity: a caller that evaluates
-// every step (the Trainer) reuses one EvaluatedT per render instead of allocating it.
+// every step (the training step) reuses one EvaluatedT per render instead of allocating it.
 // `shaded`, when given, holds the colours at (t, camera) of every row the batch can select.
 template <typename T>
 void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,

@@ -1,0 +1,41 @@
+#pragma once
+// What a step's iteration and view decide, on every device alike (docs/method.md, "Training"):
+// the renders of the step (triple rendering), the flow weight, the learning-rate factors and the
+// active SH degree. Pure functions of the configuration, so that the CPU and a GPU step follow
+// one schedule.
+#include <vector>
+
+#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/primitives.hpp"
+#include "retimegs/train/config.hpp"
+
+namespace retimegs::train {
+
+// One render of a step's view: triple rendering renders all primitives, then each group
+// compensated (flow on the groups); otherwise all primitives once.
+struct RenderPass {
+  model::Group group;
+  bool compensate, flow;
+};
+
+// Triple at interior frames (frame slot i of `frames`), one render at the ends and for STGS or
+// the no_triple ablation; `flow`: the flow loss is on at this step.
+std::vector<RenderPass> render_passes(const TrainConfig& config,
+                                      model::Representation representation, int i, int frames,
+                                      bool flow);
+
+// The flow loss weight at iteration `it`: log-linear from flow_weight_start to flow_weight_end
+// until flow_decay_until (scaled), then constant; 0 for STGS and the no_flow_loss ablation.
+double flow_weight(const TrainConfig& config, model::Representation representation, int it);
+
+// The factor of every learning rate: 1 until lr_decay_start (scaled), then exponential down to
+// lr_decay_final at the last iteration.
+double lr_factor(const TrainConfig& config, int it);
+
+// The means' own decay: exponential to lr_means_final over the whole run.
+double means_decay(const TrainConfig& config, int it);
+
+// The active SH degree: min(max_sh_degree, it / sh_degree_every (scaled)).
+int sh_degree(const TrainConfig& config, int it);
+
+}  // namespace retimegs::train
