@@ -5,8 +5,8 @@
 // units), speed=S, paused=1, loop=0. window.retimegs.frameReady turns true once a frame has been
 // drawn, with its own depth order, for the requested state.
 import { Navigator, sceneView } from './camera.js';
+import { readTextures, timeRows } from './model_data.js';
 import { Renderer } from './renderer.js';
-import { halfToFloat } from './time_model.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('canvas'), hud = $('hud');
@@ -41,18 +41,7 @@ async function load() {
   const manifest = await manifestResponse.json();
   const buffer = await dataResponse.arrayBuffer();
   const fetchedMs = performance.now();
-  if (manifest.format !== 'retimegs-web' || manifest.version !== 1)
-    throw new Error(`model.json: not a retimegs viewer manifest of version 1`);
-  const textures = {};
-  for (const t of manifest.textures) {
-    if (t.offset + t.bytes > buffer.byteLength)
-      throw new Error(`model.bin: ${buffer.byteLength} bytes, texture ${t.name} ends at ` +
-                      `${t.offset + t.bytes}`);
-    const data = t.type === 'rgba16f' ? new Uint16Array(buffer, t.offset, t.bytes / 2)
-                                      : new Float32Array(buffer, t.offset, t.bytes / 4);
-    textures[t.name] = { data, half: t.type === 'rgba16f', height: t.height,
-                         texelsPerPrimitive: t.texels_per_primitive };
-  }
+  const textures = readTextures(manifest, buffer);
   const renderer = new Renderer(gl, manifest, textures);
   api.fetchedMs = fetchedMs;
   api.uploadedMs = performance.now();
@@ -67,17 +56,7 @@ function start(manifest, renderer, textures) {
 
   // The sort worker gets its own copies of what positions and visibility need.
   const worker = new Worker(new URL('./sort_worker.js', import.meta.url), { type: 'module' });
-  const opacity = new Float32Array(n);
-  const shape = textures.shape.data;
-  for (let i = 0; i < n; ++i) opacity[i] = 1 / (1 + Math.exp(-halfToFloat(shape[4 * i + 3])));
-  const slice = (name) => textures[name].data.slice(0, 4 * n);
-  worker.postMessage({ type: 'model', model: {
-    count: n, mu: slice('mu'), v1: slice('v1'), v2: slice('v2'), v3: slice('v3'), opacity,
-    minOpacity: manifest.min_opacity,
-    settings: { stgs: manifest.representation === 'stgs',
-                linear: manifest.trajectory === 'linear', first, last,
-                step: manifest.time.step, gamma: manifest.gamma_frames,
-                epsilon: manifest.epsilon } } });
+  worker.postMessage({ type: 'model', model: timeRows(manifest, textures) });
 
   const state = {
     t: clampTime(Number(params.get('t') ?? first)),
