@@ -2,9 +2,9 @@
 // (posted once) and a request {id, t, zRow, near}, it evaluates every primitive's position at t,
 // keeps those the vertex shader draws (σ·σ_τ(t) >= 1/255, camera z >= near) and returns their
 // indices ordered back to front by camera z, the order the renderer composites in reverse.
-import { temporalOpacity, trajectoryCoefficients } from './time_model.js';
+import { rowPosition, rowTemporalOpacity } from './time_model.js';
 
-let model = null;  // {count, mu, v1, v2, v3, opacity, settings, minOpacity}
+let model = null;  // timeRows (model_data.js)
 let depthBits = new Uint32Array(0), keysA = new Uint32Array(0), keysB = new Uint32Array(0);
 let idsA = new Uint32Array(0), idsB = new Uint32Array(0);
 
@@ -40,21 +40,16 @@ function radixSort(n) {
 }
 
 function sortAt(request) {
-  const { count, mu, v1, v2, v3, opacity, settings, minOpacity } = model;
+  const { count, opacity, minOpacity } = model;
   const [r0, r1, r2] = request.zRow;
   const tz = request.tz, near = request.near, t = request.t;
-  const c = new Float64Array(3);
+  const c = new Float64Array(3), x = new Float64Array(3);
   const f32 = new Float32Array(1), bits = new Uint32Array(f32.buffer);
   let visible = 0;
   for (let i = 0; i < count; ++i) {
-    const k = 4 * i;
-    const w = temporalOpacity(settings, mu[k + 3], v1[k + 3], v2[k + 3], v3[k + 3], t);
-    if (opacity[i] * w < minOpacity) continue;
-    trajectoryCoefficients(settings, mu[k + 3], t, c);
-    const x = mu[k] + c[0] * v1[k] + c[1] * v2[k] + c[2] * v3[k];
-    const y = mu[k + 1] + c[0] * v1[k + 1] + c[1] * v2[k + 1] + c[2] * v3[k + 1];
-    const z = mu[k + 2] + c[0] * v1[k + 2] + c[1] * v2[k + 2] + c[2] * v3[k + 2];
-    const depth = r0 * x + r1 * y + r2 * z + tz;
+    if (opacity[i] * rowTemporalOpacity(model, i, t) < minOpacity) continue;
+    rowPosition(model, i, t, c, x);
+    const depth = r0 * x[0] + r1 * x[1] + r2 * x[2] + tz;
     if (!(depth >= near)) continue;
     // Positive floats order as their bit patterns; the complement sorts far to near.
     f32[0] = depth;

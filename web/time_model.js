@@ -1,6 +1,7 @@
 // The time model of model::evaluate (include/retimegs/model/temporal_opacity.hpp, trajectory.hpp)
 // in JavaScript, for the sort worker; the vertex shader in renderer.js is its GLSL twin. Both
 // read the packed arrays of model.json / model.bin (docs/formats.md, "The viewer's data").
+// web/test/time_model.test.mjs checks it against the C++ values (ctest: time_model_js).
 
 // The settings of a manifest that the time model needs.
 export function timeSettings(manifest) {
@@ -61,6 +62,22 @@ export function trajectoryCoefficients(s, muTau, t, out) {
   out[0] = -step * w0;
   out[1] = (step / 2) * (-w0 - w1 + w2 + w3);
   out[2] = step * w3;
+  return out;
+}
+
+// σ_τ(t) of row i of `rows` (timeRows in model_data.js, which says where each value lies).
+export function rowTemporalOpacity(rows, i, t) {
+  const k = 4 * i + 3;
+  return temporalOpacity(rows.settings, rows.mu[k], rows.v1[k], rows.v2[k], rows.v3[k], t);
+}
+
+// x(t) of row i into out; c receives its trajectory coefficients.
+export function rowPosition(rows, i, t, c, out) {
+  const { mu, v1, v2, v3 } = rows;
+  const k = 4 * i;
+  trajectoryCoefficients(rows.settings, mu[k + 3], t, c);
+  for (let a = 0; a < 3; ++a)
+    out[a] = mu[k + a] + c[0] * v1[k + a] + c[1] * v2[k + a] + c[2] * v3[k + a];
   return out;
 }
 

@@ -10,8 +10,8 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/input_file.hpp"
-#include "retimegs/core/one_line.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/ingest/import.hpp"
 
@@ -132,7 +132,7 @@ void add_videos_command(CLI::App* cmd) {
       const std::vector<std::string> listed(r.without_footage.begin(),
                                             r.without_footage.begin() + std::min(n, kListed));
       spdlog::warn("{} calibrated camera{} without footage left out: {}{}", n, n == 1 ? "" : "s",
-                   one_line(fmt::format("{}", fmt::join(listed, ", "))),
+                   escape_control_chars(fmt::format("{}", fmt::join(listed, ", "))),
                    n > kListed ? fmt::format(" (+{} more)", n - kListed) : std::string());
     }
   });

@@ -10,7 +10,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/one_line.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
@@ -109,7 +109,7 @@ void add_prepare_command(CLI::App& app) {
           "masks (approximate): {} file{} written ({:.1f} % foreground), {} kept, {:.1f} s",
           r.masks_written, r.masks_written == 1 ? "" : "s", 100 * r.mask_coverage, r.masks_kept,
           r.masks_seconds);
-    if (!r.points_note.empty()) spdlog::warn("points: {}", one_line(r.points_note));
+    if (!r.points_note.empty()) spdlog::warn("points: {}", escape_control_chars(r.points_note));
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)
                                 : fmt::format("imported from {}", args->flow_dir);

@@ -13,9 +13,9 @@
 
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
-#include "retimegs/core/one_line.hpp"
 #include "retimegs/io/image_io.hpp"
 
 namespace {
@@ -80,29 +80,31 @@ int main(int argc, char** argv) {
   } catch (const CLI::RequiredError& e) {
     const bool subcommand = std::string(e.what()).find("subcommand") != std::string::npos;
     std::fprintf(stderr, "%s\n",
-                 retimegs::one_line(subcommand ? subcommand_message(app)
-                                               : "retimegs: " + std::string(e.what()))
+                 retimegs::escape_control_chars(subcommand ? subcommand_message(app)
+                                                           : "retimegs: " + std::string(e.what()))
                      .c_str());
     return 2;
   } catch (const CLI::ParseError& e) {
     // --help and --version exit 0; usage errors exit 2 with CLI11's one-line message.
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::escape_control_chars(e.what()).c_str());
     return 2;
   } catch (const retimegs::Error& e) {
-    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::escape_control_chars(e.what()).c_str());
     return 2;
   } catch (const retimegs::Interrupted& e) {  // Ctrl-C / SIGTERM: 130 / 143
-    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(e.what()).c_str());
+    std::fprintf(stderr, "retimegs: %s\n", retimegs::escape_control_chars(e.what()).c_str());
     return e.exit_code();
   } catch (const std::filesystem::filesystem_error& e) {
     // A path the system refused outside the checks that name it (too long a name, a loop of
     // links, no permission): the path and the reason, as an Error would give them.
     const std::string where = e.path1().empty() ? "" : e.path1().string() + ": ";
-    std::fprintf(stderr, "retimegs: %s\n", retimegs::one_line(where + e.code().message()).c_str());
+    std::fprintf(stderr, "retimegs: %s\n",
+                 retimegs::escape_control_chars(where + e.code().message()).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "retimegs: unexpected error: %s\n", retimegs::one_line(e.what()).c_str());
+    std::fprintf(stderr, "retimegs: unexpected error: %s\n",
+                 retimegs::escape_control_chars(e.what()).c_str());
     return 2;
   }
   return 0;

@@ -58,14 +58,6 @@ int grid_index(const TimeGrid& grid, double t) {
   return int(i);
 }
 
-template <typename T>
-T temporal_opacity(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
-                   const TimeGrid& grid, T t) {
-  if (config.representation == Representation::kStgs)
-    return stgs_temporal_opacity(p.mu_tau[i], p.temporal_log_scale[i], t);
-  return retime_window(p, i, config, grid)(t);
-}
-
 // Flow rule (docs/method.md, triple rendering): at t >= μ_τ the primitive sits at p2 (L rule:
 // forward to p3, backward to p1); before, at p1 (R rule: forward to p2, backward to p0).
 struct FlowRule {

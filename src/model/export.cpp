@@ -17,14 +17,9 @@ Splats export_splats(const Model& model, double t, double min_opacity) {
   Splats s;
   s.sh_degree = config.sh_degree;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const double temporal =
-        config.representation == Representation::kStgs
-            ? stgs_temporal_opacity<double>(p.mu_tau[i], p.temporal_log_scale[i], t)
-            : RetimeWindow<double>{p.mu_tau[i],       p.tau_l[i],
-                                   p.tau_r[i],        model.grid.first,
-                                   model.grid.last(), model.grid.to_frames(config.gamma),
-                                   config.epsilon}(t);
-    const double opacity = sigmoid<double>(p.opacity_logit[i]) * temporal;
+    // In double: the exported logit is log(σ σ_τ / (1 - σ σ_τ)) of the float model's exact values.
+    const double opacity =
+        sigmoid<double>(p.opacity_logit[i]) * temporal_opacity(p, i, config, model.grid, t);
     if (opacity < min_opacity || !(opacity > 0)) continue;
     float x[3];
     apply_trajectory(trajectory_at<float>(config.representation, config.trajectory, p.mu_tau[i],

@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::model {
 

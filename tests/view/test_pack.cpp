@@ -199,8 +199,9 @@ TEST(ViewPack, HalfConversionRoundsToNearestEven) {
 TEST(ViewWeb, ExportWritesTheServedFilesByteForByte) {
   const PackedFixture f;
   const std::vector<view::WebFile> files = view::web_files(f.packed);
-  for (const char* name : {"index.html", "main.js", "renderer.js", "sort_worker.js",
-                           "time_model.js", "camera.js", "model.json", "model.bin"})
+  for (const char* name :
+       {"index.html", "main.js", "renderer.js", "sort_worker.js", "time_model.js", "model_data.js",
+        "camera.js", "model.json", "model.bin"})
     EXPECT_TRUE(std::any_of(files.begin(), files.end(), [&](const view::WebFile& w) {
       return w.path == name;
     })) << name;

@@ -94,15 +94,6 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                     const std::vector<std::int32_t>& rows, const ShadedT<T>& shaded,
                     PrimitiveGradsT<T>& grads);
 
-// The RetimeGS window of primitive i under the model's settings, in T, as evaluate applies it.
-template <typename T>
-RetimeWindow<T> retime_window(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
-                              const TimeGrid& grid) {
-  return {p.mu_tau[i],      p.tau_l[i],     p.tau_r[i],
-          T(grid.first),    T(grid.last()), T(grid.to_frames(config.gamma)),
-          T(config.epsilon)};
-}
-
 // Whether primitive i belongs to `group` at time t (always true for kAll).
 template <typename T>
 bool in_group(const PrimitivesT<T>& primitives, std::size_t i, const ModelConfig& config,

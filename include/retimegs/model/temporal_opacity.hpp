@@ -1,7 +1,11 @@
 #pragma once
 // Temporal opacity σ_τ(t) (docs/method.md, paper Eq. 4-5) and the STGS baseline's Gaussian window.
-// Times in scene frame units.
+// Times in scene frame units. retime_window() and temporal_opacity() below apply them to a row of
+// a model's primitives: evaluate, the temporal index and export all go through them.
 #include <cmath>
+#include <cstddef>
+
+#include "retimegs/model/primitives.hpp"
 
 namespace retimegs::model {
 
@@ -55,6 +59,26 @@ void stgs_temporal_opacity_vjp(T mu_tau, T log_scale, T t, T v, T& v_mu_tau, T& 
   // dσ/dd = -2 d σ;  dd/dμ_τ = -1/s;  dd/dlog_scale = -d
   v_mu_tau += v * (-2 * d * value) * (-std::exp(-log_scale));
   v_log_scale += v * (-2 * d * value) * (-d);
+}
+
+// The RetimeGS window of primitive i under the model's settings, in S: the primitives' own scalar
+// (evaluate), or double where a float model is read without rounding its window to float (export).
+template <typename T, typename S = T>
+RetimeWindow<S> retime_window(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+                              const TimeGrid& grid) {
+  return {S(p.mu_tau[i]),   S(p.tau_l[i]),  S(p.tau_r[i]),
+          S(grid.first),    S(grid.last()), S(grid.to_frames(config.gamma)),
+          S(config.epsilon)};
+}
+
+// σ_τ(t) of primitive i, in the scalar of t: the STGS Gaussian or the RetimeGS window, as the
+// model's representation says.
+template <typename T, typename S>
+S temporal_opacity(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
+                   const TimeGrid& grid, S t) {
+  if (config.representation == Representation::kStgs)
+    return stgs_temporal_opacity(S(p.mu_tau[i]), S(p.temporal_log_scale[i]), t);
+  return retime_window<T, S>(p, i, config, grid)(t);
 }
 
 }  // namespace retimegs::model

@@ -10,6 +10,6 @@ namespace retimegs {
 // `text` with every control byte (< 0x20 and 0x7f) written as a visible escape: \n, \r, \t, the
 // others as \xHH (ESC is \x1b). Every other byte is kept, UTF-8 included, and so are backslashes
 // (a file name's "\n" and an escaped newline then read alike: the message is for a person).
-std::string one_line(std::string_view text);
+std::string escape_control_chars(std::string_view text);
 
 }  // namespace retimegs

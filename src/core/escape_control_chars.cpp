@@ -1,10 +1,10 @@
-#include "retimegs/core/one_line.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 
 #include <fmt/format.h>
 
 namespace retimegs {
 
-std::string one_line(std::string_view text) {
+std::string escape_control_chars(std::string_view text) {
   std::string out;
   out.reserve(text.size());
   for (const char ch : text) {
