@@ -1,5 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <initializer_list>
+#include <string>
+#include <utility>
+
 #include "retimegs/core/error.hpp"
 #include "retimegs/train/config.hpp"
 #include "test_util.hpp"
@@ -104,5 +108,107 @@ TEST(ConfigFromJson, RefusesValuesOutsideTheirRangeNamingTheKey) {
       TrainConfig{}, "edges"));
 }
 
+// RUN/config.json, checkpoints and model.rgs hold to_json's text: its key order and number
+// formatting are part of the file formats. The default config's text, byte for byte.
+constexpr const char* kDefaultJson = R"json({
+  "ablate": {
+    "linear": false,
+    "no_camera_color": false,
+    "no_flow_init": false,
+    "no_flow_loss": false,
+    "no_static_init": false,
+    "no_stretch": false,
+    "no_triple": false
+  },
+  "cap": 200000,
+  "checkpoint_every": 1000,
+  "final_prune_opacity": 0.03,
+  "flow_decay_until": 12000,
+  "flow_weight_end": 1e-06,
+  "flow_weight_start": 0.5,
+  "gamma": 0.005,
+  "growth": 1.05,
+  "init_opacity": 0.1,
+  "iters": 20000,
+  "lr_camera_color": 0.001,
+  "lr_decay_final": 0.1,
+  "lr_decay_start": 18000,
+  "lr_means": 0.00016,
+  "lr_means_final": 0.01,
+  "lr_opacities": 0.05,
+  "lr_quat_rate": 0.001,
+  "lr_quats": 0.001,
+  "lr_scales": 0.005,
+  "lr_sh0": 0.0025,
+  "lr_sh_rest_factor": 0.05,
+  "lr_temporal_center": 0.0001,
+  "lr_temporal_scale": 0.03,
+  "lr_velocity": 0.00016,
+  "max_sh_degree": 3,
+  "min_opacity": 0.01,
+  "opacity_reg": 0.01,
+  "relocate_every": 100,
+  "relocate_start": 500,
+  "relocate_stop": 25000,
+  "scale_reg": 0.1,
+  "scale_schedule": true,
+  "seed": 0,
+  "sh_degree_every": 1000,
+  "ssim_lambda": 0.2,
+  "stgs_baseline": false,
+  "stretch_color": 0.1,
+  "stretch_distance": 0.01,
+  "stretch_every": 3000,
+  "stretch_speed": 0.002
+})json";
+
+// `json_text` with the value of its (only) key `key` replaced by `value`.
+std::string with_value(std::string json_text, const std::string& key, const std::string& value) {
+  const std::string quoted = "\"" + key + "\": ";
+  const std::size_t at = json_text.find(quoted);
+  EXPECT_NE(at, std::string::npos) << key;
+  if (at == std::string::npos) return json_text;
+  const std::size_t start = at + quoted.size();
+  return json_text.replace(start, json_text.find_first_of(",\n", start) - start, value);
+}
+
+TEST(ConfigToJson, WritesTheSameTextAsEver) {
+  EXPECT_EQ(to_json(TrainConfig{}), kDefaultJson);
+  EXPECT_EQ(to_json(with_preset(TrainConfig{}, "default", "--preset")), kDefaultJson);
+  EXPECT_EQ(to_json(with_preset(TrainConfig{}, "fast", "--preset")),
+            with_value(with_value(kDefaultJson, "cap", "100000"), "iters", "5000"));
+  EXPECT_EQ(to_json(with_preset(TrainConfig{}, "quality", "--preset")),
+            with_value(with_value(kDefaultJson, "cap", "600000"), "iters", "30000"));
+  // Flags set, the largest seed, and numbers whose shortest round-trip form is long or in
+  // exponent notation.
+  TrainConfig odd;
+  odd.seed = 18446744073709551615u;
+  odd.ablate.linear = odd.ablate.no_camera_color = true;
+  odd.stgs_baseline = true;
+  odd.scale_schedule = false;
+  odd.lr_means = 1.0 / 3;
+  odd.gamma = 1e-300;
+  odd.growth = 1e20;
+  odd.cap = 1000000000;
+  odd.iters = 1;
+  odd.ssim_lambda = 0.1 + 0.2;
+  odd.max_sh_degree = 0;
+  std::string expected = kDefaultJson;
+  for (const auto& [key, value] : std::initializer_list<std::pair<const char*, const char*>>{
+           {"linear", "true"},
+           {"no_camera_color", "true"},
+           {"seed", "18446744073709551615"},
+           {"stgs_baseline", "true"},
+           {"scale_schedule", "false"},
+           {"lr_means", "0.3333333333333333"},
+           {"gamma", "1e-300"},
+           {"growth", "1e+20"},
+           {"cap", "1000000000"},
+           {"iters", "1"},
+           {"ssim_lambda", "0.30000000000000004"},
+           {"max_sh_degree", "0"}})
+    expected = with_value(expected, key, value);
+  EXPECT_EQ(to_json(odd), expected);
+}
 }  // namespace
 }  // namespace retimegs::train
