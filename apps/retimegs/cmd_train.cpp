@@ -44,9 +44,7 @@ void add_train_command(CLI::App& app) {
                   "continue to");
   cmd->add_option("--config", args->config, "JSON file overriding any hyper-parameter")
       ->check(input_file("a config"));
-  cmd->add_option("--ablate", args->ablate,
-                  "comma-separated: no-flow-init, no-flow-loss, no-triple, no-stretch, linear, "
-                  "no-static-init, no-camera-color (no learned per-camera colour maps)");
+  cmd->add_option("--ablate", args->ablate, "comma-separated: " + train::ablation_names());
   cmd->add_option("--baseline", args->baseline, "stgs: the SpacetimeGaussians representation")
       ->check(CLI::IsMember({"stgs"}));
   cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap)");

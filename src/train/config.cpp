@@ -6,7 +6,9 @@
 #include <iterator>
 #include <limits>
 #include <string_view>
+#include <type_traits>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include <fmt/format.h>
@@ -18,20 +20,237 @@
 namespace retimegs::train {
 
 namespace {
+
+using nlohmann::json;
+
 // Iteration counts, milestones and the cap fit an int with room for scaling.
 constexpr double kMaxInteger = 1e9;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+constexpr Range kCount{1, kMaxInteger};      // iterations, periods (divisors), the cap
+constexpr Range kMilestone{0, kMaxInteger};  // an iteration
+constexpr Range kNonNegative{0, kInf};       // learning rates, regularisers, thresholds
+constexpr Range kPositive{0, kInf, true};
+constexpr Range kFactor{0, 1, true};  // a decay's final factor
+constexpr Range kOpacity{0, 1, false, true};
+
+// The tables of docs/formats.md, by heading.
+constexpr std::string_view kRun = "**Run**";
+constexpr std::string_view kSchedule = "**Schedule**";
+constexpr std::string_view kRates = "**Learning rates** (Adam, β = 0.9 / 0.999, ε = 1e-15)";
+constexpr std::string_view kLosses = "**Losses and model**";
+constexpr std::string_view kDensity = "**Primitive budget and density control**";
+constexpr std::string_view kAblate =
+    "**`ablate`**, an object (`--ablate` adds to it; each key with `-` for `_` is an `--ablate` "
+    "name)";
+
+// seed and cap share the member type of 64-bit unsigned keys.
+static_assert(std::is_same_v<std::size_t, std::uint64_t>);
+
+// Every key of TrainConfig, once. E is the scene extent, Δt the spacing of the training frames;
+// "scaled" marks a milestone given for 20 000 iterations (TrainConfig::scaled).
+constexpr ConfigKey kKeys[] = {
+    {"iters", &TrainConfig::iters, kCount, kRun, "iterations (`--iters`, `--preset`)"},
+    {"seed", &TrainConfig::seed, std::nullopt, kRun,
+     "random seed (`--seed`); the same seed and thread count give the same model"},
+    {"stgs_baseline", &TrainConfig::stgs_baseline, std::nullopt, kRun,
+     "train the SpacetimeGaussians representation (`--baseline stgs`)"},
+    {"scale_schedule", &TrainConfig::scale_schedule, std::nullopt, kRun,
+     "scale the milestones by iters / 20 000 (at least 1)"},
+    {"checkpoint_every", &TrainConfig::checkpoint_every, kCount, kRun,
+     "iterations between checkpoints (not scaled)"},
+
+    {"sh_degree_every", &TrainConfig::sh_degree_every, kCount, kSchedule,
+     "scaled; the active SH degree is min(max_sh_degree, iteration / this)"},
+    {"max_sh_degree", &TrainConfig::max_sh_degree, Range{0, model::kMaxShDegree}, kSchedule,
+     "highest SH degree trained"},
+    {"lr_decay_start", &TrainConfig::lr_decay_start, kMilestone, kSchedule,
+     "scaled; from here every learning rate decays exponentially …"},
+    {"lr_decay_final", &TrainConfig::lr_decay_final, kFactor, kSchedule,
+     "… to this factor at the last iteration"},
+    {"flow_decay_until", &TrainConfig::flow_decay_until, kCount, kSchedule,
+     "scaled; the flow weight reaches `flow_weight_end` here and stays"},
+    {"relocate_every", &TrainConfig::relocate_every, kCount, kSchedule,
+     "scaled; relocation and growth period"},
+    {"relocate_start", &TrainConfig::relocate_start, kMilestone, kSchedule,
+     "scaled; relocation runs at iterations strictly after this …"},
+    {"relocate_stop", &TrainConfig::relocate_stop, kMilestone, kSchedule,
+     "scaled; … and strictly before this (scaled, it lies beyond the last iteration, so "
+     "relocation runs to the end)"},
+    {"stretch_every", &TrainConfig::stretch_every, kCount, kSchedule,
+     "scaled; dynamic stretching period (also its first iteration); never at the last iteration"},
+
+    {"lr_means", &TrainConfig::lr_means, kNonNegative, kRates, "`mu`, × E"},
+    {"lr_means_final", &TrainConfig::lr_means_final, kFactor, kRates,
+     "factor the `mu` and `velocity` rates decay to (exponentially) over the run"},
+    // The means' rate: a faster one helps scenes with large, exact motion but hurts captures with
+    // noisy flow and small motion (bench/velocity_lr.sh; README, Results).
+    {"lr_velocity", &TrainConfig::lr_velocity, kNonNegative, kRates,
+     "`velocity` (v1, v2, v3), × E ÷ Δt"},
+    {"lr_scales", &TrainConfig::lr_scales, kNonNegative, kRates, "`log_scale`"},
+    {"lr_quats", &TrainConfig::lr_quats, kNonNegative, kRates, "`q0`"},
+    {"lr_quat_rate", &TrainConfig::lr_quat_rate, kNonNegative, kRates,
+     "`q1` (rotation rate), ÷ Δt"},
+    {"lr_opacities", &TrainConfig::lr_opacities, kNonNegative, kRates, "`opacity_logit`"},
+    {"lr_sh0", &TrainConfig::lr_sh0, kNonNegative, kRates, "SH DC coefficients"},
+    {"lr_sh_rest_factor", &TrainConfig::lr_sh_rest_factor, kNonNegative, kRates,
+     "factor of `lr_sh0` for the higher SH bands"},
+    {"lr_temporal_center", &TrainConfig::lr_temporal_center, kNonNegative, kRates,
+     "STGS only: temporal centre μ_τ"},
+    {"lr_temporal_scale", &TrainConfig::lr_temporal_scale, kNonNegative, kRates,
+     "STGS only: log temporal scale"},
+    {"lr_camera_color", &TrainConfig::lr_camera_color, kNonNegative, kRates,
+     "per-camera colour maps m and c"},
+
+    {"ssim_lambda", &TrainConfig::ssim_lambda, Range{0, 1}, kLosses,
+     "image loss (1 − λ)·L1 + λ·(1 − SSIM)"},
+    // The flow weight decays log-linearly between the two: both must be positive.
+    {"flow_weight_start", &TrainConfig::flow_weight_start, kPositive, kLosses,
+     "flow-loss weight at iteration 0 …"},
+    {"flow_weight_end", &TrainConfig::flow_weight_end, kPositive, kLosses,
+     "… falling log-linearly to this at `flow_decay_until`"},
+    {"opacity_reg", &TrainConfig::opacity_reg, kNonNegative, kLosses,
+     "weight of the mean opacity regulariser"},
+    {"scale_reg", &TrainConfig::scale_reg, kNonNegative, kLosses,
+     "weight of the mean scale regulariser"},
+    {"gamma", &TrainConfig::gamma, kPositive, kLosses,
+     "sharpness of the temporal-opacity edges, in normalised clip time (stored in the model)"},
+
+    {"cap", &TrainConfig::cap, kCount, kDensity,
+     "most primitives (`--cap`, `--preset`); initial seeds above it are subsampled"},
+    {"init_opacity", &TrainConfig::init_opacity, Range{0, 1, true, true}, kDensity,
+     "opacity of the initial primitives"},
+    {"min_opacity", &TrainConfig::min_opacity, kOpacity, kDensity,
+     "relocation moves primitives with σ at or below this"},
+    {"growth", &TrainConfig::growth, Range{1, kInf}, kDensity,
+     "each relocation grows the count to min(cap, ⌊growth · N⌋)"},
+    // train::faint_short_rows.
+    {"final_prune_opacity", &TrainConfig::final_prune_opacity, kOpacity, kDensity,
+     "after training, primitives below this opacity whose window spans one interval are removed; "
+     "0 keeps them"},
+    {"stretch_distance", &TrainConfig::stretch_distance, kNonNegative, kDensity,
+     "stretching: largest neighbour distance, × E"},
+    {"stretch_color", &TrainConfig::stretch_color, kNonNegative, kDensity,
+     "stretching: largest DC colour difference per channel; initialisation: largest change of a "
+     "still point's look"},
+    {"stretch_speed", &TrainConfig::stretch_speed, kNonNegative, kDensity,
+     "stretching and initialisation: largest speed of static content, × E per frame"},
+
+    {"no_flow_init", &Ablations::no_flow_init, std::nullopt, kAblate,
+     "velocities start at 0, points unmoved"},
+    {"no_flow_loss", &Ablations::no_flow_loss, std::nullopt, kAblate, "flow weight 0"},
+    {"no_triple", &Ablations::no_triple, std::nullopt, kAblate,
+     "one all-primitives render per step"},
+    {"no_stretch", &Ablations::no_stretch, std::nullopt, kAblate, "no dynamic stretching"},
+    {"linear", &Ablations::linear, std::nullopt, kAblate, "straight-line trajectories"},
+    {"no_static_init", &Ablations::no_static_init, std::nullopt, kAblate,
+     "still points are not merged into long-lived primitives"},
+    {"no_camera_color", &Ablations::no_camera_color, std::nullopt, kAblate,
+     "no per-camera colour maps"},
+};
+
+// The value `member` names in `config` (TrainConfig or const TrainConfig).
+template <class Config, class T>
+auto& field(Config& config, T TrainConfig::*member) {
+  return config.*member;
+}
+template <class Config>
+auto& field(Config& config, bool Ablations::*member) {
+  return config.ablate.*member;
+}
+
+// The key's name in messages: "linear" inside "ablate" is 'ablate.linear'.
+std::string path(const ConfigKey& key) {
+  return key.is_ablation() ? fmt::format("ablate.{}", key.name) : std::string(key.name);
+}
+
+// The key's `--ablate` name.
+std::string flag_name(const ConfigKey& key) {
+  std::string name(key.name);
+  std::replace(name.begin(), name.end(), '_', '-');
+  return name;
+}
+
+const ConfigKey* find_key(std::string_view name, bool ablation) {
+  const auto hit = std::find_if(std::begin(kKeys), std::end(kKeys), [&](const ConfigKey& k) {
+    return k.name == name && k.is_ablation() == ablation;
+  });
+  return hit == std::end(kKeys) ? nullptr : hit;
+}
+
+// Sets `key` to `value`, refusing a value of another JSON type and an integer an int cannot hold:
+// the JSON library would truncate 2.5 to an integer key, wrap -1 into the unsigned cap and turn
+// 1e20 into INT_MIN.
+void set_key(const ConfigKey& key, const json& value, TrainConfig& config,
+             const std::string& what) {
+  std::visit(
+      [&](auto member) {
+        auto& target = field(config, member);
+        using T = std::remove_reference_t<decltype(target)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          if (!value.is_boolean())
+            fail("{}: '{}' must be true or false, got {}", what, path(key), value.dump());
+        } else if constexpr (std::is_integral_v<T>) {
+          if (!value.is_number_integer())
+            fail("{}: '{}' must be an integer, got {}", what, path(key), value.dump());
+          // A key with a range counts iterations or primitives; one without (the seed) takes any
+          // value of its type.
+          if (key.range &&
+              (value.is_number_unsigned() ? value.get<std::uint64_t>() > kMaxInteger
+                                          : std::abs(value.get<double>()) > kMaxInteger))
+            fail("{}: '{}' = {} is out of range", what, path(key), value.dump());
+          if (std::is_unsigned_v<T> && !value.is_number_unsigned() && value.get<std::int64_t>() < 0)
+            fail("{}: '{}' must be >= 0, got {}", what, path(key), value.dump());
+        } else {
+          if (!value.is_number())
+            fail("{}: '{}' must be a number, got {}", what, path(key), value.dump());
+        }
+        target = value.get<T>();
+      },
+      key.member);
+}
+
+// `config` with the keys of the object `keys` set. Every key is known before any is set.
+TrainConfig set_keys(const json& keys, TrainConfig config, const std::string& what) {
+  if (!keys.is_object()) fail("{}: the config must be a JSON object", what);
+  std::vector<std::pair<const ConfigKey*, const json*>> found;
+  for (const auto& [name, value] : keys.items()) {
+    if (name != "ablate") {
+      found.emplace_back(find_key(name, false), &value);
+      if (!found.back().first) fail("{}: unknown config key '{}'", what, name);
+      continue;
+    }
+    if (!value.is_object()) fail("{}: 'ablate' must be an object, got {}", what, value.dump());
+    for (const auto& [ablation, flag] : value.items()) {
+      found.emplace_back(find_key(ablation, true), &flag);
+      if (!found.back().first) fail("{}: unknown ablation '{}'", what, ablation);
+    }
+  }
+  for (const auto& [key, value] : found) set_key(*key, *value, config, what);
+  return config;
+}
+
 }  // namespace
 
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(Ablations, no_flow_init, no_flow_loss, no_triple,
-                                                no_stretch, linear, no_static_init, no_camera_color)
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    TrainConfig, iters, seed, stgs_baseline, ablate, scale_schedule, sh_degree_every, max_sh_degree,
-    lr_decay_start, lr_decay_final, flow_decay_until, relocate_every, relocate_start, relocate_stop,
-    stretch_every, lr_means, lr_means_final, lr_velocity, lr_scales, lr_quats, lr_quat_rate,
-    lr_opacities, lr_sh0, lr_sh_rest_factor, lr_temporal_center, lr_temporal_scale, ssim_lambda,
-    flow_weight_start, flow_weight_end, opacity_reg, scale_reg, gamma, cap, min_opacity,
-    final_prune_opacity, growth, init_opacity, stretch_distance, stretch_color, stretch_speed,
-    checkpoint_every, lr_camera_color)
+bool Range::contains(double value) const {
+  return (open_low ? value > low : value >= low) && (open_high ? value < high : value <= high);
+}
+
+std::string to_string(const Range& range) {
+  return fmt::format("{}{}, {}{}", range.open_low ? "(" : "[", range.low, range.high,
+                     range.open_high ? ")" : "]");
+}
+
+std::span<const ConfigKey> config_keys() {
+  return kKeys;
+}
+
+std::string ablation_names() {
+  std::string names;
+  for (const ConfigKey& key : kKeys)
+    if (key.is_ablation()) names += (names.empty() ? "" : ", ") + flag_name(key);
+  return names;
+}
 
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag) {
   if (list.empty()) return ablate;
@@ -42,40 +261,30 @@ Ablations parse_ablations(const std::string& list, Ablations ablate, const std::
     if (names.back().empty()) fail("{}: empty item in '{}'", flag, list);
     start = comma + 1;
   }
-  const std::pair<std::string_view, bool Ablations::*> known[] = {
-      {"no-flow-init", &Ablations::no_flow_init},
-      {"no-flow-loss", &Ablations::no_flow_loss},
-      {"no-triple", &Ablations::no_triple},
-      {"no-stretch", &Ablations::no_stretch},
-      {"linear", &Ablations::linear},
-      {"no-static-init", &Ablations::no_static_init},
-      {"no-camera-color", &Ablations::no_camera_color}};
   for (const std::string& name : names) {
-    const auto* hit = std::find_if(std::begin(known), std::end(known),
-                                   [&](const auto& k) { return k.first == name; });
-    if (hit == std::end(known))
-      fail(
-          "{}: unknown ablation '{}' (no-flow-init, no-flow-loss, no-triple, no-stretch, linear, "
-          "no-static-init, no-camera-color)",
-          flag, name);
-    ablate.*(hit->second) = true;
+    const auto* hit = std::find_if(std::begin(kKeys), std::end(kKeys), [&](const ConfigKey& k) {
+      return k.is_ablation() && flag_name(k) == name;
+    });
+    if (hit == std::end(kKeys))
+      fail("{}: unknown ablation '{}' ({})", flag, name, ablation_names());
+    ablate.*std::get<bool Ablations::*>(hit->member) = true;
   }
   return ablate;
 }
 
 namespace {
 
+// A preset sets keys of the config, as a --config file does.
 struct Preset {
   std::string_view name;
-  int iters;
-  std::size_t cap;
+  json keys;
 };
 
 const std::vector<Preset>& presets() {
   static const std::vector<Preset> table = {
-      {"fast", 5000, 100000},
-      {"default", TrainConfig{}.iters, TrainConfig{}.cap},
-      {"quality", 30000, 600000},
+      {"fast", {{"iters", 5000}, {"cap", 100000}}},
+      {"default", {{"iters", TrainConfig{}.iters}, {"cap", TrainConfig{}.cap}}},
+      {"quality", {{"iters", 30000}, {"cap", 600000}}},
   };
   return table;
 }
@@ -85,17 +294,14 @@ const std::vector<Preset>& presets() {
 std::string describe_presets() {
   std::string text;
   for (const Preset& p : presets())
-    text += fmt::format("{}{} ({} iterations, cap {})", text.empty() ? "" : ", ", p.name, p.iters,
-                        p.cap);
+    text += fmt::format("{}{} ({} iterations, cap {})", text.empty() ? "" : ", ", p.name,
+                        p.keys.at("iters").dump(), p.keys.at("cap").dump());
   return text;
 }
 
 TrainConfig with_preset(TrainConfig config, const std::string& name, const std::string& flag) {
   for (const Preset& p : presets())
-    if (p.name == name) {
-      config.iters = p.iters, config.cap = p.cap;
-      return config;
-    }
+    if (p.name == name) return set_keys(p.keys, config, flag);
   fail("{}: unknown preset '{}'; known: {}", flag, name, describe_presets());
 }
 
@@ -116,108 +322,36 @@ model::ModelConfig TrainConfig::model_config() const {
 }
 
 std::string to_json(const TrainConfig& config) {
-  return nlohmann::json(config).dump(2);
+  json j;
+  for (const ConfigKey& key : kKeys)
+    std::visit(
+        [&](auto member) {
+          (key.is_ablation() ? j["ablate"] : j)[std::string(key.name)] = field(config, member);
+        },
+        key.member);
+  return j.dump(2);
 }
 
 TrainConfig config_from_json(const std::string& text, TrainConfig config, const std::string& what) {
-  nlohmann::json j;
+  json j;
   try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
     fail("{}: malformed JSON: {}", what, e.what());
   }
-  if (!j.is_object()) fail("{}: the config must be a JSON object", what);
-  const nlohmann::json known = config;
-  for (const auto& [key, value] : j.items()) {
-    if (!known.contains(key)) fail("{}: unknown config key '{}'", what, key);
-    if (key == "ablate")
-      for (const auto& [k, v] : value.items())
-        if (!known["ablate"].contains(k)) fail("{}: unknown ablation '{}'", what, k);
-  }
-  // Types first: the JSON library would truncate 2.5 to an integer key, wrap -1 into the
-  // unsigned cap and turn 1e20 into INT_MIN.
-  for (const auto& [key, value] : j.items()) {
-    const nlohmann::json& like = known[key];
-    if (key == "ablate") continue;
-    if (like.is_boolean() && !value.is_boolean())
-      fail("{}: '{}' must be true or false, got {}", what, key, value.dump());
-    if (like.is_number_integer()) {  // signed or unsigned
-      if (!value.is_number_integer())
-        fail("{}: '{}' must be an integer, got {}", what, key, value.dump());
-      const bool any_size = key == "seed";  // a 64-bit generator seed
-      if (!any_size && (value.is_number_unsigned() ? value.get<std::uint64_t>() > kMaxInteger
-                                                   : std::abs(value.get<double>()) > kMaxInteger))
-        fail("{}: '{}' = {} is out of range", what, key, value.dump());
-      if (like.is_number_unsigned() && !value.is_number_unsigned() && value.get<std::int64_t>() < 0)
-        fail("{}: '{}' must be >= 0, got {}", what, key, value.dump());
-    }
-    if (like.is_number_float() && !value.is_number())
-      fail("{}: '{}' must be a number, got {}", what, key, value.dump());
-  }
-  nlohmann::json merged = known;
-  merged.merge_patch(j);
-  try {
-    config = merged.get<TrainConfig>();
-  } catch (const nlohmann::json::exception& e) {
-    fail("{}: a config value has the wrong type: {}", what, e.what());
-  }
-  const nlohmann::json check = config;
-  for (const auto& [key, value] : check.items())
-    if (value.is_number_float() && !std::isfinite(value.get<double>()))
-      fail("{}: '{}' is not finite", what, key);
+  config = set_keys(j, config, what);
   check_config(config, what);
   return config;
 }
 
-void check_config(const TrainConfig& c, const std::string& what) {
-  // [low, high] with an open end where `open_*`; every rule names its key.
-  const auto range = [&](const char* key, double v, double low, double high, bool open_low = false,
-                         bool open_high = false) {
-    const bool ok = (open_low ? v > low : v >= low) && (open_high ? v < high : v <= high);
-    if (!ok)
-      fail("{}: '{}' = {} must lie in {}{}, {}{}", what, key, v, open_low ? "(" : "[", low, high,
-           open_high ? ")" : "]");
-  };
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  range("iters", c.iters, 1, kMaxInteger);
-  range("cap", double(c.cap), 1, kMaxInteger);
-  range("sh_degree_every", c.sh_degree_every, 1, kMaxInteger);  // a divisor
-  range("max_sh_degree", c.max_sh_degree, 0, model::kMaxShDegree);
-  range("lr_decay_start", c.lr_decay_start, 0, kMaxInteger);
-  range("lr_decay_final", c.lr_decay_final, 0, 1, true);
-  range("flow_decay_until", c.flow_decay_until, 1, kMaxInteger);
-  range("relocate_every", c.relocate_every, 1, kMaxInteger);  // a divisor
-  range("relocate_start", c.relocate_start, 0, kMaxInteger);
-  range("relocate_stop", c.relocate_stop, 0, kMaxInteger);
-  range("stretch_every", c.stretch_every, 1, kMaxInteger);        // a divisor
-  range("checkpoint_every", c.checkpoint_every, 1, kMaxInteger);  // a divisor
-  for (const auto& [key, v] : {std::pair{"lr_means", c.lr_means},
-                               {"lr_velocity", c.lr_velocity},
-                               {"lr_scales", c.lr_scales},
-                               {"lr_quats", c.lr_quats},
-                               {"lr_quat_rate", c.lr_quat_rate},
-                               {"lr_opacities", c.lr_opacities},
-                               {"lr_sh0", c.lr_sh0},
-                               {"lr_sh_rest_factor", c.lr_sh_rest_factor},
-                               {"lr_temporal_center", c.lr_temporal_center},
-                               {"lr_temporal_scale", c.lr_temporal_scale},
-                               {"lr_camera_color", c.lr_camera_color},
-                               {"opacity_reg", c.opacity_reg},
-                               {"scale_reg", c.scale_reg},
-                               {"stretch_distance", c.stretch_distance},
-                               {"stretch_color", c.stretch_color},
-                               {"stretch_speed", c.stretch_speed}})
-    range(key, v, 0, kInf);
-  range("lr_means_final", c.lr_means_final, 0, 1, true);
-  range("ssim_lambda", c.ssim_lambda, 0, 1);
-  // The flow weight decays log-linearly between the two: both must be positive.
-  range("flow_weight_start", c.flow_weight_start, 0, kInf, true);
-  range("flow_weight_end", c.flow_weight_end, 0, kInf, true);
-  range("gamma", c.gamma, 0, kInf, true);
-  range("min_opacity", c.min_opacity, 0, 1, false, true);
-  range("final_prune_opacity", c.final_prune_opacity, 0, 1, false, true);
-  range("init_opacity", c.init_opacity, 0, 1, true, true);
-  range("growth", c.growth, 1, kInf);
+void check_config(const TrainConfig& config, const std::string& what) {
+  for (const ConfigKey& key : kKeys) {
+    if (!key.range) continue;
+    const double value =
+        std::visit([&](auto member) { return double(field(config, member)); }, key.member);
+    if (!key.range->contains(value))
+      fail("{}: '{}' = {} must lie in {}", what, path(key), value, to_string(*key.range));
+  }
 }
 
 }  // namespace retimegs::train

@@ -1,55 +1,63 @@
 #pragma once
 // Every hyper-parameter of training, with the paper's values as defaults (docs/method.md; paper
 // appendix A). `--config FILE` overrides any subset; RUN/config.json records the full set.
+// A key's default is its member's initialiser here; its range and meaning are its entry in the
+// key table (config_keys(), src/train/config.cpp), from which the JSON reading and writing, the
+// range checks and the key tables of docs/formats.md come.
 #include <cstdint>
+#include <optional>
+#include <span>
 #include <string>
+#include <string_view>
+#include <variant>
 
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
 
+// The config's `ablate` object: parts of the recipe switched off (docs/method.md).
 struct Ablations {
-  bool no_flow_init = false;  // velocities start at 0, points unmoved
-  bool no_flow_loss = false;  // flow weight 0
-  bool no_triple = false;     // only the all-primitives render at each frame
+  bool no_flow_init = false;
+  bool no_flow_loss = false;
+  bool no_triple = false;
   bool no_stretch = false;
-  bool linear = false;          // x(t) = μ + (t - μ_τ) v2
-  bool no_static_init = false;  // every seed keeps its own interval at initialisation
-  // No per-camera colour correction (model::CameraColor): every camera sees the model's colours.
+  bool linear = false;
+  bool no_static_init = false;
   bool no_camera_color = false;
+
+  friend bool operator==(const Ablations&, const Ablations&) = default;
 };
 
-// Sets the ablations named in `list` (comma-separated: no-flow-init, no-flow-loss, no-triple,
-// no-stretch, linear, no-static-init, no-camera-color; empty: none) on top of `ablate`. Throws
-// Error naming `flag` on an empty item or an unknown name.
+// Sets the ablations named in `list` (comma-separated names of ablation_names(); empty: none) on
+// top of `ablate`. Throws Error naming `flag` on an empty item or an unknown name.
 Ablations parse_ablations(const std::string& list, Ablations ablate, const std::string& flag);
+// "no-flow-init, no-flow-loss, ...": the names `--ablate` takes, each its key with '-' for '_'.
+std::string ablation_names();
 
 struct TrainConfig {
   int iters = 20000;
   std::uint64_t seed = 0;
-  bool stgs_baseline = false;  // --baseline stgs
+  bool stgs_baseline = false;
   Ablations ablate;
 
   // Milestones are given for the paper's 20 000 iterations and scaled by iters / 20 000 when
   // `scale_schedule` is set, so that a short run follows the same recipe compressed.
   bool scale_schedule = true;
-  int sh_degree_every = 1000;  // active SH degree = min(step / this, max_sh_degree)
+  int sh_degree_every = 1000;
   int max_sh_degree = 3;
-  int lr_decay_start = 18000;    // all rates decay exponentially from here to the end
-  double lr_decay_final = 0.1;   // ... down to this factor at the last iteration
-  int flow_decay_until = 12000;  // flow weight decays log-linearly until here, then stays
+  int lr_decay_start = 18000;
+  double lr_decay_final = 0.1;
+  int flow_decay_until = 12000;
   int relocate_every = 100, relocate_start = 500, relocate_stop = 25000;
-  int stretch_every = 3000;  // dynamic stretching (also its first iteration)
+  int stretch_every = 3000;
 
   // Learning rates (gsplat defaults; means and velocities x scene extent).
-  double lr_means = 1.6e-4, lr_means_final = 0.01;  // means decay to 1 % over training
-  // x extent / Δt. The means' rate: a faster one helps scenes with large, exact motion but hurts
-  // captures with noisy flow and small motion (bench/velocity_lr.sh; README, Results).
+  double lr_means = 1.6e-4, lr_means_final = 0.01;
   double lr_velocity = 1.6e-4;
   double lr_scales = 5e-3, lr_quats = 1e-3, lr_quat_rate = 1e-3, lr_opacities = 5e-2;
   double lr_sh0 = 2.5e-3, lr_sh_rest_factor = 1.0 / 20;
-  double lr_temporal_center = 1e-4, lr_temporal_scale = 3e-2;  // STGS only
-  double lr_camera_color = 1e-3;  // per-camera colour m and c (Dynamic 3D Gaussians' rate)
+  double lr_temporal_center = 1e-4, lr_temporal_scale = 3e-2;
+  double lr_camera_color = 1e-3;  // Dynamic 3D Gaussians' rate
 
   // Losses and regularisers.
   double ssim_lambda = 0.2;
@@ -57,18 +65,15 @@ struct TrainConfig {
   double opacity_reg = 0.01, scale_reg = 0.1;
 
   // Model.
-  double gamma = 0.005;  // normalised clip time
+  double gamma = 0.005;
 
   // MCMC.
-  std::size_t cap = 200000;  // primitive budget
+  std::size_t cap = 200000;
   double min_opacity = 0.01, growth = 1.05;
-  // After the last step, the primitives below this opacity that span one interval are removed
-  // (train::faint_short_rows; 0 keeps them).
   double final_prune_opacity = 0.03;
   double init_opacity = 0.1;
 
-  // Dynamic stretching: neighbours within this distance (x scene extent), colour (SH DC) and
-  // speed (x extent per frame) thresholds.
+  // Dynamic stretching.
   double stretch_distance = 0.01, stretch_color = 0.1, stretch_speed = 0.002;
 
   int checkpoint_every = 1000;
@@ -76,7 +81,37 @@ struct TrainConfig {
   // Milestone `iteration` (given for 20 000 iterations) in this run's units.
   int scaled(int iteration) const;
   model::ModelConfig model_config() const;
+
+  friend bool operator==(const TrainConfig&, const TrainConfig&) = default;
 };
+
+// The values a number key takes: [low, high], an end excluded where it is open.
+struct Range {
+  double low, high;
+  bool open_low = false, open_high = false;
+
+  bool contains(double value) const;
+};
+// "[0, 1)", "(0, inf]": as check_config's messages and docs/formats.md write a range.
+std::string to_string(const Range& range);
+
+// One key of the config: its JSON name, where its value lives, the values it takes and its
+// line in the documentation.
+struct ConfigKey {
+  // A member of TrainConfig, or of its `ablate` object (written inside "ablate").
+  using Member = std::variant<bool TrainConfig::*, int TrainConfig::*, std::uint64_t TrainConfig::*,
+                              double TrainConfig::*, bool Ablations::*>;
+  std::string_view name;
+  Member member;
+  std::optional<Range> range;  // none: any value of its type (flags, the seed)
+  std::string_view group;      // the table of docs/formats.md that lists it, by its heading
+  std::string_view help;       // Markdown, one line
+
+  bool is_ablation() const { return std::holds_alternative<bool Ablations::*>(member); }
+};
+
+// Every key, in the order of the documentation.
+std::span<const ConfigKey> config_keys();
 
 // Budget presets of `train --preset`: iterations and primitive budget, fast to quality.
 // `default` is TrainConfig's own iters and cap (the paper's 20 000 steps). Returns `config` with
@@ -85,13 +120,13 @@ TrainConfig with_preset(TrainConfig config, const std::string& name, const std::
 // "fast (5000 iterations, cap 100000), default (...), ...", for help texts and errors.
 std::string describe_presets();
 
-// JSON text with every field; parse applies the keys present in `json_text` on top of `config`
-// and throws Error naming an unknown key or a wrongly typed value.
+// JSON text with every key (keys in alphabetical order); parse applies the keys present in
+// `json_text` on top of `config` and throws Error naming an unknown key or a wrongly typed value.
 std::string to_json(const TrainConfig& config);
 TrainConfig config_from_json(const std::string& json_text, TrainConfig config,
                              const std::string& what);
-// Every value in its range (iterations and divisors >= 1, rates and weights >= 0, opacities in
-// [0, 1), ...); throws Error naming `what`, the key and the value. config_from_json calls it.
+// Every value in its key's range; throws Error naming `what`, the key and the value.
+// config_from_json calls it.
 void check_config(const TrainConfig& config, const std::string& what);
 
 }  // namespace retimegs::train
