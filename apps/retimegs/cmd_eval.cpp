@@ -12,8 +12,8 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::app {
 namespace fs = std::filesystem;
@@ -101,7 +101,7 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(scene, train_frames,
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
-      renderer = eval::model_renderer(scene, eval::load_model(args->model),
+      renderer = eval::model_renderer(scene, playback::load_model(args->model),
                                       near_render_options(near_plane));
     }
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);

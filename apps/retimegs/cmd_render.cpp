@@ -13,12 +13,12 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/eval/output_size.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/playback/output_size.hpp"
+#include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::app {
 
@@ -113,8 +113,8 @@ void add_render_command(CLI::App& app) {
     const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));
     if (args->camera.empty() && args->path.empty() && args->camera_path.empty())
       fail("render: give --camera, --path or --camera-path");
-    eval::OutputSize output_size;
-    if (!args->size.empty()) output_size = eval::parse_output_size(args->size);
+    playback::OutputSize output_size;
+    if (!args->size.empty()) output_size = playback::parse_output_size(args->size);
     output_size.scale = args->scale;
     if (args->fps && !(std::isfinite(*args->fps) && *args->fps > 0))
       fail("--fps: must be a finite number > 0, got {}", *args->fps);
@@ -131,7 +131,7 @@ void add_render_command(CLI::App& app) {
     std::optional<io::CameraPathFile> path_file;  // read before the model: fail fast
     if (!args->camera_path.empty()) path_file = io::read_camera_path_json(args->camera_path);
 
-    const eval::LoadedModel model = eval::load_model(args->model);
+    const playback::LoadedModel model = playback::load_model(args->model);
     const auto* model_4d = std::get_if<model::Model>(&model);
     if (path_file) {
       const std::size_t n = path_file->frames.size();
@@ -145,10 +145,10 @@ void add_render_command(CLI::App& app) {
       if (model_4d) model::check_times(*model_4d, path_times, "render");
       std::vector<Camera> cameras;
       for (const auto& frame : path_file->frames)
-        cameras.push_back(eval::at_output_size(frame.camera, output_size));
+        cameras.push_back(playback::at_output_size(frame.camera, output_size));
       io::FrameWriter writer(args->out, int(n), writer_options(path_file->fps, path_times));
-      eval::render_camera_frames(model, cameras, path_times, background.data(), writer,
-                                 render_options);
+      playback::render_camera_frames(model, cameras, path_times, background.data(), writer,
+                                     render_options);
       spdlog::info("rendered {} frame{} to {}", n, n > 1 ? "s" : "", args->out);
       return;
     }
@@ -179,11 +179,11 @@ void add_render_command(CLI::App& app) {
       path = {scene.cameras[scene.camera_index(args->camera)]};
     }
 
-    for (Camera& c : path) c = eval::at_output_size(c, output_size);
+    for (Camera& c : path) c = playback::at_output_size(c, output_size);
 
     const int frames = int(frame_times.size());
     io::FrameWriter writer(args->out, frames, writer_options(scene.fps, frame_times));
-    eval::render_frames(model, path, frame_times, background.data(), writer, render_options);
+    playback::render_frames(model, path, frame_times, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });
 }

@@ -1,6 +1,6 @@
 #pragma once
-// One RGB image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
-// model. The shared path of `retimegs render` and `retimegs eval`.
+// One image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
+// model. What `retimegs render`, `retimegs eval` and the tests draw a model with.
 #include <filesystem>
 #include <variant>
 #include <vector>
@@ -8,13 +8,12 @@
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/splats.hpp"
-#include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/render/options.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 // The colours of a render. kModel: the model's own, those of the average training camera (no
 // correction; test cameras, camera paths, export). kCamera: as the scene camera of that name
@@ -66,10 +65,4 @@ void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& c
                           const std::vector<double>& times, const float* background,
                           io::FrameWriter& writer, const render::RenderOptions& options = {});
 
-// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `time` on black,
-// with that camera's colours (Colors::kCamera), every render with `options`.
-// `scene` must outlive the returned renderer; the model is owned by it.
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
-                             const render::RenderOptions& options = {});
-
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

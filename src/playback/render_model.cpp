@@ -1,6 +1,4 @@
-#include "retimegs/eval/render_model.hpp"
-
-#include <memory>
+#include "retimegs/playback/render_model.hpp"
 
 #include "retimegs/core/camera_path.hpp"
 #include "retimegs/core/error.hpp"
@@ -12,7 +10,7 @@
 #include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 Image render_model(const model::Model& model, const Camera& camera, double t,
                    const float* background, const render::RenderOptions& options, Colors colors) {
@@ -122,13 +120,4 @@ void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& c
   writer.finish();
 }
 
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
-                             const render::RenderOptions& options) {
-  auto owned = std::make_shared<const LoadedModel>(std::move(model));
-  return [&scene, owned, options](int camera, double time) {
-    const float black[3] = {0, 0, 0};
-    return render_loaded(*owned, scene.cameras[camera], time, black, options, Colors::kCamera);
-  };
-}
-
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback
