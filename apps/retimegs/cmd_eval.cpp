@@ -76,7 +76,7 @@ void add_eval_command(CLI::App& app) {
     if (!args->baseline.empty() && near->count() > 0)
       fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);
     const io::Scene scene = io::read_scene(args->scene);
-    const double near_plane = app::near_plane(args->near, scene);
+    const double near_plane = playback::near_plane(args->near, scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
     if (args->cameras.empty())
@@ -102,7 +102,7 @@ void add_eval_command(CLI::App& app) {
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
       renderer = eval::model_renderer(scene, playback::load_model(args->model),
-                                      near_render_options(near_plane));
+                                      playback::near_render_options(near_plane));
     }
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     if (args->baseline.empty()) result.near = near_plane;

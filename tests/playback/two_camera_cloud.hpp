@@ -26,6 +26,7 @@ struct TwoCameraCloud {
       scene.cameras.push_back(cam);
     }
     scene.num_frames = 3;
+    scene.fps = 24;
     model.grid = {0.0, 2.0, 2};
     std::mt19937 rng(3);
     std::uniform_real_distribution<float> u(-1, 1);
