@@ -74,13 +74,7 @@ std::vector<float> parse_float_list(const std::string& text, const std::string& 
   return values;
 }
 
-void check_frame_count(double frames, const std::string& flag) {
-  if (frames > kMaxOutputFrames)
-    fail("{}: {:.0f} frames; at most {} frames are rendered in one command", flag, frames,
-         kMaxOutputFrames);
-}
-
-std::vector<double> parse_time_range(const std::string& text, const std::string& flag) {
+playback::TimeRange parse_time_range(const std::string& text, const std::string& flag) {
   std::vector<double> parts;
   std::size_t start = 0;
   for (int i = 0; i < 3; ++i) {
@@ -90,21 +84,7 @@ std::vector<double> parse_time_range(const std::string& text, const std::string&
     parts.push_back(parse_double(text.substr(start, colon - start), flag, text));
     start = colon + 1;
   }
-  const double a = parts[0], b = parts[1], step = parts[2];
-  if (!(step > 0) || b < a) fail("{}: need A <= B and STEP > 0, got '{}'", flag, text);
-  check_frame_count((b - a) / step + 1, flag);
-  std::vector<double> times;
-  for (long k = 0; a + k * step <= b + 1e-9; ++k) times.push_back(a + k * step);
-  return times;
-}
-
-std::vector<double> slowmo_times(double first, double last, int factor) {
-  if (factor < 1) fail("--slowmo: must be >= 1, got {}", factor);
-  check_frame_count((last - first) * factor + 1, "--slowmo");
-  std::vector<double> times;
-  const long count = std::lround((last - first) * factor);
-  for (long k = 0; k <= count; ++k) times.push_back(first + double(k) / factor);
-  return times;
+  return {parts[0], parts[1], parts[2]};
 }
 
 CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
@@ -116,19 +96,6 @@ CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
           "dome it keeps a rig camera's own body, which the other cameras see, out of "
           "its renders)",
           100 * io::kNearPlaneFraction));
-}
-
-double near_plane(const std::optional<double>& near, const io::Scene& scene) {
-  if (!near) return io::scene_near_plane(scene);
-  if (!(std::isfinite(*near) && *near > 0))
-    fail("--near: must be a finite number > 0, got {}", *near);
-  return *near;
-}
-
-render::RenderOptions near_render_options(double near) {
-  render::RenderOptions options;
-  options.near_plane = float(near);
-  return options;
 }
 
 }  // namespace retimegs::app

@@ -8,8 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "retimegs/core/atomic_file.hpp"
-#include "retimegs/io/scene.hpp"
-#include "retimegs/render/options.hpp"
+#include "retimegs/playback/times.hpp"
 #include "retimegs/train/config.hpp"
 
 namespace retimegs::app {
@@ -30,27 +29,12 @@ namespace retimegs::app {
 // "r,g,b" -> {r, g, b}: exactly `count` finite numbers.
 std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count);
 
-// "A:B:STEP" -> A, A + STEP, ... up to B (inclusive, with a 1e-9 tolerance); STEP > 0.
-// Renders and exports of more frames than this are refused up front (a typo such as
-// --slowmo 1000000000 would otherwise end in an allocation failure naming nothing).
-constexpr long kMaxOutputFrames = 1'000'000;
-void check_frame_count(double frames, const std::string& flag);
-
-std::vector<double> parse_time_range(const std::string& text, const std::string& flag);
-
-// F frames per scene-frame interval from time `first` to `last`: t = first + k / F.
-std::vector<double> slowmo_times(double first, double last, int factor);
+// "A:B:STEP" -> {A, B, STEP}, finite numbers (playback::range_times checks and lists them).
+playback::TimeRange parse_time_range(const std::string& text, const std::string& flag);
 
 // --near D: the near plane of a command's model renders, in scene units, into `near` (empty:
-// the scene's own, io::scene_near_plane). Resolve it with near_plane().
+// the scene's own, io::scene_near_plane). Resolve it with playback::near_plane().
 CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near);
-
-// --near when given (throws Error naming --near unless it is finite and > 0), else the scene's
-// near plane.
-double near_plane(const std::optional<double>& near, const io::Scene& scene);
-
-// Render options with near plane `near`.
-render::RenderOptions near_render_options(double near);
 
 }  // namespace retimegs::app
 

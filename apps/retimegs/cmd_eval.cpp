@@ -12,8 +12,8 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::app {
 namespace fs = std::filesystem;
@@ -76,7 +76,7 @@ void add_eval_command(CLI::App& app) {
     if (!args->baseline.empty() && near->count() > 0)
       fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);
     const io::Scene scene = io::read_scene(args->scene);
-    const double near_plane = app::near_plane(args->near, scene);
+    const double near_plane = playback::near_plane(args->near, scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
     if (args->cameras.empty())
@@ -101,8 +101,8 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(scene, train_frames,
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
-      renderer = eval::model_renderer(scene, eval::load_model(args->model),
-                                      near_render_options(near_plane));
+      renderer = eval::model_renderer(scene, playback::load_model(args->model),
+                                      playback::near_render_options(near_plane));
     }
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     if (args->baseline.empty()) result.near = near_plane;

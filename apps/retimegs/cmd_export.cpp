@@ -9,14 +9,11 @@
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/interrupt.hpp"
-#include "retimegs/io/frame_writer.hpp"
-#include "retimegs/io/splat_ply.hpp"
-#include "retimegs/model/export.hpp"
-#include "retimegs/model/model_file.hpp"
-#include "retimegs/model/window.hpp"
+#include "retimegs/playback/export_times.hpp"
+#include "retimegs/playback/render_model.hpp"
+#include "retimegs/playback/times.hpp"
+#include "retimegs/view/pack.hpp"
 #include "retimegs/view/web.hpp"
-#include "web_pack.hpp"
 
 namespace retimegs::app {
 
@@ -55,7 +52,7 @@ void add_export_command(CLI::App& app) {
       // Nor may it replace the scene's own files (scene.json, images, ...), even with --force.
       for (const InputPath& in : scene_inputs(args->scene)) inputs.push_back(in);
       check_output_overlap(args->web, "--web", inputs);
-      const view::Packed packed = pack_for_web(args->model, args->scene, args->near);
+      const view::Packed packed = view::pack_for_web(args->model, args->scene, args->near);
       view::write_web(args->web, view::web_files(packed), args->force);
       spdlog::info("wrote the viewer to {} ({:.1f} MB of model data)", args->web,
                    packed.data.size() / 1e6);
@@ -65,29 +62,16 @@ void add_export_command(CLI::App& app) {
     if (!args->time && args->times.empty()) fail("export: give --time, --times or --web");
     if (args->out.empty()) fail("export: --time and --times need --out");
     check_output_overlap(args->out, "--out", {{args->model, "model"}});
-    const model::Model m = model::window_view(model::read_model(args->model));
-    const std::filesystem::path out = args->out;
+    const model::Model m = playback::read_4d_model(args->model);
     if (args->time) {
-      if (out.extension() != ".ply")
-        fail("--out: a single time is written to a .ply file, got '{}'", args->out);
-      check_output_free(out, args->force);
-      model::check_times(m, {*args->time}, "export");
-      const Splats s = model::export_splats(m, *args->time);
-      io::write_splat_ply(out, s);
-      spdlog::info("exported {} Gaussians at t = {} to {}", s.size(), *args->time, args->out);
+      const std::size_t n = playback::export_time(m, *args->time, args->out, args->force);
+      spdlog::info("exported {} Gaussians at t = {} to {}", n, *args->time, args->out);
       return;
     }
-    const std::vector<double> ts = parse_time_range(args->times, "--times");
-    model::check_times(m, ts, "export");
-    AtomicDirectory dir(out, args->force);
-    for (std::size_t k = 0; k < ts.size(); ++k) {
-      throw_if_interrupted();  // Ctrl-C: `dir` removes the unfinished folder
-      io::write_splat_ply(dir.temp_path() / fmt::format("{:05d}.ply", k),
-                          model::export_splats(m, ts[k]));
-    }
-    io::write_times_csv(dir.temp_path() / "times.csv", ts);
-    dir.commit();
-    spdlog::info("exported {} times to {}", ts.size(), args->out);
+    const std::vector<double> times =
+        playback::range_times(parse_time_range(args->times, "--times"), "--times");
+    playback::export_times(m, times, args->out, args->force);
+    spdlog::info("exported {} times to {}", times.size(), args->out);
   });
 }
 

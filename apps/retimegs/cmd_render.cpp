@@ -5,7 +5,6 @@
 #include <cmath>
 #include <memory>
 #include <optional>
-#include <variant>
 
 #include <spdlog/spdlog.h>
 
@@ -13,21 +12,19 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/eval/output_size.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
-#include "retimegs/model/model_file.hpp"
+#include "retimegs/playback/output_size.hpp"
+#include "retimegs/playback/shot.hpp"
 
 namespace retimegs::app {
 
 void add_render_command(CLI::App& app) {
   struct Args {
-    std::string model, scene, camera, path, times, retime, out, background = "0,0,0";
-    std::optional<double> time;
-    std::optional<int> slowmo;
-    int path_frames = 60, threads = 0;
+    std::string model, scene, path, times, retime, out, background = "0,0,0";
+    playback::SceneShotRequest shot;  // --camera, --time, --slowmo and --path-frames
+    int threads = 0;
     std::optional<double> near;
     bool force = false;
     std::string camera_path;  // nerfstudio camera_path.json
@@ -46,7 +43,7 @@ void add_render_command(CLI::App& app) {
       ->check(input_file("a model"));
   cmd->add_option("--scene", args->scene, "scene folder whose cameras and fps are used")
       ->required();
-  auto* camera = cmd->add_option("--camera", args->camera,
+  auto* camera = cmd->add_option("--camera", args->shot.camera,
                                  "camera name in the scene (a training camera renders through its "
                                  "learned colour map, any other with the model's colours)");
   auto* path_option =
@@ -61,10 +58,10 @@ void add_render_command(CLI::App& app) {
       "model's colours");
   camera_path->check(input_file("a camera path"));
   camera_path->excludes(camera)->excludes(path_option);
-  auto* time = cmd->add_option("--time", args->time,
+  auto* time = cmd->add_option("--time", args->shot.time,
                                "one time, in scene frame units, within the model's time range");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
-  auto* slowmo = cmd->add_option("--slowmo", args->slowmo,
+  auto* slowmo = cmd->add_option("--slowmo", args->shot.slowmo,
                                  "F frames per scene-frame interval over the model's time "
                                  "range, its first to last training frame (F x slow motion)");
   auto* retime = cmd->add_option("--retime", args->retime,
@@ -75,7 +72,7 @@ void add_render_command(CLI::App& app) {
   times->excludes(slowmo)->excludes(retime);
   slowmo->excludes(retime);
   camera_path->excludes(times)->excludes(slowmo)->excludes(retime);
-  cmd->add_option("--path-frames", args->path_frames,
+  cmd->add_option("--path-frames", args->shot.path_frames,
                   "frames of a --path move at a fixed --time (bullet time)")
       ->capture_default_str();
   cmd->add_option("--out", args->out,
@@ -110,80 +107,34 @@ void add_render_command(CLI::App& app) {
     check_output_overlap(args->out, "--out", inputs);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
     const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
-    const render::RenderOptions render_options = near_render_options(near_plane(args->near, scene));
-    if (args->camera.empty() && args->path.empty() && args->camera_path.empty())
+    const render::RenderOptions render_options =
+        playback::near_render_options(playback::near_plane(args->near, scene));
+    playback::SceneShotRequest request = args->shot;
+    if (request.camera.empty() && args->path.empty() && args->camera_path.empty())
       fail("render: give --camera, --path or --camera-path");
-    eval::OutputSize output_size;
-    if (!args->size.empty()) output_size = eval::parse_output_size(args->size);
-    output_size.scale = args->scale;
+    if (!args->size.empty()) request.size = playback::parse_output_size(args->size);
+    request.size.scale = args->scale;
     if (args->fps && !(std::isfinite(*args->fps) && *args->fps > 0))
       fail("--fps: must be a finite number > 0, got {}", *args->fps);
-    // The output options of every render source; a video's fps defaults to the source's.
-    const auto writer_options = [&](double source_fps, std::vector<double> frame_times) {
-      io::FrameWriterOptions o;
-      o.fps = args->fps.value_or(source_fps);
-      o.alpha = args->alpha;
-      o.bit_depth = args->bit_depth;
-      o.times = std::move(frame_times);
-      o.force = args->force;
-      return o;
-    };
     std::optional<io::CameraPathFile> path_file;  // read before the model: fail fast
     if (!args->camera_path.empty()) path_file = io::read_camera_path_json(args->camera_path);
 
-    const eval::LoadedModel model = eval::load_model(args->model);
-    const auto* model_4d = std::get_if<model::Model>(&model);
-    if (path_file) {
-      const std::size_t n = path_file->frames.size();
-      std::vector<double> path_times(n, args->time.value_or(0.0));  // a static model ignores time
-      if (model_4d && !args->time) {
-        if (!path_file->timed)
-          fail("{}: camera_path entries have no 'render_time'; give --time T for every frame",
-               args->camera_path);
-        path_times = io::camera_path_times(*path_file, model_4d->grid.first, model_4d->grid.last());
-      }
-      if (model_4d) model::check_times(*model_4d, path_times, "render");
-      std::vector<Camera> cameras;
-      for (const auto& frame : path_file->frames)
-        cameras.push_back(eval::at_output_size(frame.camera, output_size));
-      io::FrameWriter writer(args->out, int(n), writer_options(path_file->fps, path_times));
-      eval::render_camera_frames(model, cameras, path_times, background.data(), writer,
-                                 render_options);
-      spdlog::info("rendered {} frame{} to {}", n, n > 1 ? "s" : "", args->out);
-      return;
-    }
-    std::vector<double> frame_times;
-    if (args->time)
-      frame_times = {*args->time};
-    else if (!args->times.empty())
-      frame_times = parse_time_range(args->times, "--times");
-    else if (args->slowmo && model_4d)
-      frame_times = slowmo_times(model_4d->grid.first, model_4d->grid.last(), *args->slowmo);
-    else if (args->slowmo)  // a static model: the scene's clip
-      frame_times = slowmo_times(0, scene.num_frames - 1, *args->slowmo);
-    else if (!args->retime.empty())
-      frame_times = io::read_retime_csv(args->retime);
-    else
-      fail("render: give one of --time, --times, --slowmo or --retime");
-    if (model_4d) model::check_times(*model_4d, frame_times, "render");
-    std::vector<Camera> path;
-    if (!args->path.empty()) {
-      for (const auto& name : split_list(args->path, "--path"))
-        path.push_back(scene.cameras[scene.camera_index(name)]);
-      if (frame_times.size() == 1) {
-        if (args->path_frames < 1) fail("--path-frames: must be >= 1, got {}", args->path_frames);
-        check_frame_count(args->path_frames, "--path-frames");
-        frame_times.assign(args->path_frames, frame_times[0]);  // bullet time
-      }
-    } else {
-      path = {scene.cameras[scene.camera_index(args->camera)]};
-    }
-
-    for (Camera& c : path) c = eval::at_output_size(c, output_size);
-
-    const int frames = int(frame_times.size());
-    io::FrameWriter writer(args->out, frames, writer_options(scene.fps, frame_times));
-    eval::render_frames(model, path, frame_times, background.data(), writer, render_options);
+    const playback::LoadedModel model = playback::load_model(args->model);
+    if (!args->times.empty()) request.times = parse_time_range(args->times, "--times");
+    if (!args->path.empty()) request.path = split_list(args->path, "--path");
+    request.retime = args->retime;
+    const playback::Shot shot =
+        path_file ? playback::camera_path_shot(*path_file, request.time, model, request.size)
+                  : playback::scene_shot(request, scene, model);
+    io::FrameWriterOptions writer_options;
+    writer_options.fps = args->fps.value_or(shot.fps);  // a video's: the source's by default
+    writer_options.alpha = args->alpha;
+    writer_options.bit_depth = args->bit_depth;
+    writer_options.times = shot.times;
+    writer_options.force = args->force;
+    const std::size_t frames = shot.times.size();
+    io::FrameWriter writer(args->out, int(frames), writer_options);
+    playback::render_shot(model, shot, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });
 }

@@ -5,30 +5,10 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
-#include "retimegs/io/scene.hpp"
-#include "retimegs/model/model_file.hpp"
-#include "retimegs/model/window.hpp"
+#include "retimegs/view/pack.hpp"
 #include "retimegs/view/web.hpp"
-#include "web_pack.hpp"
 
 namespace retimegs::app {
-
-view::Packed pack_for_web(const std::string& model_path, const std::string& scene_path,
-                          const std::optional<double>& near) {
-  // A window model is drawn over its own frames, as render draws it (model/window.hpp).
-  const model::Model model = model::window_view(model::read_model(model_path));
-  std::optional<io::Scene> scene;
-  view::PackScene pack_scene;
-  if (!scene_path.empty()) {
-    scene = io::read_scene(scene_path, io::SceneCheck::kJson);
-    pack_scene.scene = &*scene;
-    pack_scene.near_plane = near_plane(near, *scene);
-  } else if (near) {
-    io::Scene none;
-    pack_scene.near_plane = near_plane(near, none);
-  }
-  return view::pack(model, pack_scene);
-}
 
 void add_view_command(CLI::App& app) {
   struct Args {
@@ -56,7 +36,7 @@ void add_view_command(CLI::App& app) {
       ->capture_default_str();
   cmd->callback([args] {
     // The model is read and packed before the port is bound: a bad model is refused at once.
-    const view::Packed packed = pack_for_web(args->model, args->scene, args->near);
+    const view::Packed packed = view::pack_for_web(args->model, args->scene, args->near);
     view::serve(view::web_files(packed), args->host, args->port, [](const std::string& url) {
       std::printf("retimegs view: serving %s (Ctrl-C to stop)\n", url.c_str());
       std::fflush(stdout);

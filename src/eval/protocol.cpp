@@ -192,6 +192,16 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
   };
 }
 
+FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,
+                             const render::RenderOptions& options) {
+  auto owned = std::make_shared<const playback::LoadedModel>(std::move(model));
+  return [&scene, owned, options](int camera, double time) {
+    const float black[3] = {0, 0, 0};
+    return playback::render_loaded(*owned, scene.cameras[camera], time, black, options,
+                                   playback::Colors::kCamera);
+  };
+}
+
 Baseline parse_baseline(const std::string& name, const std::string& flag) {
   if (name == "crossfade") return Baseline::kCrossfade;
   if (name == "nearest") return Baseline::kNearest;

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <map>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -170,11 +169,11 @@ void write_times_csv(const fs::path& path, const std::vector<double>& times) {
   write_text_file(path, text);
 }
 
-std::vector<double> read_retime_csv(const fs::path& path) {
+std::vector<RetimeKey> read_retime_csv(const fs::path& path) {
   check_input_file(path, "a retime file");
   std::ifstream in(path);
   if (!in) fail("{}: cannot open retime file", path.string());
-  std::map<int, double> keys;
+  std::vector<RetimeKey> keys;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
@@ -191,25 +190,13 @@ std::vector<double> read_retime_csv(const fs::path& path) {
     if (!std::isfinite(t) || frame < 0 || frame != std::floor(frame) || frame > 1e7)
       fail("{}:{}: output_frame must be a non-negative integer and t finite", path.string(),
            number);
-    if (!keys.empty() && int(frame) <= keys.rbegin()->first)
+    if (!keys.empty() && int(frame) <= keys.back().output_frame)
       fail("{}:{}: output frame {} after {}: rows must be in increasing output_frame order",
-           path.string(), number, int(frame), keys.rbegin()->first);
-    keys.emplace(int(frame), t);
+           path.string(), number, int(frame), keys.back().output_frame);
+    keys.push_back({int(frame), t});
   }
   if (keys.empty()) fail("{}: no keyframes", path.string());
-  std::vector<double> times;
-  auto it = keys.begin();
-  for (int frame = keys.begin()->first; frame <= keys.rbegin()->first; ++frame) {
-    auto next = std::next(it);
-    if (next != keys.end() && frame >= next->first) it = next++;
-    if (next == keys.end()) {
-      times.push_back(it->second);
-    } else {
-      const double s = double(frame - it->first) / double(next->first - it->first);
-      times.push_back(it->second + s * (next->second - it->second));
-    }
-  }
-  return times;
+  return keys;
 }
 
 }  // namespace retimegs::io

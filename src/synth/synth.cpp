@@ -50,7 +50,7 @@ constexpr long kSkyPoints = 3000;
 
 // Upper bounds, checked before anything is allocated: a typo such as --size 100000x100000 would
 // otherwise end in an allocation failure naming nothing. A side as large as a render's
-// (eval/output_size.hpp); cameras and frames far beyond any capture.
+// (playback/output_size.hpp); cameras and frames far beyond any capture.
 constexpr int kMaxImageSide = 16384;
 constexpr int kMaxCameras = 1000;
 constexpr int kMaxFrames = 100000;

@@ -9,6 +9,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/model/sh.hpp"
+#include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::view {
 
@@ -204,6 +205,21 @@ Packed pack(const model::Model& model, const PackScene& pack_scene) {
   m["cameras"] = cameras;
   packed.manifest = m.dump(1);
   return packed;
+}
+
+Packed pack_for_web(const std::filesystem::path& model_path,
+                    const std::filesystem::path& scene_path, const std::optional<double>& near) {
+  const model::Model model = playback::read_4d_model(model_path);
+  std::optional<io::Scene> scene;
+  PackScene pack_scene;
+  if (!scene_path.empty()) {
+    scene = io::read_scene(scene_path, io::SceneCheck::kJson);
+    pack_scene.scene = &*scene;
+    pack_scene.near_plane = playback::near_plane(near, *scene);
+  } else if (near) {
+    pack_scene.near_plane = playback::near_plane(near, io::Scene{});
+  }
+  return pack(model, pack_scene);
 }
 
 }  // namespace retimegs::view

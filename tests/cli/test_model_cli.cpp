@@ -9,13 +9,13 @@
 
 #include "moving_model_scene.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/playback/render_model.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -56,8 +56,8 @@ TEST(ModelCli, ExportedPlyReRendersToTheSameImage) {
     EXPECT_LT(table.count, 120u);
     const float background[3] = {0.1f, 0.2f, 0.3f};
     for (const Camera& cam : f.scene.cameras) {
-      const Image from_ply = eval::render_splats(io::read_splat_ply(ply), cam, background);
-      const Image from_rgs = eval::render_model(f.model, cam, t, background);
+      const Image from_ply = playback::render_splats(io::read_splat_ply(ply), cam, background);
+      const Image from_rgs = playback::render_model(f.model, cam, t, background);
       double max_diff = 0;
       for (std::size_t i = 0; i < from_ply.data.size(); ++i)
         max_diff = std::max(max_diff, double(std::abs(from_ply.data[i] - from_rgs.data[i])));
@@ -79,7 +79,7 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
   // One in-between time to a PNG equals the library render.
   run(base + " --camera cam01 --time 2.5 --out " + (dir / "one.png").string());
   const float black[3] = {0, 0, 0};
-  const Image lib = eval::render_model(f.model, f.scene.cameras[1], 2.5, black);
+  const Image lib = playback::render_model(f.model, f.scene.cameras[1], 2.5, black);
   EXPECT_LT(mean_abs_diff(io::read_image(dir / "one.png"), lib), 1.0 / 255);
   // 4x slow motion over 9 frames: 8 * 4 + 1 frames; consecutive frames differ (motion).
   run(base + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string());
@@ -92,7 +92,7 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
             1e-3);
   // Frame 10 of the 4x slow motion is t = 2.5 from cam00.
   EXPECT_LT(mean_abs_diff(io::read_image(dir / "slow" / "00010.png"),
-                          eval::render_model(f.model, f.scene.cameras[0], 2.5, black)),
+                          playback::render_model(f.model, f.scene.cameras[0], 2.5, black)),
             1.0 / 255);
   // A speed ramp: keyframes (0, 0), (4, 1), (6, 5) -> times 0, .25, .5, .75, 1, 3, 5.
   test::write_text(dir / "ramp.csv", "output_frame,t\n0,0\n4,1\n6,5\n");
@@ -101,12 +101,12 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
   EXPECT_TRUE(fs::exists(dir / "ramp" / "00006.png"));
   EXPECT_FALSE(fs::exists(dir / "ramp" / "00007.png"));
   EXPECT_LT(mean_abs_diff(io::read_image(dir / "ramp" / "00005.png"),
-                          eval::render_model(f.model, f.scene.cameras[0], 3.0, black)),
+                          playback::render_model(f.model, f.scene.cameras[0], 3.0, black)),
             1.0 / 255);
   // Bullet time: fixed time, the camera moves from cam00 to cam01.
   run(base + " --path cam00,cam01 --time 3 --path-frames 5 --out " + (dir / "bullet").string());
   EXPECT_LT(mean_abs_diff(io::read_image(dir / "bullet" / "00004.png"),
-                          eval::render_model(f.model, f.scene.cameras[1], 3.0, black)),
+                          playback::render_model(f.model, f.scene.cameras[1], 3.0, black)),
             1.0 / 255);
   EXPECT_GT(mean_abs_diff(io::read_image(dir / "bullet" / "00000.png"),
                           io::read_image(dir / "bullet" / "00004.png")),

@@ -11,12 +11,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "retimegs/eval/render_model.hpp"
+#include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/sh.hpp"
+#include "retimegs/playback/render_model.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -73,8 +74,10 @@ TEST(NearCli, AGaussianInFrontOfTheCameraCoversTheImageUnlessBeyondTheNearPlane)
   const Fixture f(dir.path());
   const Camera& cam = f.scene.cameras[0];
   const float black[3] = {0, 0, 0};
-  EXPECT_GT(min_max(eval::render_model(f.model, cam, 1.0, black, with_near(0.01f))).first, 0.5f);
-  EXPECT_EQ(min_max(eval::render_model(f.model, cam, 1.0, black, with_near(0.2f))).second, 0.0f);
+  EXPECT_GT(min_max(playback::render_model(f.model, cam, 1.0, black, with_near(0.01f))).first,
+            0.5f);
+  EXPECT_EQ(min_max(playback::render_model(f.model, cam, 1.0, black, with_near(0.2f))).second,
+            0.0f);
   // eval's renderer passes its options to every render.
   EXPECT_GT(min_max(eval::model_renderer(f.scene, f.model, with_near(0.01f))(0, 1.0)).first, 0.5f);
   EXPECT_EQ(min_max(eval::model_renderer(f.scene, f.model, with_near(0.2f))(0, 1.0)).second, 0.0f);

@@ -13,10 +13,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/playback/render_model.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -91,7 +91,7 @@ TEST(RenderOutputsCli, SizeAndScaleRenderAtTheNewSize) {
   // Rendered at 32x24 through the scaled intrinsics (8-bit rounding apart).
   const float black[3] = {0, 0, 0};
   const Image lib =
-      eval::render_model(f.model, resized(f.scene.cameras[0], 32, 24), 1.0, black, near_001());
+      playback::render_model(f.model, resized(f.scene.cameras[0], 32, 24), 1.0, black, near_001());
   EXPECT_LT(max_abs_diff(size, lib), 0.5 / 255 + 1e-6);
 }
 
@@ -104,7 +104,7 @@ TEST(RenderOutputsCli, AlphaWritesStraightRgbaThatCompositesToTheRender) {
   const cv::Mat rgba = cv::imread((dir / "rgba.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(rgba.type(), CV_8UC4);
   const Image rgb = io::read_image(dir / "rgb.png");
-  const Image lib = eval::render_loaded_rgba(f.model, f.scene.cameras[0], 1.0, near_001());
+  const Image lib = playback::render_loaded_rgba(f.model, f.scene.cameras[0], 1.0, near_001());
   int empty = 0, partial = 0;
   for (int y = 0; y < rgba.rows; ++y)
     for (int x = 0; x < rgba.cols; ++x) {
@@ -128,7 +128,7 @@ TEST(RenderOutputsCli, SixteenBitPngs) {
   const cv::Mat codes = cv::imread((dir / "deep" / "00001.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(codes.type(), CV_16UC3);
   const float black[3] = {0, 0, 0};
-  const Image lib = eval::render_model(f.model, f.scene.cameras[0], 1.0, black, near_001());
+  const Image lib = playback::render_model(f.model, f.scene.cameras[0], 1.0, black, near_001());
   int between_8_bit_codes = 0;
   for (int y = 0; y < codes.rows; ++y)
     for (int x = 0; x < codes.cols; ++x)

@@ -93,7 +93,7 @@ std::vector<double> seam_times() {
 
 TEST(Merge, SeamDrawsLikeTheUnsplitModel) {
   const Fixture f = fixture();
-  // As render and eval draw it (eval::load_model): a window model as trained.
+  // As render and eval draw it (playback::load_model): a window model as trained.
   const Model merged = window_view(merge_models({f.right, f.left}, {"right.rgs", "left.rgs"}));
   ASSERT_EQ(merged.primitives.size(), f.whole.primitives.size());
   for (const double t : seam_times())

@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/io/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
+#include "retimegs/playback/render_model.hpp"
 #include "retimegs/train/relocation.hpp"
 #include "retimegs/train/cpu_step.hpp"
 #include "retimegs/train/run.hpp"
@@ -48,7 +48,8 @@ TEST(Trainer, HeldOutFramesBeatCrossfade) {
   options.progress = false;
   const float black[3] = {0, 0, 0};
   const auto ours = eval::evaluate_views(
-      scene, [&](int c, int k) { return eval::render_model(model, scene.cameras[c], k, black); },
+      scene,
+      [&](int c, int k) { return playback::render_model(model, scene.cameras[c], k, black); },
       options);
   const auto crossfade = eval::evaluate_views(
       scene, eval::baseline_renderer(scene, {0, 2, 4}, eval::Baseline::kCrossfade), options);

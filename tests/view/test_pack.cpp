@@ -196,6 +196,32 @@ TEST(ViewPack, HalfConversionRoundsToNearestEven) {
   EXPECT_EQ(view::half_from_float(-2.0f), 0xc000);
 }
 
+TEST(ViewPack, ForWebReadsAWindowModelAsTrainedWithTheScenesNearPlane) {
+  test::TempDir dir;
+  model::Model window = test::view_fixture_model(40, 4);
+  window.window = model::TimeWindow{1, 3};  // training frames 2, 4, 6 of the clip's 0..8
+  model::write_model(dir / "window.rgs", window);
+  fs::create_directories(dir / "scene");
+  const io::Scene scene = test::view_fixture_scene(dir / "scene");
+  io::write_scene_json(scene);
+  const json with_scene =
+      json::parse(view::pack_for_web(dir / "window.rgs", dir / "scene", {}).manifest);
+  EXPECT_EQ(with_scene["time"]["first"], 2.0);
+  EXPECT_EQ(with_scene["time"]["last"], 6.0);
+  EXPECT_DOUBLE_EQ(with_scene["near"].get<double>(), io::scene_near_plane(scene));
+  EXPECT_EQ(with_scene["cameras"].size(), 2u);
+  EXPECT_DOUBLE_EQ(
+      json::parse(view::pack_for_web(dir / "window.rgs", dir / "scene", 0.5).manifest)["near"]
+          .get<double>(),
+      0.5);
+  // Without a scene: no cameras; a near plane given is checked.
+  const json alone = json::parse(view::pack_for_web(dir / "window.rgs", "", 0.25).manifest);
+  EXPECT_DOUBLE_EQ(alone["near"].get<double>(), 0.25);
+  EXPECT_TRUE(alone["cameras"].empty());
+  test::expect_error([&] { view::pack_for_web(dir / "window.rgs", "", -1.0); }, {"--near"});
+  test::expect_error([&] { view::pack_for_web(dir / "none.rgs", "", {}); }, {"none.rgs"});
+}
+
 TEST(ViewWeb, ExportWritesTheServedFilesByteForByte) {
   const PackedFixture f;
   const std::vector<view::WebFile> files = view::web_files(f.packed);

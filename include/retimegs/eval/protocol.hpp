@@ -13,6 +13,8 @@
 
 #include "retimegs/core/image.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/playback/render_model.hpp"
+#include "retimegs/render/options.hpp"
 
 namespace retimegs::eval {
 
@@ -123,6 +125,12 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
                                 Baseline baseline);
 // "crossfade" | "nearest" | "flow"; throws Error naming `flag` and the value otherwise.
 Baseline parse_baseline(const std::string& name, const std::string& flag);
+
+// The held-out renderer of a model: camera `camera` of `scene` at time `time` on black, with that
+// camera's colours (playback::Colors::kCamera), every render with `options`. `scene` must outlive
+// the returned renderer; the model is owned by it.
+FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,
+                             const render::RenderOptions& options = {});
 
 // "odd", "all", or a comma-separated list; throws Error naming `flag` on bad input.
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag);

@@ -69,10 +69,15 @@ class FrameWriter {
 // time or a failed write.
 void write_times_csv(const std::filesystem::path& path, const std::vector<double>& times);
 
+// A keyframe of a time remap: output frame `output_frame` shows scene time `t`.
+struct RetimeKey {
+  int output_frame = 0;
+  double t = 0;
+};
+
 // A speed-ramp file: CSV rows `output_frame,t` in increasing output_frame order (a header line and
-// blank lines are allowed), the keyframes of a time remap. Returns one time per output frame from
-// the first to the last keyframe, linearly interpolated between keyframes. Throws Error naming the
-// file and line.
-std::vector<double> read_retime_csv(const std::filesystem::path& path);
+// blank lines are allowed), the keyframes of a time remap (playback::ramp_times gives the time of
+// every output frame). Returns at least one keyframe; throws Error naming the file and line.
+std::vector<RetimeKey> read_retime_csv(const std::filesystem::path& path);
 
 }  // namespace retimegs::io

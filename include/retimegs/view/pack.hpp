@@ -5,6 +5,8 @@
 // viewer evaluates the model at any time in its vertex shader exactly as model::evaluate does,
 // so the manifest carries every setting evaluate reads.
 #include <cstdint>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +46,14 @@ struct PackScene {
 
 // Throws Error naming the field and row of a value that a half float cannot hold (|x| > 65504).
 Packed pack(const model::Model& model, const PackScene& scene);
+
+// The viewer's data of `retimegs view` and `export --web`: the 4D model file `model_path` as
+// render draws it (playback::read_4d_model), packed with the scene folder `scene_path`'s cameras
+// and the near plane of its renders (playback::near_plane: --near `near` when given, else the
+// scene's); no scene (empty path): no cameras, and `near` when given. Throws Error naming the
+// file, or --near, on a bad model, scene or near plane.
+Packed pack_for_web(const std::filesystem::path& model_path,
+                    const std::filesystem::path& scene_path, const std::optional<double>& near);
 
 // IEEE binary16 from a float, rounding to nearest even (what the GPU reads back exactly).
 std::uint16_t half_from_float(float value);

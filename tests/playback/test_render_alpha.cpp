@@ -7,11 +7,11 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/camera.hpp"
-#include "retimegs/eval/render_model.hpp"
 #include "retimegs/model/evaluate.hpp"
+#include "retimegs/playback/render_model.hpp"
 #include "retimegs/render/rasterize.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 namespace {
 
 // A few soft primitives in the middle of a 40x30 view (the border stays empty); camera cam00 has
@@ -85,4 +85,4 @@ TEST(RenderAlpha, CompositingTheStraightRgbaGivesTheRender) {
 }
 
 }  // namespace
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

@@ -1,18 +1,17 @@
-#include "retimegs/eval/render_model.hpp"
+#include "retimegs/playback/render_model.hpp"
 
-#include <memory>
+#include <cmath>
 
-#include "retimegs/core/camera_path.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
-#include "retimegs/core/progress.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 Image render_model(const model::Model& model, const Camera& camera, double t,
                    const float* background, const render::RenderOptions& options, Colors colors) {
@@ -33,10 +32,14 @@ Image render_splats(const Splats& splats, const Camera& camera, const float* bac
       .blend.image;
 }
 
+model::Model read_4d_model(const std::filesystem::path& path) {
+  return model::window_view(model::read_model(path));
+}
+
 LoadedModel load_model(const std::filesystem::path& path) {
   check_input_file(path, "a model");
   if (path.extension() == ".ply") return io::read_splat_ply(path);
-  return model::window_view(model::read_model(path));  // a window model is drawn as trained
+  return read_4d_model(path);
 }
 
 Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
@@ -80,55 +83,17 @@ Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double 
   return rgba;
 }
 
-namespace {
-// One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
-Image frame_for(const io::FrameWriter& writer, const LoadedModel& model, const Camera& camera,
-                double t, const float* background, const render::RenderOptions& options,
-                Colors colors) {
-  if (writer.alpha()) return render_loaded_rgba(model, camera, t, options, colors);
-  return render_loaded(model, camera, t, background, options, colors);
-}
-}  // namespace
-
-void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
-                   const std::vector<double>& times, const float* background,
-                   io::FrameWriter& writer, const render::RenderOptions& options) {
-  const int frames = int(times.size());
-  Progress progress("render", frames, frames > 1);
-  const Colors colors = path.size() == 1 ? Colors::kCamera : Colors::kModel;
-  for (int f = 0; f < frames; ++f) {
-    const double s = frames > 1 ? double(f) / (frames - 1) : 0.0;
-    writer.write(frame_for(writer, model, camera_along_path(path, s), times[f], background, options,
-                           colors));
-    progress.tick();
-  }
-  progress.finish();
-  writer.finish();
+double near_plane(const std::optional<double>& near, const io::Scene& scene) {
+  if (!near) return io::scene_near_plane(scene);
+  if (!(std::isfinite(*near) && *near > 0))
+    fail("--near: must be a finite number > 0, got {}", *near);
+  return *near;
 }
 
-void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& cameras,
-                          const std::vector<double>& times, const float* background,
-                          io::FrameWriter& writer, const render::RenderOptions& options) {
-  if (cameras.size() != times.size())
-    fail("render: {} cameras for {} times", cameras.size(), times.size());
-  const int frames = int(times.size());
-  Progress progress("render", frames, frames > 1);
-  for (int f = 0; f < frames; ++f) {
-    writer.write(
-        frame_for(writer, model, cameras[f], times[f], background, options, Colors::kModel));
-    progress.tick();
-  }
-  progress.finish();
-  writer.finish();
+render::RenderOptions near_render_options(double near) {
+  render::RenderOptions options;
+  options.near_plane = float(near);
+  return options;
 }
 
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
-                             const render::RenderOptions& options) {
-  auto owned = std::make_shared<const LoadedModel>(std::move(model));
-  return [&scene, owned, options](int camera, double time) {
-    const float black[3] = {0, 0, 0};
-    return render_loaded(*owned, scene.cameras[camera], time, black, options, Colors::kCamera);
-  };
-}
-
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

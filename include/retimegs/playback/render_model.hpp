@@ -1,20 +1,19 @@
 #pragma once
-// One RGB image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
-// model. The shared path of `retimegs render` and `retimegs eval`.
+// One image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
+// model. What `retimegs render`, `retimegs eval` and the tests draw a model with.
 #include <filesystem>
+#include <optional>
 #include <variant>
 #include <vector>
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/splats.hpp"
-#include "retimegs/eval/protocol.hpp"
-#include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/render/options.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 // The colours of a render. kModel: the model's own, those of the average training camera (no
 // correction; test cameras, camera paths, export). kCamera: as the scene camera of that name
@@ -31,9 +30,13 @@ Image render_model(const model::Model& model, const Camera& camera, double t,
 Image render_splats(const Splats& splats, const Camera& camera, const float* background,
                     const render::RenderOptions& options = {});
 
+// A 4D model (.rgs) as render, export and the viewer draw it: a window model (train --window)
+// over its own frames, as it was trained (model::window_view). Throws Error naming the file on a
+// bad model.
+model::Model read_4d_model(const std::filesystem::path& path);
+
 // A model read from a file, by its extension: `.ply` is a static 3DGS model (Inria layout),
-// anything else a 4D model (.rgs); a window model (train --window) as model::window_view gives it,
-// its time range the window's. Throws Error naming the file on a bad model.
+// anything else a 4D model (read_4d_model). Throws Error naming the file on a bad model.
 using LoadedModel = std::variant<model::Model, Splats>;
 LoadedModel load_model(const std::filesystem::path& path);
 
@@ -50,26 +53,11 @@ Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
 Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double t,
                          const render::RenderOptions& options = {}, Colors colors = Colors::kModel);
 
-// The frames of `retimegs render`: frame f at times[f], seen from the camera at s = f / (F - 1)
-// along `path` (camera_along_path; one camera stays put), written to `writer`, which is then
-// finished. One camera renders with its colours (Colors::kCamera), a path with the model's (its
-// cameras between the named ones have none). A progress bar is shown when there is more than one
-// frame. Every frame renders with `options`; a writer that writes alpha gets render_loaded_rgba.
-void render_frames(const LoadedModel& model, const std::vector<Camera>& path,
-                   const std::vector<double>& times, const float* background,
-                   io::FrameWriter& writer, const render::RenderOptions& options = {});
+// The near plane of a command's model renders, in scene units: `near` (--near) when given, else
+// the scene's (io::scene_near_plane). Throws Error naming --near unless it is finite and > 0.
+double near_plane(const std::optional<double>& near, const io::Scene& scene);
 
-// The frames of `retimegs render --camera-path`: frame f from cameras[f] at times[f] (as many
-// cameras as times), with the model's colours, written to `writer`, which is then finished; a
-// progress bar as render_frames.
-void render_camera_frames(const LoadedModel& model, const std::vector<Camera>& cameras,
-                          const std::vector<double>& times, const float* background,
-                          io::FrameWriter& writer, const render::RenderOptions& options = {});
+// Render options with near plane `near`.
+render::RenderOptions near_render_options(double near);
 
-// The held-out renderer of `retimegs eval`: camera `camera` of `scene` at time `time` on black,
-// with that camera's colours (Colors::kCamera), every render with `options`.
-// `scene` must outlive the returned renderer; the model is owned by it.
-FrameRenderer model_renderer(const io::Scene& scene, LoadedModel model,
-                             const render::RenderOptions& options = {});
-
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

@@ -1,4 +1,4 @@
-#include "retimegs/eval/output_size.hpp"
+#include "retimegs/playback/output_size.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "retimegs/core/error.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 OutputSize parse_output_size(const std::string& text) {
   static const std::regex pattern(R"((\d{1,6})x(\d{1,6}))");
@@ -48,4 +48,4 @@ Camera at_output_size(const Camera& camera, const OutputSize& size) {
   return camera;
 }
 
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

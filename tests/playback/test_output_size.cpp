@@ -5,10 +5,10 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/eval/output_size.hpp"
+#include "retimegs/playback/output_size.hpp"
 #include "test_util.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 namespace {
 using test::expect_error;
 
@@ -59,4 +59,4 @@ TEST(OutputSize, ScaleMultipliesBothSides) {
 }
 
 }  // namespace
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback

@@ -7,7 +7,7 @@
 
 #include "retimegs/core/camera.hpp"
 
-namespace retimegs::eval {
+namespace retimegs::playback {
 
 // Pixels per side: a 16K frame. More is a typo (a render holds ~40 bytes per pixel).
 constexpr int kMaxOutputSide = 16384;
@@ -28,4 +28,4 @@ OutputSize parse_output_size(const std::string& text);
 // the camera otherwise, or when a side would exceed kMaxOutputSide.
 Camera at_output_size(const Camera& camera, const OutputSize& size);
 
-}  // namespace retimegs::eval
+}  // namespace retimegs::playback
