@@ -11,6 +11,7 @@
 
 #include <algorithm>
 
+#include "retimegs/core/dispatch.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/check.hpp"
 
@@ -235,9 +236,8 @@ __global__ void __launch_bounds__(kBlockPixels)
       // The conic as the records hold it (blend.cpp recovers it the same way).
       const float conic[3] = {2.0f * render::kLn2 * low.z, render::kLn2 * low.w,
                               2.0f * render::kLn2 * high.x};
-      float v_mean2d[2], v_conic[3];
-      render::sigma_vjp_combine(conic, sums.w_dx, sums.w_dy, sums.w_dx2, sums.w_dxdy, sums.w_dy2,
-                                v_mean2d, v_conic);
+      float v_mean2d[2] = {}, v_conic[3] = {};
+      render::sigma_vjp_subtract(conic, sums, v_mean2d, v_conic);
       atomicAdd(&v_means2d[2 * g], v_mean2d[0]);
       atomicAdd(&v_means2d[2 * g + 1], v_mean2d[1]);
       for (int c = 0; c < 3; ++c) atomicAdd(&v_conics[3 * g + c], v_conic[c]);
@@ -253,22 +253,11 @@ __global__ void __launch_bounds__(kBlockPixels)
   }
 }
 
-// Calls f.template operator()<kC>() with kC = the channel count when it has a compiled kernel,
-// else 0 (the run-time channel loops).
+// Calls f.template operator()<kC>() with kC = C' when it has a compiled kernel (3, 4: RGB without
+// and with depth; 7, 8: RGB + 4 flow channels, training), else 0 (the run-time channel loops).
 template <typename F>
 void dispatch_channels(int channels_ext, F&& f) {
-  switch (channels_ext) {
-    case 3:
-      return f.template operator()<3>();
-    case 4:
-      return f.template operator()<4>();
-    case 7:
-      return f.template operator()<7>();
-    case 8:
-      return f.template operator()<8>();
-    default:
-      return f.template operator()<0>();
-  }
+  dispatch_count<3, 4, 7, 8>(channels_ext, f);
 }
 
 dim3 tile_grid(const BlendParams& p) {

@@ -36,6 +36,7 @@
 #include <memory>
 #include <vector>
 
+#include "retimegs/core/dispatch.hpp"
 #include "retimegs/core/error.hpp"
 #include "simd.hpp"
 
@@ -567,44 +568,21 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
         simd::sum8({sums_of.w, sums_of.w_dx, sums_of.w_dy, sums_of.w_dx2, sums_of.w_dxdy,
                     sums_of.w_dy2, v_feat[0], channels > 1 ? v_feat[1] : vf{}});
     const float conic[3] = {a, b, c_conic};
-    float v_mean2d[2], v_conic[3];
-    sigma_vjp_combine(conic, sums[1], sums[2], sums[3], sums[4], sums[5], v_mean2d, v_conic);
     float* g = grad_buffer + std::size_t(gaussian[k]) * grad_stride;
-    g[kGradU] += v_mean2d[0];
-    g[kGradV] += v_mean2d[1];
-    g[kGradA] += v_conic[0];
-    g[kGradB] += v_conic[1];
-    g[kGradC] += v_conic[2];
+    static_assert(kGradV == kGradU + 1 && kGradB == kGradA + 1 && kGradC == kGradA + 2);
+    sigma_vjp_subtract(conic, {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]}, &g[kGradU],
+                       &g[kGradA]);
     g[kGradOpacity] += sums[0] / s[kOpacity];
     for (int c = 0; c < channels; ++c)
       g[kGradHeader + c] += c < 2 ? sums[6 + c] : simd::sum(v_feat[c]);
   }
 }
 
-// Calls f.template operator()<kC>() with kC = the channel count when it has a compiled kernel,
-// else 0 (the run-time channel loop).
+// Calls f.template operator()<kC>() with kC = the channel count when it has a compiled kernel
+// (1 .. kMaxStaticChannels), else 0 (the run-time channel loop).
 template <typename F>
 void dispatch_channels(int channels, F&& f) {
-  switch (channels) {
-    case 1:
-      return f.template operator()<1>();
-    case 2:
-      return f.template operator()<2>();
-    case 3:
-      return f.template operator()<3>();
-    case 4:
-      return f.template operator()<4>();
-    case 5:
-      return f.template operator()<5>();
-    case 6:
-      return f.template operator()<6>();
-    case 7:
-      return f.template operator()<7>();
-    case 8:
-      return f.template operator()<8>();
-    default:
-      return f.template operator()<0>();
-  }
+  dispatch_count<1, 2, 3, 4, 5, 6, 7, 8>(channels, f);
 }
 static_assert(kMaxStaticChannels == 8, "dispatch_channels lists 1..kMaxStaticChannels");
 

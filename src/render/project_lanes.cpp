@@ -72,22 +72,8 @@ inline vf exp_lanes(vf x) {
   return simd::exp2(x * kLog2e);
 }
 
-// Everything the forward computes for a batch that the backward needs again (formulas.hpp's
-// ProjectionGeometryT, one value per lane).
-struct GeometryLanes {
-  vf p[3];                  // camera-space mean
-  vf qnorm, q[4];           // |q| and the normalised quaternion (w, x, y, z)
-  vf rq[9];                 // [3, 3] rotation of the Gaussian
-  vf scale[3];              // exp(log_scale)
-  vf m[9];                  // [3, 3] rq diag(scale)
-  vf cov_cam[6];            // camera-space 3-D covariance
-  vf jc[2][3];              // [2, 3] J cov_cam
-  vf tx_over_z, ty_over_z;  // guarded x/z, y/z
-  simd::mask clamped_x, clamped_y;
-  // d pixel / d camera point J, at the guarded point (z tx_over_z, z ty_over_z, z)
-  PinholeJacobianT<vf> jac;
-  vf cov2d[3];  // blurred 2-D covariance: 00 01 11
-};
+// Everything the forward computes for a batch that the backward needs again, one value per lane.
+using GeometryLanes = ProjectionGeometryT<vf, simd::mask>;
 
 // Lanes whose every value is finite (x - x is 0 unless x is infinite or NaN).
 template <int W>
@@ -110,7 +96,7 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   batch.load<4>(g.quats.data(), q);
   geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   for (int k = 0; k < 4; ++k) geo.q[k] = q[k] / geo.qnorm;
-  quat_to_rotation(geo.q[0], geo.q[1], geo.q[2], geo.q[3], geo.rq);
+  quat_to_rotation(geo.q[0], geo.q[1], geo.q[2], geo.q[3], geo.r);
   batch.load<3>(g.log_scales.data(), geo.scale);
   if (valid) {
     const vf norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
@@ -118,7 +104,7 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   }
   for (vf& scale : geo.scale) scale = exp_lanes(scale);
   vf cov_world[6];
-  world_covariance(geo.rq, geo.scale, geo.m, cov_world);
+  world_covariance(geo.r, geo.scale, geo.m, cov_world);
   camera_covariance(cam.rotation, cov_world, geo.cov_cam);
 
   const vf pz = geo.p[2];
@@ -234,7 +220,7 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     conic_vjp<float>(conic, v_conic, v_cov2d);
     PinholeJacobianT<vf> v_jac;
     vf v_rq[3][3], v_log_scale[3];
-    covariance_vjp(geo.jac, geo.jc, cam.rotation, geo.rq, geo.scale, geo.m, v_cov2d, v_jac, v_rq,
+    covariance_vjp(geo.jac, geo.jc, cam.rotation, geo.r, geo.scale, geo.m, v_cov2d, v_jac, v_rq,
                    v_log_scale);
     batch.store<3>(grads.v_log_scales.data(), v_log_scale, visible);
     vf v_qhat[4], v_quat[4];
@@ -246,9 +232,12 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     vf v_mean2d[2];
     batch.load<2>(grads.v_means2d.data(), v_mean2d);
     const vf pz = geo.p[2];
-    vf v_p[3];
-    mean2d_vjp(cam, geo.p[0], geo.p[1], pz, options.centre_depth_offset, v_mean2d[0], v_mean2d[1],
-               batch.load(grads.v_depths.data()), v_p);
+    const vf v_u = v_mean2d[0], v_v = v_mean2d[1];
+    const vf px = geo.p[0], py = geo.p[1];
+    const vf rzc = 1.0f / (pz + options.centre_depth_offset);
+    vf v_p[3] = {
+        cam.fx * rzc * v_u, cam.fy * rzc * v_v,
+        -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths.data())};
     const auto [v_tx, v_ty, v_z] =
         cam.jacobian_vjp(pz * geo.tx_over_z, pz * geo.ty_over_z, pz, v_jac);
     v_p[2] += v_z;

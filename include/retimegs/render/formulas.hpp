@@ -251,17 +251,6 @@ RETIMEGS_HD inline void covariance_vjp(const PinholeJacobianT<V>& jac, const V (
   }
 }
 
-// d loss / d (camera-space mean) through the pixel centre u = fx x / (z + offset) + cx (and v)
-// and the depth z: v_p before the Jacobian's share.
-template <typename T, typename V>
-RETIMEGS_HD inline void mean2d_vjp(const PinholeT<T>& camera, V x, V y, V z, T centre_depth_offset,
-                                   V v_u, V v_v, V v_depth, V (&v_p)[3]) {
-  const V rzc = 1 / (z + centre_depth_offset);
-  v_p[0] = camera.fx * rzc * v_u;
-  v_p[1] = camera.fy * rzc * v_v;
-  v_p[2] = -(camera.fx * x * v_u + camera.fy * y * v_v) * rzc * rzc + v_depth;
-}
-
 // d loss / d (world mean) = Rv^T d loss / d (camera-space mean).
 template <typename T, typename V>
 RETIMEGS_HD inline void world_mean_vjp(const T (&rv)[9], const V (&v_p)[3], V (&v_mean)[3]) {
@@ -274,9 +263,9 @@ RETIMEGS_HD inline float exp_approx(float x) {
   return exp2_approx(x * kLog2e);
 }
 
-// Everything the projection of one Gaussian computes that its backward needs again, in one scalar
-// type (the CPU's simd lanes keep the same values per lane: project_lanes.cpp).
-template <typename T>
+// Everything the projection of one Gaussian computes that its backward needs again: T a scalar
+// (Mask bool), or the CPU's simd lanes (one Gaussian per lane, Mask their lane mask).
+template <typename T, typename Mask = bool>
 struct ProjectionGeometryT {
   T p[3];                  // camera-space mean
   T qnorm, q[4];           // |q| and the normalised quaternion (w, x, y, z)
@@ -286,7 +275,7 @@ struct ProjectionGeometryT {
   T cov_cam[6];            // camera-space 3-D covariance
   T jc[2][3];              // [2, 3] J cov_cam
   T tx_over_z, ty_over_z;  // guarded x/z, y/z
-  bool clamped_x, clamped_y;
+  Mask clamped_x, clamped_y;
   PinholeJacobianT<T> jac;  // d pixel / d camera point, at the guarded point
   T cov2d[3];               // blurred 2-D covariance: 00 01 11
 };
@@ -341,8 +330,10 @@ RETIMEGS_HD inline void projection_vjp(const ProjectionGeometryT<T>& geo, const 
   // Camera-space mean: through the pixel centre and the depth, then the Jacobian, taken at the
   // guarded point (z tx_over_z, z ty_over_z, z).
   const T x = geo.p[0], y = geo.p[1], z = geo.p[2];
-  T v_p[3];
-  mean2d_vjp(camera, x, y, z, centre_depth_offset, v_mean2d[0], v_mean2d[1], v_depth, v_p);
+  const T v_u = v_mean2d[0], v_v = v_mean2d[1];
+  const T rzc = 1 / (z + centre_depth_offset);
+  T v_p[3] = {camera.fx * rzc * v_u, camera.fy * rzc * v_v,
+              -(camera.fx * x * v_u + camera.fy * y * v_v) * rzc * rzc + v_depth};
   const auto [v_tx, v_ty, v_z] =
       camera.jacobian_vjp(z * geo.tx_over_z, z * geo.ty_over_z, z, v_jac);
   v_p[2] += v_z;
@@ -497,7 +488,7 @@ inline float stop_below(const RenderOptions& options) {
 // sigma's vector-Jacobian product for one pixel: with w = -d loss / d sigma, d loss / d (u, v) =
 // -w (a dx + b dy, b dx + c dy) and d loss / d (a, b, c) = -w (dx^2 / 2, dx dy, dy^2 / 2). The
 // blends sum (w, w dx, w dy, w dx^2, w dx dy, w dy^2) over a Gaussian's pixels first and combine
-// once (sigma_vjp_combine).
+// once (sigma_vjp_subtract).
 template <typename V>
 struct SigmaSumsT {
   V w, w_dx, w_dy, w_dx2, w_dxdy, w_dy2;
@@ -512,14 +503,15 @@ RETIMEGS_HD inline void sigma_vjp_accumulate(V w, V dx, V dy, SigmaSumsT<V>& s) 
   s.w_dxdy += w_dx * dy;
   s.w_dy2 += w_dy * dy;
 }
+// Subtracts the combined sums' gradient from d loss / d mean2d [2] and d loss / d conic [3].
 template <typename T>
-RETIMEGS_HD inline void sigma_vjp_combine(const T* conic, T w_dx, T w_dy, T w_dx2, T w_dxdy,
-                                          T w_dy2, T (&v_mean2d)[2], T (&v_conic)[3]) {
-  v_mean2d[0] = -(conic[0] * w_dx + conic[1] * w_dy);
-  v_mean2d[1] = -(conic[1] * w_dx + conic[2] * w_dy);
-  v_conic[0] = -(T(0.5) * w_dx2);
-  v_conic[1] = -w_dxdy;
-  v_conic[2] = -(T(0.5) * w_dy2);
+RETIMEGS_HD inline void sigma_vjp_subtract(const T* conic, const SigmaSumsT<T>& s, T* v_mean2d,
+                                           T* v_conic) {
+  v_mean2d[0] -= conic[0] * s.w_dx + conic[1] * s.w_dy;
+  v_mean2d[1] -= conic[1] * s.w_dx + conic[2] * s.w_dy;
+  v_conic[0] -= T(0.5) * s.w_dx2;
+  v_conic[1] -= s.w_dxdy;
+  v_conic[2] -= T(0.5) * s.w_dy2;
 }
 
 }  // namespace retimegs::render
