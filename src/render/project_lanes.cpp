@@ -1,6 +1,7 @@
 // Stage 1 in float, one Gaussian per simd lane: EWA projection and its vector-Jacobian product,
-// formula for formula the scalar code of project.cpp (see there for the derivations), with the
-// culling and clamping branches as lane masks.
+// formula for formula formulas.hpp's project_gaussian and projection_vjp (which the scalar path
+// and the CUDA kernels call; see there for the derivations), with the culling and clamping
+// branches as lane masks.
 #include "project_lanes.hpp"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 #pragma once
 // Stage 1 in float, 16 Gaussians at a time (one per simd lane): the same EWA projection and
-// vector-Jacobian product as the scalar templates in project.cpp (which the double-precision
-// reference keeps using), for project_forward<float> and project_backward<float>.
+// vector-Jacobian product as formulas.hpp's scalar functions (which the double-precision reference
+// and the CUDA kernels use), for project_forward<float> and project_backward<float>.
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/render/options.hpp"
 #include "retimegs/render/project.hpp"
