@@ -6,7 +6,12 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 # where the machine has none; then playwright-core from web/package-lock.json.
 test_packages=(chromium)
 command -v npm > /dev/null || test_packages+=(nodejs npm)
-RETIMEGS_EXTRA_PACKAGES="${test_packages[*]}" "$root/scripts/setup.sh"
+# Without a GPU (CI) the CUDA sources, where nvcc is found, are compiled for one architecture,
+# Hopper: one is enough to catch a broken kernel. The `gpu` tests then skip with the reason. With a
+# GPU, CMake's default builds for it.
+cuda_args=()
+nvidia-smi -L > /dev/null 2>&1 || cuda_args=(-DCMAKE_CUDA_ARCHITECTURES=90)
+RETIMEGS_EXTRA_PACKAGES="${test_packages[*]}" "$root/scripts/setup.sh" "${cuda_args[@]}"
 if [ ! -d "$root/web/node_modules" ]; then
   (cd "$root/web" && npm ci --no-audit --no-fund)
 fi

@@ -32,7 +32,7 @@ void project_point(const PinholeT<T>& camera, const T p[3], T uv[2], T* jacobian
   const bool clamped = z_cam < T(kFlowNearZ);
   const T z = clamped ? T(kFlowNearZ) : z_cam;
   const auto pixel = camera.project(x, y, z);
-  uv[0] = pixel[0], uv[1] = pixel[1];
+  uv[0] = pixel.u, uv[1] = pixel.v;
   if (!jacobian) return;
   PinholeJacobianT<T> j = camera.jacobian(x, y, z);
   if (clamped) j.j02 = j.j12 = 0;

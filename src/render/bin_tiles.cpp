@@ -10,8 +10,8 @@
 #include <cstring>
 #include <utility>
 
-#include "constants.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/render/formulas.hpp"
 #include "simd.hpp"
 
 namespace retimegs::render {

@@ -42,8 +42,6 @@
 namespace retimegs::render {
 namespace {
 
-using simd::kLn2;
-using simd::kLog2e;
 using simd::vf;
 using simd::vi;
 constexpr int kLanes = simd::kLanes;
@@ -139,11 +137,12 @@ struct Context {
       const float opacity = in->opacities[g];
       s[kU] = p.means2d[2 * g];
       s[kV] = p.means2d[2 * g + 1];
-      s[kHalfA] = 0.5f * kLog2e * p.conics[3 * g];
-      s[kB] = kLog2e * p.conics[3 * g + 1];
-      s[kHalfC] = 0.5f * kLog2e * p.conics[3 * g + 2];
+      const BlendConicT<float> conic = blend_conic(&p.conics[3 * g], opacity);
+      s[kHalfA] = conic.half_a;
+      s[kB] = conic.b;
+      s[kHalfC] = conic.half_c;
       s[kOpacity] = opacity;
-      const float log2_opacity = std::log2(opacity);
+      const float log2_opacity = conic.log2_opacity;
       s[kLog2Opacity] = log2_opacity;
       // det in double: a c and b^2 nearly cancel for thin footprints.
       const double a = p.conics[3 * g], b = p.conics[3 * g + 1], cc = p.conics[3 * g + 2];
@@ -251,28 +250,19 @@ struct TileList {
   }
 };
 
-// log2 of alpha before the clamp, log2(opacity) - sigma log2(e), with sigma = 0.5 (a dx^2 +
-// c dy^2) + b dx dy (gsplat's convention) and the record's conic scaled by log2(e): three
-// multiply-adds and two multiplies. sigma >= 0 for a positive-definite conic, so (unlike gsplat)
-// there is no sigma < 0 test.
-inline vf log2_alpha(vf half_a, vf b, vf half_c, vf log2_opacity, vf dx, vf dy) {
-  return (log2_opacity - (half_c * dy) * dy) - dx * (half_a * dx + b * dy);
-}
-inline vf log2_alpha(const float* s, vf dx, vf dy) {
+// log2_alpha (formulas.hpp) of a packed record.
+inline vf record_log2_alpha(const float* s, vf dx, vf dy) {
   return log2_alpha(simd::splat(s[kHalfA]), simd::splat(s[kB]), simd::splat(s[kHalfC]),
                     simd::splat(s[kLog2Opacity]), dx, dy);
 }
 
-// Compositing rule constants as vectors. Both stop rules become one `<` comparison:
-// T' <= t  <=>  T' < nextafter(t, +inf) for floats.
+// Compositing rule constants as vectors (both stop rules are one `<` comparison: stop_below).
 struct Rule {
   vf alpha_clamp, min_alpha, stop_below;
   explicit Rule(const RenderOptions& o)
       : alpha_clamp(simd::splat(o.alpha_clamp)),
         min_alpha(simd::splat(o.min_alpha)),
-        stop_below(simd::splat(o.stop_rule == StopRule::kAtOrBelow
-                                   ? std::nextafter(o.min_transmittance, INFINITY)
-                                   : o.min_transmittance)) {}
+        stop_below(simd::splat(render::stop_below(o))) {}
 };
 
 // Per-pixel state of a tile, one vector per block; channel planes are [channel][block].
@@ -377,7 +367,8 @@ void forward_tile(const Context& ctx, const Rule& rule, const TileList& list, Ti
       // the depth kept: a third, held in an array, is slower.
       const auto alpha_of = [&](int j) {
         const float* s = records + j * stride;
-        return simd::min(rule.alpha_clamp, simd::exp2(log2_alpha(s, s[kU] - px, s[kV] - py)));
+        return simd::min(rule.alpha_clamp,
+                         simd::exp2(record_log2_alpha(s, s[kU] - px, s[kV] - py)));
       };
       int j1 = pop_bit(member), j2 = 0;
       vf alpha1 = alpha_of(j1), alpha2{};
@@ -524,7 +515,7 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
     const float a = 2.0f * kLn2 * s[kHalfA], b = kLn2 * s[kB], c_conic = 2.0f * kLn2 * s[kHalfC];
     // With w = d loss / d alpha_raw * alpha_raw = -d loss / d sigma per pixel, the gradient is
     // sum w, sum w dx, sum w dy, sum w dx^2, sum w dx dy, sum w dy^2 (combined after the loop).
-    vf w_sum{}, w_dx_sum{}, w_dy_sum{}, w_dx2_sum{}, w_dxdy_sum{}, w_dy2_sum{};
+    SigmaSumsT<vf> sums_of{};
     for (int c = 0; c < channels; ++c) v_feat[c] = vf{};
     const vi index = simd::splat_int(k);
     // The record as vectors, once per Gaussian (the state stores below may alias it otherwise).
@@ -568,26 +559,22 @@ void backward_tile(const Context& ctx, const Rule& rule, const TileList& list,
       // alpha = opacity * G unless clamped (then no gradient flows), G = exp(-sigma):
       // d alpha / d opacity = G, d alpha / d sigma = -alpha.
       const simd::mask unclamped = composite & simd::less_equal(alpha_raw, rule.alpha_clamp);
-      const vf w = simd::mul_or_zero(unclamped, alpha_raw, v_alpha_px);
-      const vf w_dx = w * dx, w_dy = w * dy;
-      w_sum += w;
-      w_dx_sum += w_dx;
-      w_dy_sum += w_dy;
-      w_dx2_sum += w_dx * dx;
-      w_dxdy_sum += w_dx * dy;
-      w_dy2_sum += w_dy * dy;
+      sigma_vjp_accumulate(simd::mul_or_zero(unclamped, alpha_raw, v_alpha_px), dx, dy, sums_of);
     }
     // d sigma / d (u, v) = (a dx + b dy, b dx + c dy); d sigma / d (a, b, c) = (dx^2 / 2, dx dy,
     // dy^2 / 2); d alpha_raw / d opacity = alpha_raw / opacity.
-    const vf sums = simd::sum8({w_sum, w_dx_sum, w_dy_sum, w_dx2_sum, w_dxdy_sum, w_dy2_sum,
-                                v_feat[0], channels > 1 ? v_feat[1] : vf{}});
-    const float sx = sums[1], sy = sums[2];
+    const vf sums =
+        simd::sum8({sums_of.w, sums_of.w_dx, sums_of.w_dy, sums_of.w_dx2, sums_of.w_dxdy,
+                    sums_of.w_dy2, v_feat[0], channels > 1 ? v_feat[1] : vf{}});
+    const float conic[3] = {a, b, c_conic};
+    float v_mean2d[2], v_conic[3];
+    sigma_vjp_combine(conic, sums[1], sums[2], sums[3], sums[4], sums[5], v_mean2d, v_conic);
     float* g = grad_buffer + std::size_t(gaussian[k]) * grad_stride;
-    g[kGradU] -= a * sx + b * sy;
-    g[kGradV] -= b * sx + c_conic * sy;
-    g[kGradA] -= 0.5f * sums[3];
-    g[kGradB] -= sums[4];
-    g[kGradC] -= 0.5f * sums[5];
+    g[kGradU] += v_mean2d[0];
+    g[kGradV] += v_mean2d[1];
+    g[kGradA] += v_conic[0];
+    g[kGradB] += v_conic[1];
+    g[kGradC] += v_conic[2];
     g[kGradOpacity] += sums[0] / s[kOpacity];
     for (int c = 0; c < channels; ++c)
       g[kGradHeader + c] += c < 2 ? sums[6 + c] : simd::sum(v_feat[c]);

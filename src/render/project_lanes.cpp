@@ -67,15 +67,15 @@ struct CameraConstants : PinholeT<float> {
   explicit CameraConstants(const PinholeT<float>& camera) : PinholeT<float>(camera), lim(camera) {}
 };
 
-// e^x for |x| < 87 (log-scales), from the blend's 2^y.
+// e^x for |x| < 87 (log-scales), from the blend's 2^y (formulas.hpp's exp_approx per lane).
 inline vf exp_lanes(vf x) {
-  return simd::exp2(x * simd::kLog2e);
+  return simd::exp2(x * kLog2e);
 }
 
-// Everything the forward computes for a batch that the backward needs again (project.cpp's
-// Geometry, one value per lane). Symmetric 3x3 matrices keep 6 entries: 00 01 02 11 12 22.
+// Everything the forward computes for a batch that the backward needs again (formulas.hpp's
+// ProjectionGeometryT, one value per lane).
 struct GeometryLanes {
-  std::array<vf, 3> p;      // camera-space mean
+  vf p[3];                  // camera-space mean
   vf qnorm, q[4];           // |q| and the normalised quaternion (w, x, y, z)
   vf rq[9];                 // [3, 3] rotation of the Gaussian
   vf scale[3];              // exp(log_scale)
@@ -88,8 +88,6 @@ struct GeometryLanes {
   PinholeJacobianT<vf> jac;
   vf cov2d[3];  // blurred 2-D covariance: 00 01 11
 };
-
-constexpr int kSym[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};  // (i, j) -> symmetric entry
 
 // Lanes whose every value is finite (x - x is 0 unless x is infinite or NaN).
 template <int W>
@@ -106,44 +104,22 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   GeometryLanes geo;
   vf mean[3];
   batch.load<3>(g.means.data(), mean);
-  geo.p = cam.to_camera(mean[0], mean[1], mean[2]);
+  const auto [x_cam, y_cam, z_cam] = cam.to_camera(mean[0], mean[1], mean[2]);
+  geo.p[0] = x_cam, geo.p[1] = y_cam, geo.p[2] = z_cam;
   vf q[4];
   batch.load<4>(g.quats.data(), q);
   geo.qnorm = simd::sqrt_nonnegative(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   for (int k = 0; k < 4; ++k) geo.q[k] = q[k] / geo.qnorm;
-  const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
-  vf* r = geo.rq;
-  r[0] = 1.0f - 2.0f * (y * y + z * z), r[1] = 2.0f * (x * y - w * z),
-  r[2] = 2.0f * (x * z + w * y);
-  r[3] = 2.0f * (x * y + w * z), r[4] = 1.0f - 2.0f * (x * x + z * z),
-  r[5] = 2.0f * (y * z - w * x);
-  r[6] = 2.0f * (x * z - w * y), r[7] = 2.0f * (y * z + w * x),
-  r[8] = 1.0f - 2.0f * (x * x + y * y);
+  quat_to_rotation(geo.q[0], geo.q[1], geo.q[2], geo.q[3], geo.rq);
   batch.load<3>(g.log_scales.data(), geo.scale);
   if (valid) {
     const vf norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
     *valid = all_finite(mean) & all_finite(q) & all_finite(geo.scale) & simd::less(vf{}, norm2);
   }
   for (vf& scale : geo.scale) scale = exp_lanes(scale);
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) geo.m[3 * i + k] = r[3 * i + k] * geo.scale[k];
-  // cov_world = m m^T, cov_cam = rv cov_world rv^T.
   vf cov_world[6];
-  for (int i = 0; i < 3; ++i)
-    for (int j = i; j < 3; ++j)
-      cov_world[kSym[i][j]] = geo.m[3 * i] * geo.m[3 * j] + geo.m[3 * i + 1] * geo.m[3 * j + 1] +
-                              geo.m[3 * i + 2] * geo.m[3 * j + 2];
-  vf rc[9];  // rv cov_world
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      rc[3 * i + j] = cam.rotation[3 * i] * cov_world[kSym[0][j]] +
-                      cam.rotation[3 * i + 1] * cov_world[kSym[1][j]] +
-                      cam.rotation[3 * i + 2] * cov_world[kSym[2][j]];
-  for (int i = 0; i < 3; ++i)
-    for (int j = i; j < 3; ++j)
-      geo.cov_cam[kSym[i][j]] = rc[3 * i] * cam.rotation[3 * j] +
-                                rc[3 * i + 1] * cam.rotation[3 * j + 1] +
-                                rc[3 * i + 2] * cam.rotation[3 * j + 2];
+  world_covariance(geo.rq, geo.scale, geo.m, cov_world);
+  camera_covariance(cam.rotation, cov_world, geo.cov_cam);
 
   const vf pz = geo.p[2];
   const vf xz = geo.p[0] / pz, yz = geo.p[1] / pz;
@@ -154,14 +130,7 @@ GeometryLanes geometry(const GaussiansT<float>& g, const Batch& batch, const Cam
   geo.tx_over_z = simd::min(simd::max(xz, simd::splat(-cam.lim.x_neg)), simd::splat(cam.lim.x_pos));
   geo.ty_over_z = simd::min(simd::max(yz, simd::splat(-cam.lim.y_neg)), simd::splat(cam.lim.y_pos));
   geo.jac = cam.jacobian(pz * geo.tx_over_z, pz * geo.ty_over_z, pz);
-  const vf* c = geo.cov_cam;
-  for (int j = 0; j < 3; ++j) {
-    geo.jc[0][j] = geo.jac.j00 * c[kSym[0][j]] + geo.jac.j02 * c[kSym[2][j]];
-    geo.jc[1][j] = geo.jac.j11 * c[kSym[1][j]] + geo.jac.j12 * c[kSym[2][j]];
-  }
-  geo.cov2d[0] = geo.jc[0][0] * geo.jac.j00 + geo.jc[0][2] * geo.jac.j02 + low_pass;
-  geo.cov2d[1] = geo.jc[0][1] * geo.jac.j11 + geo.jc[0][2] * geo.jac.j12;
-  geo.cov2d[2] = geo.jc[1][1] * geo.jac.j11 + geo.jc[1][2] * geo.jac.j12 + low_pass;
+  image_covariance(geo.jac, geo.cov_cam, low_pass, geo.jc, geo.cov2d);
   return geo;
 }
 
@@ -257,82 +226,31 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     }
     const GeometryLanes geo = geometry(g, batch, cam, options.low_pass);
 
-    // conic = cov2d^-1: d loss / d cov2d = -conic V conic, V the symmetric form of v_conics.
+    // conic = cov2d^-1, cov2d = J cov_cam J^T + low-pass, cov_cam = Rv M M^T Rv^T.
     vf conic[3], v_conic[3];
     batch.load<3>(projected.conics.data(), conic);
     batch.load<3>(grads.v_conics.data(), v_conic);
-    const vf ca = conic[0], cb = conic[1], cc = conic[2];
-    const vf va = v_conic[0], vb = 0.5f * v_conic[1], vc = v_conic[2];
-    const vf cv[2][2] = {{ca * va + cb * vb, ca * vb + cb * vc},
-                         {cb * va + cc * vb, cb * vb + cc * vc}};
-    const vf v_cov2d[2][2] = {{-(cv[0][0] * ca + cv[0][1] * cb), -(cv[0][0] * cb + cv[0][1] * cc)},
-                              {-(cv[1][0] * ca + cv[1][1] * cb), -(cv[1][0] * cb + cv[1][1] * cc)}};
-
-    // cov2d = J cov_cam J^T (+ low-pass, constant): v_jac = 2 v_cov2d J cov_cam,
-    // v_cov_cam = J^T v_cov2d J.
-    vf v_jac[2][3];
-    for (int r = 0; r < 2; ++r)
-      for (int j = 0; j < 3; ++j)
-        v_jac[r][j] = 2.0f * (v_cov2d[r][0] * geo.jc[0][j] + v_cov2d[r][1] * geo.jc[1][j]);
-    const vf jac[2][3] = {{geo.jac.j00, vf{}, geo.jac.j02}, {vf{}, geo.jac.j11, geo.jac.j12}};
-    vf wj[2][3];  // v_cov2d J
-    for (int r = 0; r < 2; ++r)
-      for (int j = 0; j < 3; ++j) wj[r][j] = v_cov2d[r][0] * jac[0][j] + v_cov2d[r][1] * jac[1][j];
-    vf v_cov_cam[3][3];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) v_cov_cam[i][j] = jac[0][i] * wj[0][j] + jac[1][i] * wj[1][j];
-    // cov_cam = Rv (M M^T) Rv^T, M = Rq diag(s).
-    vf tmp[3][3], v_cov3d[3][3];  // v_cov_cam Rv, Rv^T v_cov_cam Rv
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        tmp[i][j] = v_cov_cam[i][0] * cam.rotation[j] + v_cov_cam[i][1] * cam.rotation[3 + j] +
-                    v_cov_cam[i][2] * cam.rotation[6 + j];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        v_cov3d[i][j] = cam.rotation[i] * tmp[0][j] + cam.rotation[3 + i] * tmp[1][j] +
-                        cam.rotation[6 + i] * tmp[2][j];
-    vf v_m[3][3], v_rq[3][3];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        v_m[i][j] = 2.0f * (v_cov3d[i][0] * geo.m[j] + v_cov3d[i][1] * geo.m[3 + j] +
-                            v_cov3d[i][2] * geo.m[6 + j]);
-        v_rq[i][j] = v_m[i][j] * geo.scale[j];
-      }
-    vf v_log_scale[3];
-    for (int k = 0; k < 3; ++k) {
-      const vf v_scale =
-          v_m[0][k] * geo.rq[k] + v_m[1][k] * geo.rq[3 + k] + v_m[2][k] * geo.rq[6 + k];
-      v_log_scale[k] = v_scale * geo.scale[k];
-    }
+    vf v_cov2d[2][2];
+    conic_vjp<float>(conic, v_conic, v_cov2d);
+    PinholeJacobianT<vf> v_jac;
+    vf v_rq[3][3], v_log_scale[3];
+    covariance_vjp(geo.jac, geo.jc, cam.rotation, geo.rq, geo.scale, geo.m, v_cov2d, v_jac, v_rq,
+                   v_log_scale);
     batch.store<3>(grads.v_log_scales.data(), v_log_scale, visible);
-    // quat_to_rotation_vjp (project.cpp), then through the normalisation.
-    const vf w = geo.q[0], x = geo.q[1], y = geo.q[2], z = geo.q[3];
-    const auto& v = v_rq;
-    const vf v_qhat[4] = {
-        2.0f * (-z * v[0][1] + y * v[0][2] + z * v[1][0] - x * v[1][2] - y * v[2][0] + x * v[2][1]),
-        2.0f * (y * v[0][1] + z * v[0][2] + y * v[1][0] - 2.0f * x * v[1][1] - w * v[1][2] +
-                z * v[2][0] + w * v[2][1] - 2.0f * x * v[2][2]),
-        2.0f * (-2.0f * y * v[0][0] + x * v[0][1] + w * v[0][2] + x * v[1][0] + z * v[1][2] -
-                w * v[2][0] + z * v[2][1] - 2.0f * y * v[2][2]),
-        2.0f * (-2.0f * z * v[0][0] - w * v[0][1] + x * v[0][2] + w * v[1][0] - 2.0f * z * v[1][1] +
-                y * v[1][2] + x * v[2][0] + y * v[2][1])};
-    const vf dot = w * v_qhat[0] + x * v_qhat[1] + y * v_qhat[2] + z * v_qhat[3];
-    vf v_quat[4];
-    for (int k = 0; k < 4; ++k) v_quat[k] = (v_qhat[k] - geo.q[k] * dot) / geo.qnorm;
+    vf v_qhat[4], v_quat[4];
+    quat_to_rotation_vjp(geo.q[0], geo.q[1], geo.q[2], geo.q[3], v_rq, v_qhat);
+    normalize_quat_vjp(geo.q, geo.qnorm, v_qhat, v_quat);
     batch.store<4>(grads.v_quats.data(), v_quat, visible);
 
     // Camera-space mean: through the pixel centre, the Jacobian and the depth.
     vf v_mean2d[2];
     batch.load<2>(grads.v_means2d.data(), v_mean2d);
-    const vf v_u = v_mean2d[0], v_v = v_mean2d[1];
-    const vf px = geo.p[0], py = geo.p[1], pz = geo.p[2];
-    const vf rzc = 1.0f / (pz + options.centre_depth_offset);
-    vf v_p[3] = {
-        cam.fx * rzc * v_u, cam.fy * rzc * v_v,
-        -(cam.fx * px * v_u + cam.fy * py * v_v) * rzc * rzc + batch.load(grads.v_depths.data())};
+    const vf pz = geo.p[2];
+    vf v_p[3];
+    mean2d_vjp(cam, geo.p[0], geo.p[1], pz, options.centre_depth_offset, v_mean2d[0], v_mean2d[1],
+               batch.load(grads.v_depths.data()), v_p);
     const auto [v_tx, v_ty, v_z] =
-        cam.jacobian_vjp(pz * geo.tx_over_z, pz * geo.ty_over_z, pz,
-                         PinholeJacobianT<vf>{v_jac[0][0], v_jac[0][2], v_jac[1][1], v_jac[1][2]});
+        cam.jacobian_vjp(pz * geo.tx_over_z, pz * geo.ty_over_z, pz, v_jac);
     v_p[2] += v_z;
     // A clamped direction's x/z is a constant times z.
     v_p[2] += simd::select(geo.clamped_x, v_tx * geo.tx_over_z, vf{}) +
@@ -340,9 +258,7 @@ void project_backward_lanes(const GaussiansT<float>& g, const PinholeT<float>& c
     v_p[0] += simd::select(geo.clamped_x, vf{}, v_tx);
     v_p[1] += simd::select(geo.clamped_y, vf{}, v_ty);
     vf v_mean[3];
-    for (int k = 0; k < 3; ++k)
-      v_mean[k] =
-          cam.rotation[k] * v_p[0] + cam.rotation[3 + k] * v_p[1] + cam.rotation[6 + k] * v_p[2];
+    world_mean_vjp(cam.rotation, v_p, v_mean);
     batch.store<3>(grads.v_means.data(), v_mean, visible);
   }
 }

@@ -36,6 +36,13 @@ void check_camera(const Camera& camera) {
   check_rigid(camera.world_to_camera, what + " world_to_camera");
 }
 
+void check_background(const float* background, int channels) {
+  if (background)
+    for (int c = 0; c < channels; ++c)
+      if (!std::isfinite(background[c]))
+        fail("background[{}] is {} (must be finite)", c, background[c]);
+}
+
 RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,
                                const float* background, const RenderOptions& options) {
   RenderOutput out;
@@ -46,10 +53,7 @@ RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,
 void rasterize_forward(const Gaussians& gaussians, const Camera& camera, const float* background,
                        const RenderOptions& options, RenderOutput& out) {
   check_camera(camera);
-  if (background)
-    for (int c = 0; c < gaussians.channels; ++c)
-      if (!std::isfinite(background[c]))
-        fail("background[{}] is {} (must be finite)", c, background[c]);
+  check_background(background, gaussians.channels);
   // project_forward validates the Gaussians.
   project_forward(gaussians, PinholeT<float>(camera), options, out.projected);
   bin_tiles(out.projected, gaussians.opacities.data(), camera.width, camera.height, options,

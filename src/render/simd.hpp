@@ -18,6 +18,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "retimegs/render/formulas.hpp"
 #include "retimegs/render/options.hpp"
 
 // Without AVX-512, GCC notes that 64-byte vector arguments change the calling convention; these
@@ -234,20 +235,10 @@ inline std::int32_t reduce_max(vi v) {
   return r;
 }
 
-// 2^f for f in [0, 1) by 1 + f q(f), q the degree-4 polynomial of least maximum relative error
-// (Lawson's iteration on 4001 points; float coefficients): 2^0 exactly, 2e-7 relative in float
-// arithmetic. Evaluated by Estrin's scheme, (1 + c1 f) + f^2 ((c2 + c3 f) + f^2 (c4 + c5 f)):
-// three multiply-adds deep instead of Horner's five. The blend waits on this chain for every
-// Gaussian-block pair; the shorter chain lets more pairs overlap.
-inline vf exp2_fraction(vf f) {
-  const vf f2 = f * f;
-  const vf low = f * 0.693151295f + 1.0f;
-  const vf mid = f * 0.055799935f + 0.240164444f;
-  const vf high = f * 0.00186714449f + 0.00901699997f;
-  return low + f2 * (mid + f2 * high);
-}
-
-constexpr float kLog2e = 1.44269504088896341f, kLn2 = 0.693147180559945f;
+// The polynomial of 2^f on [0, 1) and the constants, shared with the CUDA kernels.
+using render::exp2_fraction;
+using render::kLn2;
+using render::kLog2e;
 
 // 2^y for finite y < 128 as 2^floor(y) * 2^(y - floor(y)); relative error < 3e-7. Results under
 // 2^-126 are ~0.

@@ -67,8 +67,10 @@ Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<O
       const Eigen::Vector3d p = o.camera->world_to_cam(x + d);
       if (p.z() <= 1e-6) return lifted;
       // d π / d x_world = d π / d p · R
-      const Eigen::Matrix<double, 2, 3> j =
-          PinholeT<double>(*o.camera).jacobian(p.x(), p.y(), p.z()).matrix() * o.camera->rotation();
+      const PinholeJacobianT<double> jp = PinholeT<double>(*o.camera).jacobian(p.x(), p.y(), p.z());
+      Eigen::Matrix<double, 2, 3> j_cam;
+      j_cam << jp.j00, 0.0, jp.j02, 0.0, jp.j11, jp.j12;
+      const Eigen::Matrix<double, 2, 3> j = j_cam * o.camera->rotation();
       const Eigen::Vector2d r = o.camera->project_cam(p) - o.target;
       a += j.transpose() * j;
       b -= j.transpose() * r;

@@ -1,11 +1,13 @@
 #pragma once
 // Settings shared by every stage of the rasteriser (README.md, Architecture). Defaults are gsplat
 // v1 / 3DGS; the gsplat v0.1.13 reference renders in data/gsplat-reference use `gsplat_v0_1_13()`.
+#include "retimegs/core/hd.hpp"
+
 namespace retimegs::render {
 
 constexpr int kTileSize = 16;  // pixels per tile side (gsplat BLOCK_X = BLOCK_Y = 16)
 // Tiles along an image side of `pixels` (the last one may be partly outside).
-constexpr int tile_count(int pixels) {
+RETIMEGS_HD constexpr int tile_count(int pixels) {
   return (pixels + kTileSize - 1) / kTileSize;
 }
 

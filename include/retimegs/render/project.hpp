@@ -7,6 +7,7 @@
 
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/core/pinhole.hpp"
+#include "retimegs/render/formulas.hpp"  // TileRect, radius_tile_rect
 #include "retimegs/render/options.hpp"
 
 namespace retimegs::render {
@@ -25,18 +26,6 @@ struct ProjectedT {
   std::size_t size() const { return radii.size(); }
 };
 using Projected = ProjectedT<float>;
-
-// Tiles [x0, x1) x [y0, y1) that a 2-D Gaussian is binned into.
-struct TileRect {
-  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  int area() const { return (x1 - x0) * (y1 - y0); }
-  bool contains(int tx, int ty) const { return tx >= x0 && tx < x1 && ty >= y0 && ty < y1; }
-};
-
-// The radius rule of gsplat v0.1.13 (get_tile_bbox): tiles within `radius` pixels of the centre,
-// truncating toward zero, so that a Gaussian just left of or above the image still reaches tile 0.
-template <typename T>
-TileRect radius_tile_rect(T u, T v, int radius, int tiles_x, int tiles_y);
 
 // radius_tile_rect, and with options.tight_tile_bounds also only the tiles that the
 // alpha >= min_alpha ellipse of the Gaussian reaches. This rect defines which (pixel, Gaussian)

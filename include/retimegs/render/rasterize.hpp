@@ -30,6 +30,8 @@ struct RenderOutput {
 // Throws Error unless the camera has a positive size, finite positive focal lengths, a finite
 // principal point and a rigid world_to_camera.
 void check_camera(const Camera& camera);
+// Throws Error unless the C background values are finite (nullptr, black, passes).
+void check_background(const float* background, int channels);
 
 // background: C values (nullptr = black).
 RenderOutput rasterize_forward(const Gaussians& gaussians, const Camera& camera,

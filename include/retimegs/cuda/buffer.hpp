@@ -1,0 +1,87 @@
+#pragma once
+// An array in GPU memory that owns its allocation (cudaMalloc / cudaFree), with copies to and from
+// the host. resize() keeps the allocation while it is large enough, so that a loop that renders
+// every step allocates only until its sizes settle.
+#include <cuda_runtime_api.h>
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "retimegs/cuda/check.hpp"
+
+namespace retimegs::cuda {
+
+template <typename T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  explicit DeviceBuffer(std::size_t n) { resize(n); }
+  ~DeviceBuffer() { release(); }
+  DeviceBuffer(DeviceBuffer&& other) noexcept { swap(other); }
+  DeviceBuffer& operator=(DeviceBuffer&& other) noexcept {
+    DeviceBuffer(std::move(other)).swap(*this);
+    return *this;
+  }
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+
+  // n elements; the contents are unspecified after a resize that grows the allocation.
+  void resize(std::size_t n) {
+    if (n > capacity_) {
+      release();
+      const std::string what = "cudaMalloc(" + std::to_string(n * sizeof(T)) + " bytes)";
+      check(cudaMalloc(reinterpret_cast<void**>(&data_), n * sizeof(T)), what.c_str());
+      capacity_ = n;
+    }
+    size_ = n;
+  }
+
+  // Copies host[0, n) in (resizing to n); synchronous.
+  void upload(const T* host, std::size_t n) {
+    resize(n);
+    if (n > 0) check(cudaMemcpy(data_, host, n * sizeof(T), cudaMemcpyHostToDevice), "upload");
+  }
+  template <typename Vector>
+  void upload(const Vector& host) {
+    upload(host.data(), host.size());
+  }
+  // Copies the whole array out to host[0, size()); synchronous.
+  void download(T* host) const {
+    if (size_ > 0)
+      check(cudaMemcpy(host, data_, size_ * sizeof(T), cudaMemcpyDeviceToHost), "download");
+  }
+  std::vector<T> download() const {
+    std::vector<T> host(size_);
+    download(host.data());
+    return host;
+  }
+  // Every byte set to `byte` (tests poison outputs with 0xff: every float a NaN).
+  void fill_bytes(unsigned char byte) {
+    if (size_ > 0) check(cudaMemset(data_, byte, size_ * sizeof(T)), "cudaMemset");
+  }
+
+  T* data() { return data_; }
+  const T* data() const { return data_; }
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+
+  void swap(DeviceBuffer& other) noexcept {
+    std::swap(data_, other.data_);
+    std::swap(size_, other.size_);
+    std::swap(capacity_, other.capacity_);
+  }
+
+ private:
+  void release() {
+    if (data_) cudaFree(data_);  // only fails on a corrupted context, which the next call reports
+    data_ = nullptr;
+    size_ = capacity_ = 0;
+  }
+
+  T* data_ = nullptr;
+  std::size_t size_ = 0, capacity_ = 0;
+};
+
+}  // namespace retimegs::cuda
