@@ -43,9 +43,11 @@ fi
 nvcc=$(command -v nvcc || true)
 if [[ -z $nvcc && -x /usr/local/cuda/bin/nvcc ]]; then nvcc=/usr/local/cuda/bin/nvcc; fi
 [[ -n $nvcc ]] || die "no nvcc: the CUDA toolkit is missing or its bin/ is not on PATH"
-for tool in cmake ninja c++; do
+for tool in cmake ninja; do
   command -v "$tool" > /dev/null || die "no $tool on PATH"
 done
+command -v "${CXX:-c++}" > /dev/null || command -v g++ > /dev/null ||
+  die "no C++ compiler (c++ or g++, or \$CXX) on PATH"
 debs=("$root"/.gpu/*.deb)
 [[ -e ${debs[0]} ]] ||
   die "no .gpu/*.deb: run scripts/gpu_bundle.sh on a build machine and bring .gpu/ along"
