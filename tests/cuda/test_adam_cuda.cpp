@@ -78,7 +78,8 @@ void check_steps(std::size_t n, int width, const std::vector<float>& column_scal
   const std::size_t values = n * width;
   const std::vector<float> scale =
       column_scale.empty() ? std::vector<float>(width, 1.0f) : column_scale;
-  State host{test::random_floats(values, -2.0f, 2.0f, seed), {},
+  State host{test::random_floats(values, -2.0f, 2.0f, seed),
+             {},
              test::random_floats(values, -0.1f, 0.1f, seed + 1),
              test::random_floats(values, 0.0f, 0.01f, seed + 2)};
   DeviceAdam adam(n, width, {}, column_scale);

@@ -21,8 +21,8 @@ struct AdamSettings {
 struct AdamStepConstants {
   float b1, b2, eps;
   float one_minus_b1, one_minus_b2;  // 1 − β1, 1 − β2 in float
-  float step_size;    // lr / c1
-  float inv_sqrt_c2;  // 1 / sqrt(c2)
+  float step_size;                   // lr / c1
+  float inv_sqrt_c2;                 // 1 / sqrt(c2)
 };
 
 // The constants of the group's step number `step` (1 for its first step) at learning rate lr.
@@ -30,8 +30,9 @@ inline AdamStepConstants adam_step_constants(const AdamSettings& s, double lr, s
   const double correction1 = 1.0 - std::pow(s.beta1, double(step));
   const double correction2 = 1.0 - std::pow(s.beta2, double(step));
   const float b1 = float(s.beta1), b2 = float(s.beta2);
-  return {b1, b2, float(s.epsilon), 1 - b1, 1 - b2, float(lr / correction1),
-          float(1.0 / std::sqrt(correction2))};
+  const float step_size = float(lr / correction1);
+  const float inv_sqrt_c2 = float(1.0 / std::sqrt(correction2));
+  return {b1, b2, float(s.epsilon), 1 - b1, 1 - b2, step_size, inv_sqrt_c2};
 }
 
 // One value with gradient g: its moments m, v decay and take g; param moves by the step at the
