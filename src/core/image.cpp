@@ -53,8 +53,7 @@ void unpack(const PackedImage& packed, Image& out) {
   out.data.resize(packed.data.size());
   const std::ptrdiff_t n = std::ptrdiff_t(packed.data.size());
 #pragma omp parallel for schedule(static) if (n >= (1 << 16))
-  for (std::ptrdiff_t i = 0; i < n; ++i)
-    out.data[i] = float(double(packed.data[i]) * (1.0 / 65535.0));
+  for (std::ptrdiff_t i = 0; i < n; ++i) out.data[i] = unpack_code(packed.data[i]);
 }
 
 float sample_bilinear(const Image& image, double u, double v, int c) {

@@ -10,35 +10,19 @@
 #include <omp.h>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/ssim_formulas.hpp"
 
 namespace retimegs {
 namespace {
 
-constexpr int kRadius = 5;  // 11×11 window, as 3DGS (conv2d padding = 5)
-constexpr int kTaps = 2 * kRadius + 1;
-constexpr double kSigma = 1.5;       // Wang et al. 2004, 3DGS
-constexpr double kC1 = 0.01 * 0.01;  // (K1·L)², K1 = 0.01, data range L = 1
-constexpr double kC2 = 0.03 * 0.03;  // (K2·L)², K2 = 0.03
-constexpr int kMoments = 3;          // of the render per window: μ_a, E[a²], E[ab]
-constexpr int kTargetMoments = 2;    // of the target (SsimTarget): μ_b, E[b²]
-constexpr int kCoefficients = 3;     // dS/dμ_a, dS/dE[a²], dS/dE[ab]
+constexpr int kMoments = 3;        // of the render per window: μ_a, E[a²], E[ab]
+constexpr int kTargetMoments = 2;  // of the target (SsimTarget): μ_b, E[b²]
+constexpr int kCoefficients = 3;   // dS/dμ_a, dS/dE[a²], dS/dE[ab]
 // Below this many values (~128×128) waking the threads costs more than the passes.
 constexpr std::size_t kParallelMin = std::size_t(1) << 14;
 
-using Window = std::array<double, kTaps>;
-
-// w(k) ∝ exp(−(k − 5)² / (2σ²)), normalised to sum 1; the 2-D window is w(dy)·w(dx).
-const Window& window() {
-  static const Window w = [] {
-    Window g;
-    double sum = 0;
-    for (int k = 0; k < kTaps; ++k) {
-      const double d = k - kRadius;
-      sum += g[k] = std::exp(-d * d / (2 * kSigma * kSigma));
-    }
-    for (double& v : g) v /= sum;
-    return g;
-  }();
+const SsimWindow& window() {
+  static const SsimWindow w = ssim_window();
   return w;
 }
 
@@ -49,53 +33,34 @@ void check_same_size(const Image& a, const Image& b, const char* what) {
   if (a.empty()) fail("{}: images are empty", what);
 }
 
-// SSIM of one window from its moments, and its partial derivatives with respect to the moments
-// of a; σ_a² = E[a²] − μ_a² and σ_ab = E[ab] − μ_a·μ_b, so d_mu_a is the total derivative
-// through them as well. The moments of b are constants.
-struct LocalSsim {
-  double s, d_mu_a, d_e_aa, d_e_ab;
-};
-
-inline LocalSsim local_ssim(double mu_a, double mu_b, double e_aa, double e_bb, double e_ab) {
-  const double var_a = e_aa - mu_a * mu_a, var_b = e_bb - mu_b * mu_b;
-  const double cov = e_ab - mu_a * mu_b;
-  const double num_mu = 2 * mu_a * mu_b + kC1, num_sigma = 2 * cov + kC2;
-  const double den_mu = mu_a * mu_a + mu_b * mu_b + kC1, den_sigma = var_a + var_b + kC2;
-  const double inv_den = 1 / (den_mu * den_sigma);
-  const double s = num_mu * num_sigma * inv_den;
-  const double d_e_ab = 2 * num_mu * inv_den;  // = dS/dσ_ab
-  const double d_e_aa = -s / den_sigma;        // = dS/dσ_a²
-  const double d_mu_a =
-      2 * mu_b * num_sigma * inv_den - 2 * mu_a * s / den_mu - mu_b * d_e_ab - 2 * mu_a * d_e_aa;
-  return {s, d_mu_a, d_e_aa, d_e_ab};
-}
+using LocalSsim = LocalSsimT<double>;
 
 // Pass along x: out[j] = Σ_k w[k]·src[j + k·c] for j < n, where src is an interleaved row of c
-// channels with kRadius pixels of zeros on either side (the zero padding).
+// channels with kSsimRadius pixels of zeros on either side (the zero padding).
 inline void correlate_x(const double* src, int c, std::size_t n, double* out) {
-  const Window w = window();  // a local copy: provably not aliased by out
+  const SsimWindow w = window();  // a local copy: provably not aliased by out
 #pragma omp simd
   for (std::size_t j = 0; j < n; ++j) {
     double sum = 0;
-    for (int k = 0; k < kTaps; ++k) sum += w[k] * src[j + k * std::size_t(c)];
+    for (int k = 0; k < kSsimTaps; ++k) sum += w[k] * src[j + k * std::size_t(c)];
     out[j] = sum;
   }
 }
 
-// Rows are streamed through rings of kTaps rows: image row r lives in slot r mod kTaps.
+// Rows are streamed through rings of kSsimTaps rows: image row r lives in slot r mod kSsimTaps.
 inline int slot(int row) {
-  return (row % kTaps + kTaps) % kTaps;
+  return (row % kSsimTaps + kSsimTaps) % kSsimTaps;
 }
 
-// Pass along y: out[j] = Σ_k w[k]·row(y − r + k)[j], the rows taken from a ring [kTaps, n].
+// Pass along y: out[j] = Σ_k w[k]·row(y − r + k)[j], the rows taken from a ring [kSsimTaps, n].
 inline void correlate_y(const double* ring, std::size_t n, int y, double* out) {
-  const Window w = window();
-  std::array<const double*, kTaps> rows;
-  for (int k = 0; k < kTaps; ++k) rows[k] = ring + slot(y - kRadius + k) * n;
+  const SsimWindow w = window();
+  std::array<const double*, kSsimTaps> rows;
+  for (int k = 0; k < kSsimTaps; ++k) rows[k] = ring + slot(y - kSsimRadius + k) * n;
 #pragma omp simd
   for (std::size_t j = 0; j < n; ++j) {
     double sum = 0;
-    for (int k = 0; k < kTaps; ++k) sum += w[k] * rows[k][j];
+    for (int k = 0; k < kSsimTaps; ++k) sum += w[k] * rows[k][j];
     out[j] = sum;
   }
 }
@@ -110,7 +75,7 @@ double ssim_row(const double* moments, const double* mu_b, const double* e_bb, s
   double sum = 0;
 #pragma omp simd reduction(+ : sum)
   for (std::size_t j = 0; j < n; ++j) {
-    const LocalSsim l = local_ssim(mu_a[j], mu_b[j], e_aa[j], e_bb[j], e_ab[j]);
+    const LocalSsim l = local_ssim<double>(mu_a[j], mu_b[j], e_aa[j], e_bb[j], e_ab[j]);
     sum += l.s;
     if constexpr (kWithMap) map_row[j] = float(l.s);
     if constexpr (kBackward) {
@@ -138,31 +103,31 @@ void for_each_band(int height, std::size_t n, F&& band) {
 void target_moments(const Image& b, double* mu, double* e_sq) {
   const int height = b.height, c = b.channels;
   const std::size_t n = std::size_t(b.width) * c;
-  const std::size_t padded_n = n + 2 * std::size_t(kRadius) * c;
+  const std::size_t padded_n = n + 2 * std::size_t(kSsimRadius) * c;
   for_each_band(height, n, [&](int begin, int end) {
-    std::vector<double> src(kTargetMoments * padded_n, 0.0);  // [2, W·C + 2r·C] zero-padded
-    std::vector<double> along_x(kTargetMoments * kTaps * n);  // [2, 11, W·C] ring of pass 1
+    std::vector<double> src(kTargetMoments * padded_n, 0.0);      // [2, W·C + 2r·C] zero-padded
+    std::vector<double> along_x(kTargetMoments * kSsimTaps * n);  // [2, 11, W·C] ring of pass 1
     double* out[kTargetMoments] = {mu, e_sq};
-    for (int r1 = begin - kRadius; r1 < end + kRadius; ++r1) {
+    for (int r1 = begin - kSsimRadius; r1 < end + kSsimRadius; ++r1) {
       const std::size_t s1 = slot(r1) * n;
       if (r1 < 0 || r1 >= height) {
         for (int m = 0; m < kTargetMoments; ++m)
-          std::fill_n(&along_x[(m * kTaps) * n + s1], n, 0.0);
+          std::fill_n(&along_x[(m * kSsimTaps) * n + s1], n, 0.0);
       } else {
         const float* row_b = b.data.data() + r1 * n;
-        double* s = src.data() + kRadius * c;
+        double* s = src.data() + kSsimRadius * c;
         for (std::size_t j = 0; j < n; ++j) {
           const double vb = row_b[j];
           s[j] = vb;
           s[padded_n + j] = vb * vb;
         }
         for (int m = 0; m < kTargetMoments; ++m)
-          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kTaps) * n + s1]);
+          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kSsimTaps) * n + s1]);
       }
-      const int r2 = r1 - kRadius;
+      const int r2 = r1 - kSsimRadius;
       if (r2 < begin) continue;
       for (int m = 0; m < kTargetMoments; ++m)
-        correlate_y(&along_x[m * kTaps * n], n, r2, out[m] + r2 * n);
+        correlate_y(&along_x[m * kSsimTaps * n], n, r2, out[m] + r2 * n);
     }
   });
 }
@@ -181,29 +146,31 @@ double ssim_separable(const Image& a, const SsimTarget& target, Image* map, doub
                       Image* v_add) {
   const Image& b = *target.image;
   const int height = a.height, c = a.channels;
-  const std::size_t n = std::size_t(a.width) * c;                 // values in one row
-  const std::size_t padded_n = n + 2 * std::size_t(kRadius) * c;  // with r zero pixels each side
-  const double scale = v_ssim / (double(height) * double(n));     // d mean / d S(p) · upstream
+  const std::size_t n = std::size_t(a.width) * c;  // values in one row
+  const std::size_t padded_n =
+      n + 2 * std::size_t(kSsimRadius) * c;                    // with r zero pixels each side
+  const double scale = v_ssim / (double(height) * double(n));  // d mean / d S(p) · upstream
   const bool backward = v_add != nullptr;
-  const int halo = backward ? 2 * kRadius : kRadius;  // rows of pass 1 beyond a band's edges
+  const int halo =
+      backward ? 2 * kSsimRadius : kSsimRadius;  // rows of pass 1 beyond a band's edges
   if (map) *map = Image(a.width, height, c);
   const auto inside = [height](int row) { return row >= 0 && row < height; };
 
   std::vector<double> row_sums(height);  // [H] of the map, summed in row order below
   for_each_band(height, n, [&](int begin, int end) {
-    std::vector<double> src(kMoments * padded_n, 0.0);  // [3, W·C + 2r·C] zero-padded rows
-    std::vector<double> along_x(kMoments * kTaps * n);  // [3, 11, W·C] ring of pass 1
-    std::vector<double> moments(kMoments * n);          // [3, W·C] one row of pass 2
-    std::vector<double> coefficient(backward ? kCoefficients * kTaps * n : 0);  // [3, 11, W·C]
+    std::vector<double> src(kMoments * padded_n, 0.0);      // [3, W·C + 2r·C] zero-padded rows
+    std::vector<double> along_x(kMoments * kSsimTaps * n);  // [3, 11, W·C] ring of pass 1
+    std::vector<double> moments(kMoments * n);              // [3, W·C] one row of pass 2
+    std::vector<double> coefficient(backward ? kCoefficients * kSsimTaps * n : 0);  // [3, 11, W·C]
 
     for (int r1 = begin - halo; r1 < end + halo; ++r1) {
       const std::size_t s1 = slot(r1) * n;
       if (!inside(r1)) {
-        for (int m = 0; m < kMoments; ++m) std::fill_n(&along_x[(m * kTaps) * n + s1], n, 0.0);
+        for (int m = 0; m < kMoments; ++m) std::fill_n(&along_x[(m * kSsimTaps) * n + s1], n, 0.0);
       } else {
         const float* row_a = a.data.data() + r1 * n;
         const float* row_b = b.data.data() + r1 * n;
-        double* s = src.data() + kRadius * c;
+        double* s = src.data() + kSsimRadius * c;
         for (std::size_t j = 0; j < n; ++j) {
           const double va = row_a[j], vb = row_b[j];
           s[j] = va;
@@ -211,23 +178,23 @@ double ssim_separable(const Image& a, const SsimTarget& target, Image* map, doub
           s[2 * padded_n + j] = va * vb;
         }
         for (int m = 0; m < kMoments; ++m)
-          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kTaps) * n + s1]);
+          correlate_x(src.data() + m * padded_n, c, n, &along_x[(m * kSsimTaps) * n + s1]);
       }
 
-      const int r2 = r1 - kRadius;
-      if (r2 - kRadius < begin - halo) continue;  // its rows of pass 1 are not all there yet
+      const int r2 = r1 - kSsimRadius;
+      if (r2 - kSsimRadius < begin - halo) continue;  // its rows of pass 1 are not all there yet
       const std::size_t s2 = slot(r2) * n;
       const std::array<double*, kCoefficients> coefficient_row =
-          backward
-              ? std::array<double*, kCoefficients>{&coefficient[s2], &coefficient[kTaps * n + s2],
-                                                   &coefficient[2 * kTaps * n + s2]}
-              : std::array<double*, kCoefficients>{};
+          backward ? std::array<double*, kCoefficients>{&coefficient[s2],
+                                                        &coefficient[kSsimTaps * n + s2],
+                                                        &coefficient[2 * kSsimTaps * n + s2]}
+                   : std::array<double*, kCoefficients>{};
       if (!inside(r2)) {
         for (double* row : coefficient_row)
           if (row) std::fill_n(row, n, 0.0);
       } else {
         for (int m = 0; m < kMoments; ++m)
-          correlate_y(&along_x[m * kTaps * n], n, r2, &moments[m * n]);
+          correlate_y(&along_x[m * kSsimTaps * n], n, r2, &moments[m * n]);
         const double* mu_b = target.mu.data() + r2 * n;
         const double* e_bb = target.e_sq.data() + r2 * n;
         const bool own = r2 >= begin && r2 < end;  // halo rows belong to the neighbour band
@@ -243,26 +210,27 @@ double ssim_separable(const Image& a, const SsimTarget& target, Image* map, doub
         if (own) row_sums[r2] = sum;
       }
 
-      const int r3 = r2 - kRadius;
+      const int r3 = r2 - kSsimRadius;
       if (!backward || r3 < begin) continue;
       for (int m = 0; m < kCoefficients; ++m)
-        correlate_y(&coefficient[m * kTaps * n], n, r3, src.data() + m * padded_n + kRadius * c);
+        correlate_y(&coefficient[m * kSsimTaps * n], n, r3,
+                    src.data() + m * padded_n + kSsimRadius * c);
       const double* c_mu = src.data();
       const double *c_aa = c_mu + padded_n, *c_ab = c_aa + padded_n;
       const float* row_a = a.data.data() + r3 * n;
       const float* row_b = b.data.data() + r3 * n;
       double* grad = moments.data();  // [W·C]: the moment row is not read again for this r1
-      const Window w = window();
+      const SsimWindow w = window();
 #pragma omp simd
       for (std::size_t j = 0; j < n; ++j) {
         double g_mu = 0, g_aa = 0, g_ab = 0;
-        for (int k = 0; k < kTaps; ++k) {
+        for (int k = 0; k < kSsimTaps; ++k) {
           const std::size_t at = j + k * std::size_t(c);
           g_mu += w[k] * c_mu[at];
           g_aa += w[k] * c_aa[at];
           g_ab += w[k] * c_ab[at];
         }
-        grad[j] = g_mu + 2.0 * row_a[j] * g_aa + double(row_b[j]) * g_ab;
+        grad[j] = ssim_pixel_gradient<double>(g_mu, g_aa, g_ab, row_a[j], row_b[j]);
       }
       const int out_c = v_add->channels;
       float* out = v_add->data.data() + std::size_t(r3) * a.width * out_c;
@@ -286,13 +254,13 @@ double ssim_separable(const Image& a, const SsimTarget& target, Image* map, doub
 // The moments μ_a, μ_b, E[a²], E[b²], E[ab] of the window centred on (y, x) in channel ch, zero
 // outside the image.
 std::array<double, 5> window_moments(const Image& a, const Image& b, int y, int x, int ch) {
-  const Window& w = window();
+  const SsimWindow& w = window();
   std::array<double, 5> m{};
-  for (int dy = -kRadius; dy <= kRadius; ++dy) {
-    for (int dx = -kRadius; dx <= kRadius; ++dx) {
+  for (int dy = -kSsimRadius; dy <= kSsimRadius; ++dy) {
+    for (int dx = -kSsimRadius; dx <= kSsimRadius; ++dx) {
       const int yy = y + dy, xx = x + dx;
       if (yy < 0 || yy >= a.height || xx < 0 || xx >= a.width) continue;
-      const double weight = w[dy + kRadius] * w[dx + kRadius];
+      const double weight = w[dy + kSsimRadius] * w[dx + kSsimRadius];
       const double va = a.at(yy, xx, ch), vb = b.at(yy, xx, ch);
       m[0] += weight * va;
       m[1] += weight * vb;
@@ -306,7 +274,7 @@ std::array<double, 5> window_moments(const Image& a, const Image& b, int y, int 
 
 LocalSsim reference_local(const Image& a, const Image& b, int y, int x, int ch) {
   const auto m = window_moments(a, b, y, x, ch);
-  return local_ssim(m[0], m[1], m[2], m[3], m[4]);
+  return local_ssim<double>(m[0], m[1], m[2], m[3], m[4]);
 }
 
 }  // namespace
@@ -370,21 +338,21 @@ double ssim_backward_reference(const Image& a, const Image& b, double v_ssim, Im
         sum += local[(std::size_t(y) * a.width + x) * c + ch].s;
       }
   const double scale = v_ssim / double(a.data.size());
-  const Window& w = window();
+  const SsimWindow& w = window();
   v_a = Image(a.width, a.height, c);
   // Pixel q enters every window p with |p − q| ≤ r, through μ_a(p), E[a²](p) and E[ab](p).
   for (int y = 0; y < a.height; ++y)
     for (int x = 0; x < a.width; ++x)
       for (int ch = 0; ch < c; ++ch) {
         double g = 0;
-        for (int dy = -kRadius; dy <= kRadius; ++dy)
-          for (int dx = -kRadius; dx <= kRadius; ++dx) {
+        for (int dy = -kSsimRadius; dy <= kSsimRadius; ++dy)
+          for (int dx = -kSsimRadius; dx <= kSsimRadius; ++dx) {
             const int py = y + dy, px = x + dx;
             if (py < 0 || py >= a.height || px < 0 || px >= a.width) continue;
             const LocalSsim& l = local[(std::size_t(py) * a.width + px) * c + ch];
-            const double weight = w[dy + kRadius] * w[dx + kRadius];
-            g += weight *
-                 (l.d_mu_a + 2.0 * a.at(y, x, ch) * l.d_e_aa + double(b.at(y, x, ch)) * l.d_e_ab);
+            const double weight = w[dy + kSsimRadius] * w[dx + kSsimRadius];
+            g += weight * ssim_pixel_gradient<double>(l.d_mu_a, l.d_e_aa, l.d_e_ab, a.at(y, x, ch),
+                                                      b.at(y, x, ch));
           }
         v_a.at(y, x, ch) = float(scale * g);
       }

@@ -25,7 +25,8 @@ void apply_camera_color(const Image& rgb, const CameraColor& color, Image& out) 
   const std::ptrdiff_t pixels = std::ptrdiff_t(rgb.pixels());
 #pragma omp parallel for schedule(static) if (pixels >= kParallelPixels)
   for (std::ptrdiff_t p = 0; p < pixels; ++p)
-    for (int k = 0; k < 3; ++k) out.data[3 * p + k] = gain[k] * rgb.data[3 * p + k] + color.c[k];
+    for (int k = 0; k < 3; ++k)
+      out.data[3 * p + k] = camera_color_value(gain[k], rgb.data[3 * p + k], color.c[k]);
 }
 
 void apply_camera_color_backward(const Image& rgb, const CameraColor& color, Image& v_render,

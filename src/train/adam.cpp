@@ -1,7 +1,6 @@
 #include "retimegs/train/adam.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <cstring>
 #include <utility>
 
@@ -71,14 +70,7 @@ void Adam::step_and_clear(float* params, float* grads, double lr,
 
 template <bool kClear, typename G>
 void Adam::update(float* params, G* grads, double lr, const std::vector<std::int32_t>* rows) {
-  ++steps_;
-  const float b1 = float(settings_.beta1), b2 = float(settings_.beta2);
-  const double correction1 = 1.0 - std::pow(settings_.beta1, double(steps_));
-  const double correction2 = 1.0 - std::pow(settings_.beta2, double(steps_));
-  // p -= lr / c1 · m / (sqrt(v) / sqrt(c2) + ε)
-  const float step_size = float(lr / correction1);
-  const float inv_sqrt_c2 = float(1.0 / std::sqrt(correction2));
-  const float eps = float(settings_.epsilon);
+  const AdamStepConstants constants = adam_step_constants(settings_, lr, ++steps_);
   const std::size_t count = rows ? rows->size() : this->rows();
   const int width = width_;
   const float* scale = column_scale_.data();
@@ -90,10 +82,7 @@ void Adam::update(float* params, G* grads, double lr, const std::vector<std::int
 #pragma omp simd
     for (int k = 0; k < width; ++k) {
       const std::size_t i = r * width + k;
-      const float g = grads[i];
-      m[i] = b1 * m[i] + (1 - b1) * g;
-      v[i] = b2 * v[i] + (1 - b2) * g * g;
-      params[i] -= step_size * scale[k] * m[i] / (std::sqrt(v[i]) * inv_sqrt_c2 + eps);
+      adam_update(constants, scale[k], grads[i], params[i], m[i], v[i]);
       if constexpr (kClear) grads[i] = 0;
     }
   }

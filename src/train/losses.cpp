@@ -6,6 +6,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/ssim.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/train/loss_formulas.hpp"
 
 namespace retimegs::train {
 
@@ -50,11 +51,11 @@ double image_loss(const Image& rgb, const SsimTarget& ssim_target, double ssim_l
       const std::size_t i = 3 * p + c;
       const float diff = rgb.data[i] - target.data[i];
       l1 += std::abs(diff);
-      v_render.data[channels * p + c] += diff > 0 ? l1_grad : diff < 0 ? -l1_grad : 0.0f;
+      v_render.data[channels * p + c] += l1_gradient(diff, l1_grad);
     }
   l1 /= double(n);
   const double s = ssim_backward_add(rgb, ssim_target, -ssim_lambda * weight, v_render);
-  return (1 - ssim_lambda) * l1 + ssim_lambda * (1 - s);
+  return mix_image_loss(l1, s, ssim_lambda);
 }
 
 double flow_loss(const Image& render, int channel, const Flow& target, double weight,
@@ -76,7 +77,7 @@ double flow_loss(const Image& render, int channel, const Flow& target, double we
     for (int k = 0; k < 2; ++k) {
       const float diff = render.data[render.channels * p + channel + k] - target.uv[2 * p + k];
       sum += std::abs(diff);
-      v_render.data[render.channels * p + channel + k] += diff > 0 ? grad : diff < 0 ? -grad : 0.0f;
+      v_render.data[render.channels * p + channel + k] += l1_gradient(diff, grad);
     }
   }
   return sum / double(known);

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "retimegs/core/hd.hpp"
+
 namespace retimegs {
 
 struct Image {
@@ -34,6 +36,11 @@ struct PackedImage {
   std::vector<std::uint16_t> data;  // [H, W, C]
   std::size_t bytes() const { return data.size() * sizeof(std::uint16_t); }
 };
+
+// The value of a code, as unpack() gives it (and the CUDA backend's unpacking on the device).
+RETIMEGS_HD inline float unpack_code(std::uint16_t code) {
+  return float(double(code) * (1.0 / 65535.0));
+}
 
 // Rounds to the nearest code; throws Error naming `what` and the pixel of a value outside [0, 1]
 // or not finite.

@@ -6,6 +6,7 @@
 // applies its map to look like that camera's images.
 #include <array>
 
+#include "retimegs/core/hd.hpp"
 #include "retimegs/core/image.hpp"
 
 namespace retimegs::model {
@@ -14,6 +15,11 @@ struct CameraColor {
   std::array<float, 3> m{};  // log gain per channel (0: gain 1)
   std::array<float, 3> c{};  // offset per channel
 };
+
+// One value through the map: gain · value + offset, gain = exp(m).
+RETIMEGS_HD inline float camera_color_value(float gain, float value, float offset) {
+  return gain * value + offset;
+}
 
 // out = exp(m) ⊙ rgb + c per channel; rgb [H, W, 3] (a render's RGB, not its flow channels).
 // `out` takes rgb's shape and may be rgb itself.

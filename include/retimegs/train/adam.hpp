@@ -15,14 +15,10 @@
 #include <vector>
 
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/train/adam_update.hpp"
 #include "retimegs/train/config.hpp"
 
 namespace retimegs::train {
-
-struct AdamSettings {
-  double beta1 = 0.9, beta2 = 0.999;
-  double epsilon = 1e-15;  // gsplat's default for Gaussian splats (torch's 1e-8 is too large)
-};
 
 class Adam {
  public:
