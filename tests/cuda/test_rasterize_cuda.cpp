@@ -193,8 +193,8 @@ TEST(CudaRasterize, ForwardMatchesTheCpuRendererStageByStage) {
     expect_close("depth", bg.depth, bc.depth, 1e-5, 1e-6, k.pixel_outliers());
     expect_equal("n_contrib", bg.n_contrib, bc.n_contrib, k.pixel_outliers());
     expect_equal("last_contributor", bg.last_contributor, bc.last_contributor, k.pixel_outliers());
-    // Not an empty picture: the scene covers part of the image.
-    EXPECT_GT(magnitude(bc.alpha), 0.5);
+    // Not an empty picture: some Gaussian reached a pixel (the one-Gaussian case may be faint).
+    EXPECT_GE(magnitude(bc.alpha), 1.0 / 255);
   }
 }
 
