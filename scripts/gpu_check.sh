@@ -86,7 +86,8 @@ ctest_log="$logs/ctest.log"
 tests_ok=1
 ctest --test-dir "$build" -L gpu --output-on-failure -j "$(nproc)" > "$ctest_log" 2>&1 ||
   tests_ok=0
-total=$(sed -n 's/.* tests failed out of \([0-9]*\)$/\1/p' "$ctest_log")
+# "100% tests passed, 0 tests failed out of N", or from CMake 4 "100% tests passed out of N".
+total=$(sed -n 's/^[0-9]*% tests passed.* out of \([0-9]*\)$/\1/p' "$ctest_log")
 passed=$(grep -cE '^ *[0-9]+/[0-9]+ Test +#[0-9]+: .* Passed' "$ctest_log" || true)
 skipped=$(grep -cE '^ *[0-9]+/[0-9]+ Test +#[0-9]+: .*\*\*\*Skipped' "$ctest_log" || true)
 if [[ -z $total || $total -eq 0 ]]; then

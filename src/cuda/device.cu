@@ -31,7 +31,12 @@ DeviceQuery no_device(std::string reason) {
 }  // namespace
 
 void check(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) fail("CUDA: {} failed: {}", what, error_text(status));
+  if (status == cudaSuccess) return;
+  // A failed call also leaves its error as the thread's last error: read it back here, so that a
+  // later launch's check(cudaGetLastError(), ...) does not report this failure as its own.
+  // (Sticky errors, which end the context, stay whatever is read.)
+  cudaGetLastError();
+  fail("CUDA: {} failed: {}", what, error_text(status));
 }
 
 DeviceQuery query_device() {

@@ -79,6 +79,8 @@ TEST(Check, AFailedCallThrowsAndTheDeviceStaysUsable) {
         std::string::npos)
         << e.what();
   }
+  // The failure was read back: a later launch's check(cudaGetLastError()) does not see it.
+  EXPECT_EQ(cudaGetLastError(), cudaSuccess);
   check(cudaMalloc(&device, 4096), "cudaMalloc(4096 bytes)");  // the failure is not sticky
   check(cudaFree(device), "cudaFree");
 }
