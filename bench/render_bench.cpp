@@ -43,7 +43,7 @@ double peer_evaluated(const render::Projected& p, const std::vector<float>& opac
                    [&](std::int32_t x, std::int32_t y) { return p.depths[x] < p.depths[y]; });
   std::vector<float> transmittance(std::size_t(width) * height, 1.0f);
   std::vector<char> done(transmittance.size(), 0);
-  double evaluated = 0;
+  double sliced = 0;
   for (const std::int32_t g : order) {
     const float a = p.conics[3 * g], b = p.conics[3 * g + 1], c = p.conics[3 * g + 2];
     const float det = a * c - b * b;  // the covariance is the conic's inverse
@@ -57,7 +57,7 @@ double peer_evaluated(const render::Projected& p, const std::vector<float>& opac
       for (int x = x0; x < x1; ++x) {
         const std::size_t pixel = std::size_t(y) * width + x;
         if (done[pixel]) continue;
-        evaluated += 1;
+        sliced += 1;
         const float dx = u - (float(x) + 0.5f), dy = v - (float(y) + 0.5f);
         const float sigma = 0.5f * (a * dx * dx + c * dy * dy) + b * dx * dy;
         const float alpha = std::min(0.999f, opacities[g] * std::exp(-sigma));
@@ -70,7 +70,7 @@ double peer_evaluated(const render::Projected& p, const std::vector<float>& opac
         transmittance[pixel] = next_t;
       }
   }
-  return evaluated;
+  return sliced;
 }
 
 struct BenchScene {
@@ -123,7 +123,7 @@ double blended_pairs(const render::RenderOutput& out) {
   return sum;
 }
 
-// blended: pairs composited by this renderer; evaluated: the peer's forward work on the scene.
+// blended: pairs composited by this renderer; sliced: the peer's forward work on the scene.
 void set_counters(benchmark::State& state, const BenchScene& s, double pairs, int threads) {
   const auto per_core_rate = [&](double count) {
     return benchmark::Counter(count * 1e-9 / threads,

@@ -26,8 +26,8 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/sh.hpp"
-#include "retimegs/train/relocation.hpp"
 #include "retimegs/train/cpu_step.hpp"
+#include "retimegs/train/relocation.hpp"
 
 namespace {
 
@@ -136,21 +136,21 @@ void BM_TrainStep(benchmark::State& state) {
     const train::StepStats s = trainer.step_view(camera, kStepFrame);
     camera = (camera + 1) % kCameras;
     state.SetIterationTime(s.seconds.total + relocation);
-    sum.evaluate += s.seconds.evaluate;
+    sum.slice += s.seconds.slice;
     sum.render_forward += s.seconds.render_forward;
     sum.losses += s.seconds.losses;
     sum.render_backward += s.seconds.render_backward;
-    sum.evaluate_backward += s.seconds.evaluate_backward;
+    sum.slice_backward += s.seconds.slice_backward;
     sum.optimizer += s.seconds.optimizer;
     sum.total += s.seconds.total;
     active_rows += double(s.active);
   }
   const double ms = 1e3 / double(state.iterations());
-  state.counters["evaluate_ms"] = sum.evaluate * ms;
+  state.counters["slice_ms"] = sum.slice * ms;
   state.counters["render_fwd_ms"] = sum.render_forward * ms;
   state.counters["losses_ms"] = sum.losses * ms;
   state.counters["render_bwd_ms"] = sum.render_backward * ms;
-  state.counters["evaluate_bwd_ms"] = sum.evaluate_backward * ms;
+  state.counters["slice_bwd_ms"] = sum.slice_backward * ms;
   state.counters["adam_ms"] = sum.optimizer * ms;
   state.counters["other_ms"] = sum.other() * ms;
   state.counters["relocation_ms"] = relocation * 1e3;

@@ -1,6 +1,6 @@
 // WebGL2 renderer of the packed model. Pass 1 evaluates each primitive at time t once per frame
 // (a vertex shader over points, its results captured by transform feedback) exactly as
-// model::evaluate does (window, trajectory, rotation, SH) and
+// model::slice does (window, trajectory, rotation, SH) and
 // projected as render/project.cpp does (EWA with the field-of-view guard, 0.3 px² low-pass, near
 // plane, pixel centres at +0.5); pass 2 draws one instanced quad per primitive from those
 // records, composited back to front with premultiplied alpha: the same

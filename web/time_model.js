@@ -1,4 +1,4 @@
-// The time model of model::evaluate (include/retimegs/model/temporal_opacity.hpp, trajectory.hpp)
+// The time model of model::slice (include/retimegs/model/temporal_opacity.hpp, trajectory.hpp)
 // in JavaScript, for the sort worker; the vertex shader in renderer.js is its GLSL twin. Both
 // read the packed arrays of model.json / model.bin (docs/formats.md, "The viewer's data").
 // web/test/time_model.test.mjs checks it against the C++ values (ctest: time_model_js).

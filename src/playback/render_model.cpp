@@ -6,7 +6,7 @@
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/io/training_views.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -15,10 +15,10 @@ namespace retimegs::playback {
 
 Image render_model(const model::Model& model, const Camera& camera, double t,
                    const float* background, const render::RenderOptions& options, Colors colors) {
-  const model::Evaluated evaluated =
-      model::evaluate(model.primitives, model.config, model.grid, t, camera, {});
+  const model::TimeSlice sliced =
+      model::slice(model.primitives, model.config, model.grid, t, camera, {});
   Image image =
-      render::rasterize_forward(evaluated.gaussians, camera, background, options).blend.image;
+      render::rasterize_forward(sliced.gaussians, camera, background, options).blend.image;
   if (colors == Colors::kCamera)
     if (const model::CameraColor* color = model::find_camera_color(model, camera.name))
       model::apply_camera_color(image, *color, image);
@@ -59,9 +59,8 @@ Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double 
                               out);
   } else {
     const model::Model& m = std::get<model::Model>(model);
-    const model::Evaluated evaluated =
-        model::evaluate(m.primitives, m.config, m.grid, t, camera, {});
-    render::rasterize_forward(evaluated.gaussians, camera, black, options, out);
+    const model::TimeSlice sliced = model::slice(m.primitives, m.config, m.grid, t, camera, {});
+    render::rasterize_forward(sliced.gaussians, camera, black, options, out);
     if (colors == Colors::kCamera) color = model::find_camera_color(m, camera.name);
   }
   // Over black the image is the premultiplied colour sum_i c_i alpha_i T_i: divided by alpha it

@@ -7,7 +7,7 @@
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/camera_color.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/checkpoint.hpp"
@@ -124,15 +124,15 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   const double t = set_.grid.at(i);
   const Image& target = target_;
-  model::EvaluateOptions eo;
+  model::SliceOptions eo;
   eo.group = pass.group;
   eo.compensate = pass.compensate;
   eo.flow_features = pass.flow;
   eo.rows = &active;
   Stopwatch clock;
-  model::Evaluated& e = evaluated_[int(pass.group)];
-  model::evaluate(model_.primitives, model_.config, model_.grid, t, camera, eo, e, &shaded_);
-  stats.seconds.evaluate += clock.lap();
+  model::TimeSlice& e = slices_[int(pass.group)];
+  model::slice(model_.primitives, model_.config, model_.grid, t, camera, eo, e, &shaded_);
+  stats.seconds.slice += clock.lap();
   const int channels = e.gaussians.channels;
   const std::vector<float> background(channels, 0.0f);
   render::RenderOptions render_options;
@@ -172,9 +172,9 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
   render::rasterize_backward(e.gaussians, camera, background.data(), render_options, out,
                              v_image.data.data(), vg);
   stats.seconds.render_backward += clock.lap();
-  model::evaluate_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg,
-                           grads, &shaded_);
-  stats.seconds.evaluate_backward += clock.lap();
+  model::slice_backward(model_.primitives, model_.config, model_.grid, t, camera, eo, e, vg, grads,
+                        &shaded_);
+  stats.seconds.slice_backward += clock.lap();
 }
 
 std::string CpuStep::finish() {
@@ -238,13 +238,13 @@ StepStats CpuStep::step_view(int c, int i) {
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   Stopwatch shade_clock;
   model::shade(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_);
-  stats.seconds.evaluate += shade_clock.lap();
+  stats.seconds.slice += shade_clock.lap();
   for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
   stats.renders = int(passes.size());
   shade_clock.lap();
   model::shade_backward(p, model_.config, model_.grid, set_.grid.at(i), camera, active, shaded_,
                         grads);
-  stats.seconds.evaluate_backward += shade_clock.lap();
+  stats.seconds.slice_backward += shade_clock.lap();
   Stopwatch clock;
   const double reg = regularizer(p, active, config_.opacity_reg, config_.scale_reg);
   regularizer_backward(p, active, config_.opacity_reg, config_.scale_reg, grads);

@@ -177,11 +177,11 @@ class TrainingLog {
                  {"stretched", s.stretched},
                  {"pruned", s.pruned},
                  {"ms_per_step",
-                  {{"evaluate", since_.evaluate * ms},
+                  {{"evaluate", since_.slice * ms},
                    {"render_forward", since_.render_forward * ms},
                    {"losses", since_.losses * ms},
                    {"render_backward", since_.render_backward * ms},
-                   {"evaluate_backward", since_.evaluate_backward * ms},
+                   {"evaluate_backward", since_.slice_backward * ms},
                    {"optimizer", since_.optimizer * ms},
                    {"other", since_.other() * ms},
                    {"total", since_.total * ms}}}}

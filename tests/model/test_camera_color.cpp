@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/model/camera_color.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::model {

@@ -7,8 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/merge.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/window.hpp"
 #include "test_util.hpp"
 
@@ -72,11 +72,11 @@ Fixture fixture() {
   return f;
 }
 
-// Σ σ_τ(t) over every primitive, as evaluate applies it (only exact zeros are left out).
+// Σ σ_τ(t) over every primitive, as slice applies it (only exact zeros are left out).
 double temporal_sum(const Model& m, double t) {
-  EvaluateOptions options;
+  SliceOptions options;
   options.min_opacity = 0;
-  const Evaluated e = evaluate(m.primitives, m.config, m.grid, t, camera(), options);
+  const TimeSlice e = slice(m.primitives, m.config, m.grid, t, camera(), options);
   double sum = 0;
   for (const float v : e.temporal) sum += v;
   return sum;

@@ -1,5 +1,5 @@
 // TemporalIndex against brute force over random windows (interval, stretched, narrow, off-centre
-// and open-ended ones, sharp and wide γ tails), and evaluate over its rows against the full scan.
+// and open-ended ones, sharp and wide γ tails), and slice over its rows against the full scan.
 #include <algorithm>
 #include <random>
 #include <vector>
@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 
@@ -92,13 +92,13 @@ TEST(TemporalIndex, ListsExactlyTheVisibleRowsAndTheGroupMembers) {
       }
       const std::vector<std::int32_t>& rows = index.rows_at(i);
       ASSERT_EQ(rows, expected) << "gamma " << gamma << " frame " << i;
-      // What evaluate draws at t is among the rows: every group, plain and compensated.
-      std::vector<EvaluateOptions> renders(1);
+      // What slice draws at t is among the rows: every group, plain and compensated.
+      std::vector<SliceOptions> renders(1);
       if (i > 0) renders.push_back({Group::kLeft, true, true});
       if (i + 1 < kGrid.count) renders.push_back({Group::kRight, true, true});
-      for (const EvaluateOptions& options : renders)
+      for (const SliceOptions& options : renders)
         for (const std::int32_t r :
-             evaluate(p, config, kGrid, t, cam, options).primitive_from_gaussian)
+             slice(p, config, kGrid, t, cam, options).primitive_from_gaussian)
           ASSERT_TRUE(std::binary_search(rows.begin(), rows.end(), r))
               << "row " << r << " frame " << i << " group " << int(options.group);
       // The sharp windows leave most rows out of each frame; the test's windows are not trivial.
@@ -173,20 +173,20 @@ TEST(TemporalIndex, LocalityOrderPutsEachFramesRowsInFewRuns) {
   EXPECT_THROW(reorder_rows(p.mu, 3, std::vector<std::int32_t>(5)), Error);
 }
 
-TEST(Evaluate, OverTheIndexRowsEqualsTheFullScan) {
+TEST(Slice, OverTheIndexRowsEqualsTheFullScan) {
   const Camera cam = test_camera();
   ModelConfig config;
   config.gamma = 0.05;
   const Primitives p = random_primitives(600, 5);
   const TemporalIndex index(p, config, kGrid);
   for (int i = 0; i < kGrid.count; ++i) {
-    std::vector<EvaluateOptions> renders = {{Group::kAll, false, i == 0}};
+    std::vector<SliceOptions> renders = {{Group::kAll, false, i == 0}};
     if (i > 0) renders.push_back({Group::kLeft, true, true});
     if (i + 1 < kGrid.count) renders.push_back({Group::kRight, true, true});
-    for (EvaluateOptions options : renders) {
-      const Evaluated full = evaluate(p, config, kGrid, kGrid.at(i), cam, options);
+    for (SliceOptions options : renders) {
+      const TimeSlice full = slice(p, config, kGrid, kGrid.at(i), cam, options);
       options.rows = &index.rows_at(i);
-      const Evaluated listed = evaluate(p, config, kGrid, kGrid.at(i), cam, options);
+      const TimeSlice listed = slice(p, config, kGrid, kGrid.at(i), cam, options);
       ASSERT_GT(full.gaussians.size(), 0u);
       EXPECT_EQ(listed.primitive_from_gaussian, full.primitive_from_gaussian) << i;
       EXPECT_EQ(listed.temporal, full.temporal) << i;
@@ -199,16 +199,16 @@ TEST(Evaluate, OverTheIndexRowsEqualsTheFullScan) {
     }
   }
   // A list that misses a selected row changes the batch; one out of order is refused.
-  EvaluateOptions options;
+  SliceOptions options;
   const std::vector<std::int32_t> none;
   options.rows = &none;
-  EXPECT_EQ(evaluate(p, config, kGrid, kGrid.at(4), cam, options).gaussians.size(), 0u);
+  EXPECT_EQ(slice(p, config, kGrid, kGrid.at(4), cam, options).gaussians.size(), 0u);
   const std::vector<std::int32_t> unordered = {5, 3};
   options.rows = &unordered;
-  EXPECT_THROW(evaluate(p, config, kGrid, kGrid.at(4), cam, options), Error);
+  EXPECT_THROW(slice(p, config, kGrid, kGrid.at(4), cam, options), Error);
   const std::vector<std::int32_t> beyond = {int(p.size())};
   options.rows = &beyond;
-  EXPECT_THROW(evaluate(p, config, kGrid, kGrid.at(4), cam, options), Error);
+  EXPECT_THROW(slice(p, config, kGrid, kGrid.at(4), cam, options), Error);
 }
 
 }  // namespace

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/camera.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/render/rasterize.hpp"
 
@@ -57,7 +57,7 @@ TEST(RenderAlpha, CompositingTheStraightRgbaGivesTheRender) {
     ASSERT_EQ(rgba.channels, 4);
     // The alpha channel is the rasteriser's.
     const auto raster = render::rasterize_forward(
-        model::evaluate(m.primitives, m.config, m.grid, 1.0, cam, {}).gaussians, cam, bg);
+        model::slice(m.primitives, m.config, m.grid, 1.0, cam, {}).gaussians, cam, bg);
     // The background as the camera's map shows it.
     float mapped[3];
     for (int c = 0; c < 3; ++c) {

@@ -1,4 +1,4 @@
-// A training step in steady state allocates no large block: its renders, gradients, evaluated
+// A training step in steady state allocates no large block: its renders, gradients, sliced
 // batches and SSIM buffers are reused across steps. This test binary replaces the global
 // operator new to count the blocks of kLarge bytes or more.
 #include <algorithm>

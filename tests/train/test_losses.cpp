@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/train/losses.hpp"
 #include "test_util.hpp"
 

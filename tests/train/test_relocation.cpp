@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/relocation.hpp"
@@ -93,7 +93,7 @@ TEST(Relocation, PreservesTheRenderedImageToFirstOrder) {
   const model::TimeGrid grid{0.0, 2.0, 2};
   const model::ModelConfig config;
   auto render = [&](const model::Primitives& p) {
-    const auto e = model::evaluate(p, config, grid, 1.0, cam, {});
+    const auto e = model::slice(p, config, grid, 1.0, cam, {});
     return render::rasterize_forward(e.gaussians, cam, nullptr).blend.image;
   };
   auto diff = [](const Image& a, const Image& b) {

@@ -16,8 +16,8 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/playback/render_model.hpp"
-#include "retimegs/train/relocation.hpp"
 #include "retimegs/train/cpu_step.hpp"
+#include "retimegs/train/relocation.hpp"
 #include "retimegs/train/run.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
@@ -81,11 +81,11 @@ TEST(Trainer, StepViewStagesAndExplicitPrimitives) {
   EXPECT_EQ(a.renders, b.renders);
   for (int k = 0; k < 3; ++k) {
     const StageSeconds t = given.step_view(k % int(set.cameras.size()), 1).seconds;
-    for (double stage : {t.evaluate, t.render_forward, t.losses, t.render_backward,
-                         t.evaluate_backward, t.optimizer})
+    for (double stage :
+         {t.slice, t.render_forward, t.losses, t.render_backward, t.slice_backward, t.optimizer})
       EXPECT_GE(stage, 0);
     EXPECT_GE(t.other(), 0);
-    EXPECT_GT(t.evaluate * t.render_forward * t.losses * t.render_backward, 0);
+    EXPECT_GT(t.slice * t.render_forward * t.losses * t.render_backward, 0);
   }
   test::expect_error([&] { given.step_view(int(set.cameras.size()), 0); }, {"no view"});
   test::expect_error([&] { given.step_view(0, -1); }, {"no view"});

@@ -22,8 +22,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/sh.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/model/trajectory.hpp"
 #include "retimegs/view/pack.hpp"
@@ -178,9 +178,9 @@ std::optional<Rendered> rendered(const model::Model& m, std::size_t i, double t)
   camera.width = camera.height = 64;
   camera.fx = camera.fy = 50, camera.cx = camera.cy = 32;
   camera.world_to_camera(2, 3) = 5;
-  model::EvaluateOptions options;
+  model::SliceOptions options;
   options.min_opacity = 0;
-  const model::Evaluated e = model::evaluate(m.primitives, m.config, m.grid, t, camera, options);
+  const model::TimeSlice e = model::slice(m.primitives, m.config, m.grid, t, camera, options);
   for (std::size_t row = 0; row < e.primitive_from_gaussian.size(); ++row)
     if (std::size_t(e.primitive_from_gaussian[row]) == i) {
       Rendered r{e.temporal[row], {}};

@@ -6,24 +6,24 @@
 #include <cstdint>
 #include <vector>
 
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/model/slice.hpp"
 
 namespace retimegs::model {
 
 class TemporalIndex {
  public:
   TemporalIndex() = default;
-  // Retime: frame i lists every row with σ_τ(t_i) >= min_opacity (the evaluate cut: σ ≤ 1, so a
+  // Retime: frame i lists every row with σ_τ(t_i) >= min_opacity (the slice cut: σ ≤ 1, so a
   // row below it is left out of every plain render at t_i) and every member of the left or right
   // group at t_i (compensated group renders draw them whatever their σ_τ). The window is
   // log-concave, hence unimodal in t: each row's frames are found by walking out from its mode,
-  // so building costs O(N + entries), not O(N × frames). σ_τ is computed in T exactly as evaluate
+  // so building costs O(N + entries), not O(N × frames). σ_τ is computed in T exactly as slice
   // computes it. STGS optimises μ_τ and the temporal scale every step, so every row is active at
   // every frame.
   template <typename T>
   TemporalIndex(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
-                double min_opacity = EvaluateOptions{}.min_opacity);
+                double min_opacity = SliceOptions{}.min_opacity);
 
   // The ascending rows that can take part in any render at training time grid.at(frame).
   // Throws Error for a frame outside the grid.

@@ -1,7 +1,7 @@
 #pragma once
 // Temporal opacity σ_τ(t) (docs/method.md, paper Eq. 4-5) and the STGS baseline's Gaussian window.
 // Times in scene frame units. retime_window() and temporal_opacity() below apply them to a row of
-// a model's primitives: evaluate, the temporal index and export all go through them.
+// a model's primitives: slice, the temporal index and export all go through them.
 #include <cmath>
 #include <cstddef>
 

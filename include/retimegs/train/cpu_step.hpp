@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "retimegs/core/ssim.hpp"
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/adam.hpp"
@@ -90,10 +90,10 @@ class CpuStep final : public TrainingStep {
   Image corrected_;
   SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
   model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders
-  // Reused likewise, so that a step allocates no large block: the evaluated batch of each group
+  // Reused likewise, so that a step allocates no large block: the sliced batch of each group
   // (indexed by model::Group; a group's batch size changes little from step to step), the render
   // with its saved state and the gradient with respect to the batch.
-  std::array<model::Evaluated, 3> evaluated_;
+  std::array<model::TimeSlice, 3> slices_;
   render::RenderOutput render_;
   GaussianGrads v_gaussians_;
   std::unique_ptr<DensityStrategy> strategy_;

@@ -5,8 +5,8 @@
 // one schedule.
 #include <vector>
 
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/train/config.hpp"
 
 namespace retimegs::train {

@@ -18,22 +18,21 @@ namespace retimegs::train {
 
 // Wall-clock seconds of one step by stage (training throughput: bench/train_bench).
 struct StageSeconds {
-  double evaluate = 0;           // model::evaluate of every render pass
-  double render_forward = 0;     // rasterize_forward
-  double losses = 0;             // image and flow losses with their gradient, the log's PSNR
-  double render_backward = 0;    // rasterize_backward
-  double evaluate_backward = 0;  // model::evaluate_backward
-  double optimizer = 0;          // regulariser and Adam
-  double total = 0;              // the whole step (the rest: view choice, strategy, bookkeeping)
+  double slice = 0;            // model::slice of every render pass
+  double render_forward = 0;   // rasterize_forward
+  double losses = 0;           // image and flow losses with their gradient, the log's PSNR
+  double render_backward = 0;  // rasterize_backward
+  double slice_backward = 0;   // model::slice_backward
+  double optimizer = 0;        // regulariser and Adam
+  double total = 0;            // the whole step (the rest: view choice, strategy, bookkeeping)
   StageSeconds& operator+=(const StageSeconds& o) {
-    evaluate += o.evaluate, render_forward += o.render_forward, losses += o.losses;
-    render_backward += o.render_backward, evaluate_backward += o.evaluate_backward;
+    slice += o.slice, render_forward += o.render_forward, losses += o.losses;
+    render_backward += o.render_backward, slice_backward += o.slice_backward;
     optimizer += o.optimizer, total += o.total;
     return *this;
   }
   double other() const {
-    return total - evaluate - render_forward - losses - render_backward - evaluate_backward -
-           optimizer;
+    return total - slice - render_forward - losses - render_backward - slice_backward - optimizer;
   }
 };
 

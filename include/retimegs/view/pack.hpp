@@ -2,8 +2,8 @@
 // The browser viewer's data (docs/formats.md, "The viewer's data"): a model, and optionally its
 // scene, as one binary of texture-ready arrays (model.bin) and a JSON manifest (model.json) that
 // says where each texture lies, the time grid and window settings, and the scene's cameras. The
-// viewer evaluates the model at any time in its vertex shader exactly as model::evaluate does,
-// so the manifest carries every setting evaluate reads.
+// viewer evaluates the model at any time in its vertex shader exactly as model::slice does,
+// so the manifest carries every setting slice reads.
 #include <cstdint>
 #include <filesystem>
 #include <optional>

@@ -1,4 +1,4 @@
-#include "retimegs/model/evaluate.hpp"
+#include "retimegs/model/slice.hpp"
 
 #include <algorithm>
 #include <array>
@@ -109,25 +109,25 @@ bool in_group(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
 }
 
 template <typename T>
-EvaluatedT<T> evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
-                       double t, const Camera& camera, const EvaluateOptions& options) {
-  EvaluatedT<T> out;
-  evaluate(p, config, grid, t, camera, options, out);
+TimeSliceT<T> slice(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
+                    double t, const Camera& camera, const SliceOptions& options) {
+  TimeSliceT<T> out;
+  slice(p, config, grid, t, camera, options, out);
   return out;
 }
 
 template <typename T>
-void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid, double t_in,
-              const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out,
-              const ShadedT<T>* shaded) {
-  if (!std::isfinite(t_in)) fail("evaluate: time {} is not finite", t_in);
+void slice(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid, double t_in,
+           const Camera& camera, const SliceOptions& options, TimeSliceT<T>& out,
+           const ShadedT<T>* shaded) {
+  if (!std::isfinite(t_in)) fail("slice: time {} is not finite", t_in);
   if (options.group != Group::kAll) {
     if (config.representation == Representation::kStgs)
       fail("group renders are not defined for the STGS baseline");
     const int index = grid_index(grid, t_in);
     if (index < 0 || (options.group == Group::kLeft && index == 0) ||
         (options.group == Group::kRight && index == grid.count - 1))
-      fail("evaluate: the {} group is not defined at t = {} (training times {}..{} step {})",
+      fail("slice: the {} group is not defined at t = {} (training times {}..{} step {})",
            options.group == Group::kLeft ? "left" : "right", t_in, grid.first, grid.last(),
            grid.step);
   }
@@ -170,7 +170,7 @@ void evaluate(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid
     kept[chunk] = to - begin;
   }
   if (unordered < candidates)
-    fail("evaluate: row list entry {} ({}) is not ascending within the {} primitives", unordered,
+    fail("slice: row list entry {} ({}) is not ascending within the {} primitives", unordered,
          (*rows)[unordered], n);
   std::size_t m = 0;
   for (int chunk = 0; chunk < chunks; ++chunk) {
@@ -239,21 +239,21 @@ bool has_gradient(const GaussianGradsT<T>& vg, std::size_t row, int channels) {
 }  // namespace
 
 template <typename T>
-void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
-                       double t_in, const Camera& camera, const EvaluateOptions& options,
-                       const EvaluatedT<T>& evaluated, const GaussianGradsT<T>& vg,
-                       PrimitiveGradsT<T>& grads, ShadedT<T>* shaded) {
+void slice_backward(const PrimitivesT<T>& p, const ModelConfig& config, const TimeGrid& grid,
+                    double t_in, const Camera& camera, const SliceOptions& options,
+                    const TimeSliceT<T>& sliced, const GaussianGradsT<T>& vg,
+                    PrimitiveGradsT<T>& grads, ShadedT<T>* shaded) {
   const T t = T(t_in), step = T(grid.step);
-  const int channels = evaluated.gaussians.channels;
+  const int channels = sliced.gaussians.channels;
   const PinholeT<T> pinhole(camera);
   const std::array<T, 3> eye = eye_of<T>(camera);
   const bool stgs = config.representation == Representation::kStgs;
-  const std::size_t m = evaluated.primitive_from_gaussian.size();
+  const std::size_t m = sliced.primitive_from_gaussian.size();
   // Every primitive appears at most once in a batch: rows write disjoint gradient slots.
 #pragma omp parallel for schedule(static)
   for (std::size_t row = 0; row < m; ++row) {
     if (!has_gradient(vg, row, channels)) continue;
-    const std::size_t i = evaluated.primitive_from_gaussian[row];
+    const std::size_t i = sliced.primitive_from_gaussian[row];
     const T* mu = &p.mu[3 * i];
     const T* v = &p.velocity[9 * i];
     T* v_mu = &grads.v_mu[3 * i];
@@ -263,7 +263,7 @@ void evaluate_backward(const PrimitivesT<T>& p, const ModelConfig& config, const
     // Opacity σ · σ_τ.
     const T s = sigmoid(p.opacity_logit[i]);
     const T v_opacity = vg.v_opacities[row];
-    grads.v_opacity_logit[i] += v_opacity * evaluated.temporal[row] * s * (1 - s);
+    grads.v_opacity_logit[i] += v_opacity * sliced.temporal[row] * s * (1 - s);
     if (stgs && !options.compensate)
       stgs_temporal_opacity_vjp(p.mu_tau[i], p.temporal_log_scale[i], t, v_opacity * s, v_mu_tau,
                                 grads.v_temporal_log_scale[i]);
@@ -356,15 +356,14 @@ void shade_backward(const PrimitivesT<T>& p, const ModelConfig& config, const Ti
 #define RETIMEGS_INSTANTIATE(T)                                                                  \
   template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,              \
                             const TimeGrid&, double, Group);                                     \
-  template EvaluatedT<T> evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
-                                     double, const Camera&, const EvaluateOptions&);             \
-  template void evaluate<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,  \
-                            const Camera&, const EvaluateOptions&, EvaluatedT<T>&,               \
-                            const ShadedT<T>*);                                                  \
-  template void evaluate_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, \
-                                     double, const Camera&, const EvaluateOptions&,              \
-                                     const EvaluatedT<T>&, const GaussianGradsT<T>&,             \
-                                     PrimitiveGradsT<T>&, ShadedT<T>*);                          \
+  template TimeSliceT<T> slice<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \
+                                  double, const Camera&, const SliceOptions&);                   \
+  template void slice<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,     \
+                         const Camera&, const SliceOptions&, TimeSliceT<T>&, const ShadedT<T>*); \
+  template void slice_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \
+                                  double, const Camera&, const SliceOptions&,                    \
+                                  const TimeSliceT<T>&, const GaussianGradsT<T>&,                \
+                                  PrimitiveGradsT<T>&, ShadedT<T>*);                             \
   template void shade<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,     \
                          const Camera&, const std::vector<std::int32_t>&, ShadedT<T>&);          \
   template void shade_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \

@@ -1,5 +1,5 @@
 #pragma once
-// evaluate(t, camera): the 4D primitives at time t as a batch of ordinary 3D Gaussians for the
+// slice(t, camera): the 4D primitives at time t as a batch of ordinary 3D Gaussians for the
 // renderer (core/gaussians.hpp), with colours from the SH at each view direction and, on request,
 // the per-primitive flow features and group membership of triple rendering (docs/method.md), and
 // the backward pass: the chain rule from the Gaussians' gradient into every optimised parameter.
@@ -21,7 +21,7 @@ constexpr int kFlowChannels = 4;  // forward (u, v), backward (u, v) in pixels
 // Where the flow features sit in a render with flow_features: right after RGB.
 constexpr int kForwardFlowChannel = 3, kBackwardFlowChannel = 5;
 
-struct EvaluateOptions {
+struct SliceOptions {
   Group group = Group::kAll;
   // Divide each primitive's temporal opacity by its own σ_τ(t) ("compensated", for group renders).
   bool compensate = false;
@@ -38,8 +38,8 @@ struct EvaluateOptions {
 
 // The SH colours of one time and camera, shared by a training step's renders: its triple render
 // draws every primitive at the same position, hence view direction, in each pass. shade() fills
-// `rgb` on the given rows and clears their `v_rgb`; evaluate given them copies each colour instead
-// of evaluating the SH, evaluate_backward adds each colour's gradient into v_rgb instead of
+// `rgb` on the given rows and clears their `v_rgb`; slice given them copies each colour instead
+// of evaluating the SH, slice_backward adds each colour's gradient into v_rgb instead of
 // differentiating the SH, and shade_backward then differentiates the SH once per row: the same
 // gradient as per render, since the SH's VJP is linear in the colour's gradient.
 template <typename T>
@@ -49,37 +49,37 @@ struct ShadedT {
 using Shaded = ShadedT<float>;
 
 template <typename T>
-struct EvaluatedT {
+struct TimeSliceT {
   GaussiansT<T> gaussians;                            // [M] rows, channels 3 or 3 + kFlowChannels
   std::vector<std::int32_t> primitive_from_gaussian;  // [M]
   std::vector<T> temporal;  // [M] σ_τ(t) as applied (1 when compensated)
 };
-using Evaluated = EvaluatedT<float>;
+using TimeSlice = TimeSliceT<float>;
 
 // Throws Error when a group is requested at a time that is not an interior/end training time.
 template <typename T>
-EvaluatedT<T> evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config,
-                       const TimeGrid& grid, double t, const Camera& camera,
-                       const EvaluateOptions& options);
+TimeSliceT<T> slice(const PrimitivesT<T>& primitives, const ModelConfig& config,
+                    const TimeGrid& grid, double t, const Camera& camera,
+                    const SliceOptions& options);
 // The same batch written into `out`, whose arrays keep their capacity: a caller that evaluates
-// every step (the training step) reuses one EvaluatedT per render instead of allocating it.
+// every step (the training step) reuses one TimeSliceT per render instead of allocating it.
 // `shaded`, when given, holds the colours at (t, camera) of every row the batch can select.
 template <typename T>
-void evaluate(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
-              double t, const Camera& camera, const EvaluateOptions& options, EvaluatedT<T>& out,
-              const ShadedT<T>* shaded = nullptr);
+void slice(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
+           double t, const Camera& camera, const SliceOptions& options, TimeSliceT<T>& out,
+           const ShadedT<T>* shaded = nullptr);
 
 // Accumulates (+=) into `grads` (sized to the primitives) the gradient that flows back from
-// `v_gaussians` (the renderer's gradient of the batch `evaluated`). Rows whose renderer gradient
+// `v_gaussians` (the renderer's gradient of the batch `sliced`). Rows whose renderer gradient
 // is all zero (the Gaussians the render culled or that reached no pixel) add exactly zero and are
 // skipped. With `shaded` (as given to evaluate) the colours' gradient is added into
 // shaded->v_rgb, for shade_backward, instead of being taken through the SH.
 template <typename T>
-void evaluate_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
-                       const TimeGrid& grid, double t, const Camera& camera,
-                       const EvaluateOptions& options, const EvaluatedT<T>& evaluated,
-                       const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
-                       ShadedT<T>* shaded = nullptr);
+void slice_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
+                    const TimeGrid& grid, double t, const Camera& camera,
+                    const SliceOptions& options, const TimeSliceT<T>& sliced,
+                    const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
+                    ShadedT<T>* shaded = nullptr);
 
 // The SH colour at (t, camera) of each of the ascending `rows` into out.rgb, and zero into their
 // out.v_rgb; `out` is sized to the primitives, keeping its other rows.

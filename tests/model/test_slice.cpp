@@ -1,6 +1,6 @@
-// evaluate(t, camera) and its backward against central finite differences in double precision:
+// slice(t, camera) and its backward against central finite differences in double precision:
 // temporal opacity, trajectory, rotation, SH colour, flow features, compensation, STGS, and the
-// whole evaluate -> rasterise chain.
+// whole slice -> rasterise chain.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -10,8 +10,8 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
-#include "retimegs/model/evaluate.hpp"
 #include "retimegs/model/sh.hpp"
+#include "retimegs/model/slice.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/reference.hpp"
 #include "test_util.hpp"
@@ -116,15 +116,15 @@ struct Case {
   Representation rep;
   TrajectoryKind trajectory;
   double t;
-  EvaluateOptions options;
+  SliceOptions options;
   const char* name;
 };
 
-// Loss = Σ W ⊙ (every field of the evaluated batch), W fixed random weights per row.
-TEST(Evaluate, BackwardMatchesFiniteDifferences) {
+// Loss = Σ W ⊙ (every field of the sliced batch), W fixed random weights per row.
+TEST(Slice, BackwardMatchesFiniteDifferences) {
   const Camera cam = small_camera();
   std::vector<Case> cases;
-  EvaluateOptions plain, flow, left, right;
+  SliceOptions plain, flow, left, right;
   plain.min_opacity = flow.min_opacity = left.min_opacity = right.min_opacity = 0;
   flow.flow_features = true;
   left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
@@ -144,7 +144,7 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
     config.trajectory = c.trajectory;
     config.sh_degree = 3;
     P p = random_primitives(c.rep, 17);
-    const auto fwd = evaluate(p, config, kGrid, c.t, cam, c.options);
+    const auto fwd = slice(p, config, kGrid, c.t, cam, c.options);
     ASSERT_GT(fwd.gaussians.size(), 0u);
     std::mt19937 rng(5);
     std::normal_distribution<double> normal;
@@ -152,7 +152,7 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
     for (auto* v : {&w.v_means, &w.v_log_scales, &w.v_quats, &w.v_opacities, &w.v_features})
       for (double& x : *v) x = normal(rng);
     auto loss = [&] {
-      const auto e = evaluate(p, config, kGrid, c.t, cam, c.options);
+      const auto e = slice(p, config, kGrid, c.t, cam, c.options);
       double sum = 0;
       auto dot = [&](const std::vector<double>& a, const UninitVector<double>& b) {
         for (std::size_t i = 0; i < a.size(); ++i) sum += a[i] * b[i];
@@ -163,25 +163,25 @@ TEST(Evaluate, BackwardMatchesFiniteDifferences) {
       return sum;
     };
     G grads(p.size());
-    evaluate_backward(p, config, kGrid, c.t, cam, c.options, fwd, w, grads);
+    slice_backward(p, config, kGrid, c.t, cam, c.options, fwd, w, grads);
     expect_gradients_match(p, c.rep, config.sh_degree, grads, loss, 1e-6, 1e-6);
   }
 }
 
-// A step's renders sharing one shading (shade, then evaluate and evaluate_backward given it, then
+// A step's renders sharing one shading (shade, then slice and slice_backward given it, then
 // shade_backward) give the same batches, bit for bit, and the same gradient as each render
 // evaluating and differentiating its own SH colours: the triple render at a training time, and
 // STGS's single render.
-TEST(Evaluate, SharedShadingEqualsPerRenderShading) {
+TEST(Slice, SharedShadingEqualsPerRenderShading) {
   const Camera cam = small_camera();
-  EvaluateOptions all, left, right;
+  SliceOptions all, left, right;
   all.min_opacity = left.min_opacity = right.min_opacity = 0;
   left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
   right.group = Group::kRight, right.compensate = true, right.flow_features = true;
   struct SharedCase {
     Representation rep;
     double t;
-    std::vector<EvaluateOptions> passes;
+    std::vector<SliceOptions> passes;
   };
   for (const SharedCase& c : {SharedCase{Representation::kRetime, 4.0, {all, left, right}},
                               SharedCase{Representation::kStgs, 3.4, {all}}}) {
@@ -196,11 +196,11 @@ TEST(Evaluate, SharedShadingEqualsPerRenderShading) {
     G own(p.size()), shared(p.size());
     std::mt19937 rng(9);
     std::normal_distribution<double> normal;
-    for (EvaluateOptions options : c.passes) {
+    for (SliceOptions options : c.passes) {
       options.rows = &rows;
-      const auto plain = evaluate(p, config, kGrid, c.t, cam, options);
-      EvaluatedT<double> with;
-      evaluate(p, config, kGrid, c.t, cam, options, with, &shaded);
+      const auto plain = slice(p, config, kGrid, c.t, cam, options);
+      TimeSliceT<double> with;
+      slice(p, config, kGrid, c.t, cam, options, with, &shaded);
       ASSERT_GT(plain.gaussians.size(), 0u);
       EXPECT_EQ(with.gaussians.features, plain.gaussians.features);
       EXPECT_EQ(with.gaussians.means, plain.gaussians.means);
@@ -208,8 +208,8 @@ TEST(Evaluate, SharedShadingEqualsPerRenderShading) {
       GaussianGradsT<double> w(plain.gaussians.size(), plain.gaussians.channels);
       for (auto* v : {&w.v_means, &w.v_log_scales, &w.v_quats, &w.v_opacities, &w.v_features})
         for (double& x : *v) x = normal(rng);
-      evaluate_backward(p, config, kGrid, c.t, cam, options, plain, w, own);
-      evaluate_backward(p, config, kGrid, c.t, cam, options, with, w, shared, &shaded);
+      slice_backward(p, config, kGrid, c.t, cam, options, plain, w, own);
+      slice_backward(p, config, kGrid, c.t, cam, options, with, w, shared, &shaded);
     }
     shade_backward(p, config, kGrid, c.t, cam, rows, shaded, shared);
     const auto expected = gradients(own, c.rep, config.sh_degree);
@@ -224,16 +224,16 @@ TEST(Evaluate, SharedShadingEqualsPerRenderShading) {
   }
 }
 
-TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
+TEST(Slice, GroupsCompensationAndFlowFeatures) {
   const Camera cam = small_camera();
   ModelConfig config;
   P p = random_primitives(Representation::kRetime, 3);
-  EvaluateOptions all, left, right;
+  SliceOptions all, left, right;
   left.group = Group::kLeft, left.compensate = true, left.flow_features = true;
   right.group = Group::kRight, right.compensate = true, right.flow_features = true;
-  const auto at4 = evaluate(p, config, kGrid, 4.0, cam, all);
-  const auto l = evaluate(p, config, kGrid, 4.0, cam, left);
-  const auto r = evaluate(p, config, kGrid, 4.0, cam, right);
+  const auto at4 = slice(p, config, kGrid, 4.0, cam, all);
+  const auto l = slice(p, config, kGrid, 4.0, cam, left);
+  const auto r = slice(p, config, kGrid, 4.0, cam, right);
   // Group L at t = 4: intervals [2, 4] (μ_τ = 3) and the stretched one; R: [4, 6] and it.
   std::vector<int> expect_l, expect_r;
   for (int i = 0; i < int(p.size()); ++i) {
@@ -274,13 +274,13 @@ TEST(Evaluate, GroupsCompensationAndFlowFeatures) {
       Eigen::Vector3d(r.gaussians.means[0], r.gaussians.means[1], r.gaussians.means[2]));
   EXPECT_LT((rendered - project(-1)).norm(), 1e-9);
   // Groups exist only at training times, and not beyond the clip ends.
-  EXPECT_THROW(evaluate(p, config, kGrid, 4.5, cam, left), Error);
-  EXPECT_THROW(evaluate(p, config, kGrid, 0.0, cam, left), Error);
-  EXPECT_THROW(evaluate(p, config, kGrid, 8.0, cam, right), Error);
+  EXPECT_THROW(slice(p, config, kGrid, 4.5, cam, left), Error);
+  EXPECT_THROW(slice(p, config, kGrid, 0.0, cam, left), Error);
+  EXPECT_THROW(slice(p, config, kGrid, 8.0, cam, right), Error);
 }
 
-// The whole chain: evaluate -> reference rasteriser (double) -> Σ W ⊙ image, with RGB + flow.
-TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
+// The whole chain: slice -> reference rasteriser (double) -> Σ W ⊙ image, with RGB + flow.
+TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
   const Camera cam = small_camera(20, 16);
   render::RenderOptions ro;
   ro.min_alpha = 0;          // smooth alpha cut-off (finite-difference test only)
@@ -293,7 +293,7 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
     config.representation = rep;
     config.sh_degree = 2;
     P p = random_primitives(rep, 29, 8);
-    EvaluateOptions options;
+    SliceOptions options;
     options.min_opacity = 0;
     options.group = group;
     options.compensate = group != Group::kAll;
@@ -305,17 +305,17 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
         background(channels, 0.2);
     for (double& x : w) x = normal(rng);
     auto loss = [&] {
-      const auto e = evaluate(p, config, kGrid, t, cam, options);
+      const auto e = slice(p, config, kGrid, t, cam, options);
       const auto img = render::reference_forward(e.gaussians, cam, background.data(), ro);
       double sum = 0;
       for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
       return sum;
     };
-    const auto e = evaluate(p, config, kGrid, t, cam, options);
+    const auto e = slice(p, config, kGrid, t, cam, options);
     const auto v_gaussians = render::reference_backward(e.gaussians, cam, background.data(), ro,
                                                         w.data(), nullptr, nullptr);
     G grads(p.size());
-    evaluate_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
+    slice_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
     expect_gradients_match(p, rep, config.sh_degree, grads, loss, 1e-6, 2e-5);
   }
 }
@@ -323,7 +323,7 @@ TEST(Evaluate, ChainThroughRasteriserMatchesFiniteDifferences) {
 // The selection runs in chunks on all threads and the in-place overload reuses a batch: either
 // way the batch is the value overload's on one thread, byte for byte, for every group, whether the
 // reused batch held a bigger or a smaller one before.
-TEST(Evaluate, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
+TEST(Slice, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
   const P source = random_primitives(Representation::kRetime, 11, 20000);
   PrimitivesT<float> p;
   p.resize(source.size());
@@ -335,7 +335,7 @@ TEST(Evaluate, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
   std::vector<std::int32_t> rows;
   for (std::int32_t i = 0; i < std::int32_t(p.size()); i += 1 + i % 3) rows.push_back(i);
   const Camera camera = small_camera(64, 48);
-  const auto same = [](const EvaluatedT<float>& a, const EvaluatedT<float>& b) {
+  const auto same = [](const TimeSliceT<float>& a, const TimeSliceT<float>& b) {
     return a.gaussians.channels == b.gaussians.channels && a.gaussians.means == b.gaussians.means &&
            a.gaussians.log_scales == b.gaussians.log_scales &&
            a.gaussians.quats == b.gaussians.quats &&
@@ -344,20 +344,20 @@ TEST(Evaluate, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
            a.primitive_from_gaussian == b.primitive_from_gaussian && a.temporal == b.temporal;
   };
   const int threads_before = max_threads();
-  EvaluatedT<float> reused;
+  TimeSliceT<float> reused;
   for (const Group group : {Group::kAll, Group::kLeft, Group::kRight, Group::kAll}) {
-    EvaluateOptions options;
+    SliceOptions options;
     options.group = group;
     options.compensate = group != Group::kAll;
     options.flow_features = group != Group::kAll;
     options.rows = group == Group::kRight ? nullptr : &rows;
     set_threads(1);
-    const EvaluatedT<float> serial = evaluate(p, config, kGrid, 4.0, camera, options);
+    const TimeSliceT<float> serial = slice(p, config, kGrid, 4.0, camera, options);
     EXPECT_GT(serial.primitive_from_gaussian.size(), 1000u);
     for (const int threads : {2, 3}) {
       set_threads(threads);
-      EXPECT_TRUE(same(evaluate(p, config, kGrid, 4.0, camera, options), serial)) << threads;
-      evaluate(p, config, kGrid, 4.0, camera, options, reused);
+      EXPECT_TRUE(same(slice(p, config, kGrid, 4.0, camera, options), serial)) << threads;
+      slice(p, config, kGrid, 4.0, camera, options, reused);
       EXPECT_TRUE(same(reused, serial)) << threads;
     }
   }
