@@ -39,12 +39,16 @@ struct PinholeT {
   PinholeT() = default;
   explicit PinholeT(const Camera& camera);  // core/pinhole.cpp (float and double)
 
-  // Camera-space point of the world point (x, y, z): rotation * (x, y, z) + translation.
+  // Camera-space point of the world point (x, y, z): rotation * (x, y, z) + translation. Kept as
+  // a loop over the rows: g++ contracts this form into the fused multiply-adds that the CPU's
+  // float training results are pinned with (an unrolled expression contracts differently).
   template <typename V>
   RETIMEGS_HD Point3T<V> to_camera(V x, V y, V z) const {
-    return {rotation[0] * x + rotation[1] * y + rotation[2] * z + translation[0],
-            rotation[3] * x + rotation[4] * y + rotation[5] * z + translation[1],
-            rotation[6] * x + rotation[7] * y + rotation[8] * z + translation[2]};
+    V p[3];
+    for (int i = 0; i < 3; ++i)
+      p[i] =
+          rotation[3 * i] * x + rotation[3 * i + 1] * y + rotation[3 * i + 2] * z + translation[i];
+    return {p[0], p[1], p[2]};
   }
 
   // Continuous pixel coordinates (u, v) of the camera-space point (x, y, z), z > 0 (pixel
