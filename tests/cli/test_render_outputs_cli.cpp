@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -17,6 +16,7 @@
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/playback/render_model.hpp"
+#include "soft_cloud.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -38,22 +38,7 @@ struct Fixture {
       io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
     io::write_scene_json(scene);
 
-    model.grid = {0.0, 2.0, 2};
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<float> u(-1, 1);
-    model::Primitives& p = model.primitives;
-    const int n = 10;
-    p.resize(n);
-    for (int i = 0; i < n; ++i) {
-      for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.5f * u(rng);
-      for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.15f);
-      p.q0[4 * i] = 1;
-      p.velocity[9 * i] = 0.2f;
-      for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
-      p.opacity_logit[i] = 0.5f * u(rng);
-      p.mu_tau[i] = 1.0f;
-      p.tau_l[i] = p.tau_r[i] = 2.0f;
-    }
+    model = test::soft_cloud({.count = 10, .seed = 11, .spread = 0.5f, .drift = 0.2f});
     model::write_model(dir / "model.rgs", model);
   }
   // `retimegs render` of this model and scene from cam00 with the near plane the library uses.

@@ -2,7 +2,6 @@
 // so compositing over any background gives the render over that background, through a training
 // camera's colour map too.
 #include <cmath>
-#include <random>
 
 #include <gtest/gtest.h>
 
@@ -10,6 +9,7 @@
 #include "retimegs/model/slice.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/render/rasterize.hpp"
+#include "soft_cloud.hpp"
 
 namespace retimegs::playback {
 namespace {
@@ -17,22 +17,7 @@ namespace {
 // A few soft primitives in the middle of a 40x30 view (the border stays empty); camera cam00 has
 // a stored colour correction.
 model::Model cloud() {
-  model::Model model;
-  model.grid = {0.0, 2.0, 2};
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> u(-1, 1);
-  model::Primitives& p = model.primitives;
-  const int n = 12;
-  p.resize(n);
-  for (int i = 0; i < n; ++i) {
-    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = 0.4f * u(rng);
-    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.12f);
-    p.q0[4 * i] = 1;
-    for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
-    p.opacity_logit[i] = 0.5f * u(rng);
-    p.mu_tau[i] = 1.0f;
-    p.tau_l[i] = p.tau_r[i] = 2.0f;
-  }
+  model::Model model = test::soft_cloud({.count = 12, .seed = 5, .spread = 0.4f, .scale = 0.12f});
   model.camera_colors["cam00"] = {{0.3f, -0.2f, 0.1f}, {0.05f, -0.02f, 0.03f}};
   return model;
 }

@@ -3,13 +3,13 @@
 // which colours a render shows, in playback's tests and eval's.
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <string>
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/image.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "soft_cloud.hpp"
 
 namespace retimegs::test {
 
@@ -27,22 +27,7 @@ struct TwoCameraCloud {
     }
     scene.num_frames = 3;
     scene.fps = 24;
-    model.grid = {0.0, 2.0, 2};
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<float> u(-1, 1);
-    model::Primitives& p = model.primitives;
-    const int n = 60;
-    p.resize(n);
-    for (int i = 0; i < n; ++i) {
-      for (int a = 0; a < 3; ++a) p.mu[3 * i + a] = u(rng);
-      for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] = std::log(0.15f);
-      p.q0[4 * i] = 1;
-      p.velocity[9 * i] = 0.3f;
-      for (int k = 0; k < 3; ++k) p.sh[48 * i + k] = 0.8f * u(rng);
-      p.opacity_logit[i] = 1.0f;
-      p.mu_tau[i] = 1.0f;
-      p.tau_l[i] = p.tau_r[i] = 2.0f;
-    }
+    model = soft_cloud({.count = 60, .seed = 3, .drift = 0.3f, .opacity_logit = 1.0f});
     model.camera_colors["cam00"] = {{0.3f, -0.2f, 0.1f}, {0.05f, -0.02f, 0.0f}};
   }
 };
