@@ -28,4 +28,14 @@ struct DeviceQuery {
 // creates the CUDA context of the first device.
 DeviceQuery query_device();
 
+// Where a command computes: `--device cpu|cuda|auto` of train, render and eval.
+enum class Device { kCpu, kCuda };
+
+// "cpu", "cuda" or "auto" (auto: cuda when this build has it and query_device() finds a usable
+// GPU, else cpu). Throws Error naming the choice: an unknown word, or "cuda" where there is no
+// usable GPU (with query_device()'s reason and the next step: --device cpu).
+Device resolve_device(const std::string& choice);
+// "cpu" or "cuda", as the log and the console name it; with the GPU's name for cuda.
+std::string describe(Device device);
+
 }  // namespace retimegs::cuda
