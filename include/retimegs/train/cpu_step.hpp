@@ -31,6 +31,7 @@
 #include "retimegs/train/dataset.hpp"
 #include "retimegs/train/schedule.hpp"
 #include "retimegs/train/step.hpp"
+#include "retimegs/train/step_state.hpp"
 #include "retimegs/train/strategy.hpp"
 
 namespace retimegs::train {
@@ -39,43 +40,35 @@ class CpuStep final : public TrainingStep {
  public:
   CpuStep(const TrainingSet& set, const TrainConfig& config);
 
-  std::string initialize() override;
-  void initialize(model::Primitives primitives) override;
+  std::string initialize() override { return state_.initialize(); }
+  void initialize(model::Primitives primitives) override {
+    state_.initialize(std::move(primitives));
+  }
   StepStats step() override;
   StepStats step_view(int camera, int frame) override;
-  std::string finish() override;
+  std::string finish() override { return state_.final_prune(); }
 
-  int iteration() const override { return iteration_; }
-  std::size_t primitive_count() const override { return model_.primitives.size(); }
-  model::Model host_model() const override { return model_; }
+  int iteration() const override { return state_.iteration; }
+  std::size_t primitive_count() const override { return state_.model.primitives.size(); }
+  model::Model host_model() const override { return state_.model; }
   // The model itself: the CPU step's state is on the host.
-  const model::Model& model() const { return model_; }
+  const model::Model& model() const { return state_.model; }
 
-  void save_checkpoint(const std::filesystem::path& dir) const override;
-  void load_checkpoint(const std::filesystem::path& dir) override;
+  void save_checkpoint(const std::filesystem::path& dir) const override {
+    state_.save_checkpoint(dir);
+  }
+  void load_checkpoint(const std::filesystem::path& dir) override { state_.load_checkpoint(dir); }
 
  private:
-  void make_optimizers();
-  // The temporal index of the current primitives, after putting the rows (with their Adam state)
-  // in its locality order.
-  void rebuild_index();
-  bool camera_color() const { return !config_.ablate.no_camera_color; }
-  // The colour correction of training camera slot c.
-  model::CameraColor color_of(int c) const;
-  // Adam step of camera slot c's correction on the step's gradient color_grads_, then the gauge
-  // rule; writes every correction into the model.
-  void step_camera_color(int c, double decay);
   // Renders view (camera index c, frame index i), adds its losses against target_ to `stats` (PSNR
   // of the all-primitives render) and their gradient to `grads`.
-  // Evaluates only the ascending `active` rows.
+  // Slices only the ascending `active` rows.
   void render_pass(const RenderPass& pass, int c, int i, const std::vector<std::int32_t>& active,
                    double w_flow, StepStats& stats, model::PrimitiveGrads& grads);
 
   const TrainingSet& set_;
   TrainConfig config_;
-  model::Model model_;
-  Optimizers adam_;
-  model::TemporalIndex index_;
+  StepState state_;
   // The step's gradient, reused across steps: all zero between steps (the optimiser clears the
   // rows it read, the step's active set, in its fields; a representation writes only the fields
   // it optimises; grown rows start zero).
@@ -83,11 +76,7 @@ class CpuStep final : public TrainingStep {
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
-  // Per-camera colour: parameters [cameras, 6] (m then c, training camera slots), their Adam, the
-  // step's gradient [cameras, 6] (zero between steps) and the corrected render (reused).
-  std::vector<float> colors_, color_grads_;
-  Adam color_adam_;
-  Image corrected_;
+  Image corrected_;         // the render through its camera's colour correction (reused)
   SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
   model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders
   // Reused likewise, so that a step allocates no large block: the sliced batch of each group
@@ -97,8 +86,6 @@ class CpuStep final : public TrainingStep {
   render::RenderOutput render_;
   GaussianGrads v_gaussians_;
   std::unique_ptr<DensityStrategy> strategy_;
-  std::mt19937_64 rng_;
-  int iteration_ = 0;
 };
 
 }  // namespace retimegs::train

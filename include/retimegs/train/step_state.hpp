@@ -1,0 +1,69 @@
+#pragma once
+// What a training step holds on the host whatever its device (train/step.hpp): the model with its
+// camera colours, the optimisers, the temporal index, the generator and the iteration, with the
+// rules that act on them all at once: initialisation, the index's row order, the per-camera
+// colour's Adam step and gauge, the final prune and the checkpoint folder. The CPU step computes
+// on this state directly; the CUDA step mirrors it on the device and copies it back at
+// checkpoints, strategy calls and the end.
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "retimegs/model/camera_color.hpp"
+#include "retimegs/model/model_file.hpp"
+#include "retimegs/model/temporal_index.hpp"
+#include "retimegs/train/adam.hpp"
+#include "retimegs/train/config.hpp"
+#include "retimegs/train/dataset.hpp"
+
+namespace retimegs::train {
+
+constexpr int kColorWidth = 6;  // a camera colour's parameters: m[3], then c[3]
+
+class StepState {
+ public:
+  StepState(const TrainingSet& set, const TrainConfig& config);
+
+  // Initial primitives (flow-aware, STGS or random fallback) with fresh optimisers and index;
+  // returns the note to log.
+  std::string initialize();
+  void initialize(model::Primitives primitives);
+  // The temporal index of the current primitives, after putting the rows (with their Adam state)
+  // in its locality order.
+  void rebuild_index();
+  // train::faint_short_rows removed at config.final_prune_opacity (not for STGS, whose windows
+  // are not intervals), with their optimiser state; returns the note to log.
+  std::string final_prune();
+
+  void save_checkpoint(const std::filesystem::path& dir) const;
+  void load_checkpoint(const std::filesystem::path& dir);
+
+  // Per-camera colour (model::CameraColor, unless ablated), by training camera slot.
+  bool camera_color() const { return !config_.ablate.no_camera_color; }
+  model::CameraColor color_of(int c) const;
+  // The step's gradient of slot c's (m, c) [kColorWidth], zero between steps.
+  float* color_grad(int c) { return &color_grads_[std::size_t(c) * kColorWidth]; }
+  // Adam step of slot c's correction on its gradient (then zeroed), then the gauge rule; writes
+  // every correction into the model.
+  void step_camera_color(int c, double decay);
+
+  model::Model model;
+  Optimizers adam;
+  model::TemporalIndex index;
+  std::mt19937_64 rng;
+  int iteration = 0;
+
+ private:
+  void make_optimizers();
+
+  const TrainingSet& set_;
+  TrainConfig config_;
+  // Per-camera colour: parameters [cameras, kColorWidth] (m then c, training camera slots), their
+  // Adam and the step's gradient [cameras, kColorWidth] (zero between steps).
+  std::vector<float> colors_, color_grads_;
+  Adam color_adam_;
+};
+
+}  // namespace retimegs::train

@@ -1,0 +1,152 @@
+#include "retimegs/train/step_state.hpp"
+
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/model/window.hpp"
+#include "retimegs/train/checkpoint.hpp"
+#include "retimegs/train/initialize.hpp"
+#include "retimegs/train/relocation.hpp"
+
+namespace retimegs::train {
+namespace fs = std::filesystem;
+
+StepState::StepState(const TrainingSet& set, const TrainConfig& config)
+    : rng(config.seed), set_(set), config_(config) {
+  model.grid = set.grid;
+  model.config = config.model_config();
+  // A window trains as a clip of its own, its ends open (model/window.hpp).
+  if (set.clip_grid) model.config = model::window_config(model.config, *set.clip_grid, set.grid);
+  model.training_config = to_json(config);
+  if (camera_color()) {
+    const std::size_t cameras = set.cameras.size();
+    colors_.assign(cameras * kColorWidth, 0.0f);  // the identity: gain 1, offset 0
+    color_grads_.assign(cameras * kColorWidth, 0.0f);
+    color_adam_ = Adam(cameras, kColorWidth);
+    for (const int camera : set.cameras) model.camera_colors[set.scene.cameras[camera].name] = {};
+  }
+}
+
+model::CameraColor StepState::color_of(int c) const {
+  model::CameraColor color;
+  const float* p = &colors_[std::size_t(c) * kColorWidth];
+  std::copy_n(p, 3, color.m.begin());
+  std::copy_n(p + 3, 3, color.c.begin());
+  return color;
+}
+
+void StepState::step_camera_color(int c, double decay) {
+  const std::vector<std::int32_t> row = {c};
+  color_adam_.step(colors_.data(), color_grads_.data(), config_.lr_camera_color * decay, &row);
+  std::fill_n(color_grad(c), kColorWidth, 0.0f);
+  // Gauge: a common gain and offset can move between the model's colours and every camera's
+  // correction without changing a training render, so nothing in the loss pins it. The rule keeps
+  // the mean of m and of c over the training cameras at zero (subtracted after every step): the
+  // model's colours are then those of the average camera (geometric mean gain, mean offset), which
+  // is what a camera without a correction (a test camera, a path) is rendered with.
+  const std::size_t cameras = set_.cameras.size();
+  for (int k = 0; k < kColorWidth; ++k) {
+    double mean = 0;
+    for (std::size_t j = 0; j < cameras; ++j) mean += colors_[j * kColorWidth + k];
+    mean /= double(cameras);
+    for (std::size_t j = 0; j < cameras; ++j) colors_[j * kColorWidth + k] -= float(mean);
+  }
+  for (std::size_t j = 0; j < cameras; ++j)
+    model.camera_colors[set_.scene.cameras[set_.cameras[j]].name] = color_of(int(j));
+}
+
+std::string StepState::initialize() {
+  InitOptions options;
+  options.use_flow = !config_.ablate.no_flow_init;
+  options.static_once = !config_.ablate.no_static_init;
+  options.representation = model.config.representation;
+  options.max_primitives = config_.cap;
+  options.initial_opacity = config_.init_opacity;
+  options.seed = config_.seed;
+  options.stretch_color = config_.stretch_color;
+  options.stretch_speed = config_.stretch_speed;
+  std::string note;
+  model.primitives = train::initialize(set_, options, note);
+  make_optimizers();
+  rebuild_index();
+  return note;
+}
+
+void StepState::initialize(model::Primitives primitives) {
+  model.primitives = std::move(primitives);
+  make_optimizers();
+  rebuild_index();
+}
+
+void StepState::rebuild_index() {
+  index = model::TemporalIndex(model.primitives, model.config, model.grid);
+  const std::vector<std::int32_t> old_from_new = index.locality_order();
+  if (std::is_sorted(old_from_new.begin(), old_from_new.end())) return;  // the identity
+  model.primitives.reorder(old_from_new);
+  adam.reorder(old_from_new);  // the gradient rows are all zero between steps
+  index = model::TemporalIndex(model.primitives, model.config, model.grid);
+}
+
+void StepState::make_optimizers() {
+  adam = Optimizers(model.primitives, model.config.representation, config_, set_.scene_extent,
+                    set_.grid.step);
+}
+
+std::string StepState::final_prune() {
+  model::Primitives& p = model.primitives;
+  if (model.config.representation == model::Representation::kStgs ||
+      !(config_.final_prune_opacity > 0))
+    return "final prune: off";
+  const std::vector<std::int32_t> pruned =
+      faint_short_rows(p, model.grid, config_.final_prune_opacity);
+  // The kept rows first, in their order, then the pruned ones, which the resize drops.
+  std::vector<std::int32_t> old_from_new;
+  old_from_new.reserve(p.size());
+  std::vector<bool> drop(p.size(), false);
+  for (const std::int32_t r : pruned) drop[std::size_t(r)] = true;
+  for (std::size_t r = 0; r < p.size(); ++r)
+    if (!drop[r]) old_from_new.push_back(std::int32_t(r));
+  const std::size_t kept = old_from_new.size();
+  old_from_new.insert(old_from_new.end(), pruned.begin(), pruned.end());
+  p.reorder(old_from_new);
+  adam.reorder(old_from_new);
+  p.resize(kept);
+  adam.resize(kept);
+  rebuild_index();
+  return fmt::format(
+      "final prune: {} faint primitives (opacity < {}) that span one interval removed, {} left",
+      pruned.size(), config_.final_prune_opacity, kept);
+}
+
+void StepState::save_checkpoint(const fs::path& dir) const {
+  NamedAdams optimizers;
+  for (const auto& [name, group] : adam) optimizers.emplace_back(name, &group);
+  if (camera_color()) optimizers.emplace_back(kCameraColorAdam, &color_adam_);
+  write_checkpoint(dir, model, iteration, rng, optimizers);
+}
+
+void StepState::load_checkpoint(const fs::path& dir) {
+  Checkpoint checkpoint(dir, set_.grid);
+  model = std::move(checkpoint.model);
+  iteration = checkpoint.iteration;
+  rng = checkpoint.rng;
+  make_optimizers();
+  for (auto& [name, group] : adam) checkpoint.read_adam(name, group);
+  if (camera_color()) {
+    for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
+      const std::string& name = set_.scene.cameras[set_.cameras[j]].name;
+      const model::CameraColor* color = model::find_camera_color(model, name);
+      if (!color)
+        fail("{}: the checkpoint's model has no colour correction of training camera '{}'",
+             dir.string(), name);
+      std::copy(color->m.begin(), color->m.end(), &colors_[j * kColorWidth]);
+      std::copy(color->c.begin(), color->c.end(), &colors_[j * kColorWidth + 3]);
+    }
+    checkpoint.read_adam(kCameraColorAdam, color_adam_);
+  }
+  rebuild_index();
+}
+
+}  // namespace retimegs::train
