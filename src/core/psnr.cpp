@@ -1,8 +1,5 @@
 #include "retimegs/core/psnr.hpp"
 
-#include <cmath>
-#include <limits>
-
 #include "retimegs/core/error.hpp"
 
 namespace retimegs {
@@ -22,8 +19,7 @@ double psnr(const Image& a, const Image& b, const Image* mask) {
     count += c;
   }
   if (count == 0) fail("psnr: the mask has no foreground pixel (> {})", kMaskThreshold);
-  if (squared_error == 0) return std::numeric_limits<double>::infinity();
-  return 10.0 * std::log10(double(count) / squared_error);  // peak 1: 10·log10(1 / MSE)
+  return psnr_from_squared_error(squared_error, count);
 }
 
 }  // namespace retimegs

@@ -5,6 +5,8 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/adam.hpp"
 #include "retimegs/cuda/check.hpp"
+#include "retimegs/train/adam.hpp"
+#include "rows.hpp"
 
 namespace retimegs::cuda {
 namespace {
@@ -77,6 +79,43 @@ void DeviceAdam::reset_rows(const std::int32_t* rows, std::size_t count) {
   if (values == 0) return;
   reset_kernel<<<blocks_for(values), kThreads>>>(width_, rows, values, m_.data(), v_.data());
   check(cudaGetLastError(), "reset_kernel launch");
+}
+
+void DeviceAdam::resize(std::size_t rows) {
+  const std::size_t kept = m_.size(), values = rows * width_;
+  m_.resize_keep(values);
+  v_.resize_keep(values);
+  m_.fill_bytes(0, kept);  // the new rows, if any
+  v_.fill_bytes(0, kept);
+}
+
+void DeviceAdam::reorder(const std::int32_t* old_from_new, std::size_t count) {
+  if (count != rows()) fail("Adam on the device: reorder of {} rows by {} indices", rows(), count);
+  for (DeviceBuffer<float>* moments : {&m_, &v_}) {
+    DeviceBuffer<float> moved(moments->size());
+    gather_rows(moments->data(), moved.data(), width_, old_from_new, count);
+    moments->swap(moved);
+  }
+}
+
+void DeviceAdam::assign(const train::Adam& host) {
+  if (host.width() <= 0)
+    fail("Adam on the device: the host group has width {} (not built)", host.width());
+  width_ = host.width();
+  settings_ = host.settings();
+  column_scale_.upload(host.column_scale());
+  m_.upload(host.m());
+  v_.upload(host.v());
+  steps_ = host.steps();
+}
+
+void DeviceAdam::download(train::Adam& host) const {
+  if (host.width() != width_)
+    fail("Adam on the device: download of rows of width {} into a host group of width {}", width_,
+         host.width());
+  host.m() = m_.download();
+  host.v() = v_.download();
+  host.step_count() = steps_;
 }
 
 }  // namespace retimegs::cuda

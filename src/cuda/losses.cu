@@ -24,6 +24,7 @@ constexpr int kRgb = 3;                         // the channels SSIM and L1 comp
 constexpr int kImageSums = 2;                   // image loss: Σ|diff|, Σ SSIM
 constexpr int kFlowSums = 2;                    // flow loss: known pixels, Σ|diff|
 constexpr int kColorSums = 6;                   // colour backward: d m (3), d c (3)
+constexpr int kOneSum = 1;                      // squared error, regulariser
 
 // The SSIM window in float, passed to the kernels by value.
 struct Window {
@@ -278,6 +279,53 @@ struct FinishCameraColor {
   }
 };
 
+// Σ (rgb − target)² over each pixel's RGB, per block.
+__global__ void __launch_bounds__(kPixelThreads)
+    squared_error_kernel(const float* rgb, int rgb_channels, const float* target,
+                         std::size_t pixels, double* partials) {
+  const std::size_t p = std::size_t(blockIdx.x) * kPixelThreads + threadIdx.x;
+  double sums[kOneSum] = {};
+  if (p < pixels)
+    for (int k = 0; k < kRgb; ++k) {
+      const double d = double(rgb[p * rgb_channels + k]) - double(target[p * kRgb + k]);
+      sums[0] += d * d;
+    }
+  block_sums<kPixelThreads, 1>(sums, partials, gridDim.x, blockIdx.x);
+}
+
+// The regulariser's terms of the rows, per block.
+__global__ void __launch_bounds__(kPixelThreads)
+    regularizer_kernel(const std::int32_t* rows, std::size_t count, std::size_t n,
+                       double opacity_weight, double scale_weight, const float* opacity_logit,
+                       const float* log_scale, double* partials) {
+  const std::size_t j = std::size_t(blockIdx.x) * kPixelThreads + threadIdx.x;
+  double sums[kOneSum] = {};
+  if (j < count) {
+    const std::size_t r = std::size_t(rows[j]);
+    sums[0] = train::regularizer_add(0.0, opacity_weight, scale_weight, n, opacity_logit[r],
+                                     log_scale + 3 * r);
+  }
+  block_sums<kPixelThreads, 1>(sums, partials, gridDim.x, blockIdx.x);
+}
+
+__global__ void __launch_bounds__(kPixelThreads)
+    regularizer_backward_kernel(const std::int32_t* rows, std::size_t count, std::size_t n,
+                                double opacity_weight, double scale_weight,
+                                const float* opacity_logit, const float* log_scale,
+                                float* v_opacity_logit, float* v_log_scale) {
+  const std::size_t j = std::size_t(blockIdx.x) * kPixelThreads + threadIdx.x;
+  if (j >= count) return;
+  const std::size_t r = std::size_t(rows[j]);
+  train::regularizer_row_backward(opacity_weight, scale_weight, n, opacity_logit[r],
+                                  log_scale + 3 * r, v_opacity_logit[r], v_log_scale + 3 * r);
+}
+
+// Writes the one total to *out.
+struct FinishSum {
+  double* out;
+  __device__ void operator()(const double (&totals)[kOneSum]) const { *out = totals[0]; }
+};
+
 template <int K, typename Finish>
 void finish(const double* partials, int blocks, Finish f, const char* what) {
   finish_sums<K><<<1, kFinishThreads>>>(partials, blocks, f);
@@ -393,6 +441,56 @@ void apply_camera_color_backward(const float* rgb, int rgb_channels, int width, 
   check(cudaGetLastError(), "camera_color_backward_kernel launch");
   finish<kColorSums>(scratch.partials.data(), blocks, FinishCameraColor{v_color},
                      "camera colour finish_sums launch");
+}
+
+void squared_error(const float* rgb, int rgb_channels, const float* target, int width, int height,
+                   double* out, LossScratch& scratch) {
+  if (rgb_channels < kRgb)
+    fail("squared error on the device: an image of {} channels, RGB needed", rgb_channels);
+  const std::size_t pixels = std::size_t(width) * height;
+  if (pixels == 0) fail("squared error on the device: the image is empty ({}x{})", width, height);
+  const int blocks = pixel_blocks(pixels);
+  scratch.partials.resize(blocks);
+  squared_error_kernel<<<blocks, kPixelThreads>>>(rgb, rgb_channels, target, pixels,
+                                                  scratch.partials.data());
+  check(cudaGetLastError(), "squared_error_kernel launch");
+  finish<kOneSum>(scratch.partials.data(), blocks, FinishSum{out},
+                  "squared error finish_sums launch");
+}
+
+void squared_error(const float* rgb, int rgb_channels, const DeviceSsimTarget& target, double* out,
+                   LossScratch& scratch) {
+  if (target.image.size() != std::size_t(target.width) * target.height * kRgb)
+    fail("squared error on the device: the target was not prepared (DeviceSsimTarget::assign)");
+  squared_error(rgb, rgb_channels, target.image.data(), target.width, target.height, out, scratch);
+}
+
+void regularizer(const DevicePrimitives& p, const std::int32_t* rows, std::size_t count,
+                 double opacity_weight, double scale_weight, double* value, LossScratch& scratch) {
+  if (count == 0) {
+    check(cudaMemset(value, 0, sizeof(double)), "regularizer: cudaMemset");  // +0.0
+    return;
+  }
+  const int blocks = pixel_blocks(count);
+  scratch.partials.resize(blocks);
+  regularizer_kernel<<<blocks, kPixelThreads>>>(rows, count, p.size(), opacity_weight, scale_weight,
+                                                p.opacity_logit.data(), p.log_scale.data(),
+                                                scratch.partials.data());
+  check(cudaGetLastError(), "regularizer_kernel launch");
+  finish<kOneSum>(scratch.partials.data(), blocks, FinishSum{value},
+                  "regularizer finish_sums launch");
+}
+
+void regularizer_backward(const DevicePrimitives& p, const std::int32_t* rows, std::size_t count,
+                          double opacity_weight, double scale_weight, DevicePrimitiveGrads& grads) {
+  if (count == 0) return;
+  if (grads.size() != p.size())
+    fail("regularizer backward on the device: gradients of {} rows for {} primitives", grads.size(),
+         p.size());
+  regularizer_backward_kernel<<<pixel_blocks(count), kPixelThreads>>>(
+      rows, count, p.size(), opacity_weight, scale_weight, p.opacity_logit.data(),
+      p.log_scale.data(), grads.v_opacity_logit.data(), grads.v_log_scale.data());
+  check(cudaGetLastError(), "regularizer_backward_kernel launch");
 }
 
 }  // namespace retimegs::cuda

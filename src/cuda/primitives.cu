@@ -2,6 +2,7 @@
 // (include/retimegs/cuda/primitives.hpp).
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/primitives.hpp"
+#include "rows.hpp"
 
 namespace retimegs::cuda {
 
@@ -39,6 +40,35 @@ void DevicePrimitives::download(model::Primitives& host) const {
     to[f].values->resize(from[f].values->size());
     from[f].values->download(to[f].values->data());
   }
+}
+
+void DevicePrimitives::resize(std::size_t n) {
+  for (const Field& f : fields()) {
+    const std::size_t kept = f.values->size();
+    f.values->resize_keep(n * std::size_t(f.width));
+    f.values->fill_bytes(0, kept);  // the new rows, if any: all-zero bytes are +0.0f
+  }
+}
+
+void DevicePrimitives::reorder(const std::int32_t* old_from_new, std::size_t count) {
+  if (count != size())
+    fail("primitives on the GPU: reorder of {} rows by {} indices", size(), count);
+  for (const Field& f : fields()) {
+    scratch_.resize(f.values->size());
+    gather_rows(f.values->data(), scratch_.data(), f.width, old_from_new, count);
+    f.values->swap(scratch_);  // the old values' allocation serves the next field
+  }
+}
+
+void DevicePrimitives::reorder(const std::vector<std::int32_t>& old_from_new) {
+  DeviceBuffer<std::int32_t> rows;
+  rows.upload(old_from_new);
+  reorder(rows.data(), old_from_new.size());
+}
+
+void DevicePrimitives::copy_rows(const std::int32_t* to, const std::int32_t* from,
+                                 std::size_t count) {
+  for (const Field& f : fields()) cuda::copy_rows(f.values->data(), f.width, to, from, count);
 }
 
 void DevicePrimitiveGrads::resize_zero(std::size_t n) {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <utility>
 
 #include "retimegs/core/error.hpp"
 
@@ -49,14 +48,6 @@ int field_width(const model::Primitives& p, const char* name) {
 }
 
 }  // namespace
-
-Adam::Adam(std::size_t rows, int width, AdamSettings settings, std::vector<float> column_scale)
-    : width_(width),
-      settings_(settings),
-      column_scale_(column_scale.empty() ? std::vector<float>(width, 1.0f)
-                                         : std::move(column_scale)),
-      m_(rows * width, 0.0f),
-      v_(rows * width, 0.0f) {}
 
 void Adam::step(float* params, const float* grads, double lr,
                 const std::vector<std::int32_t>* rows) {

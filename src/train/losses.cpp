@@ -95,9 +95,8 @@ double regularizer(const model::Primitives& p, const std::vector<std::int32_t>& 
     for (std::size_t j = count * run / kRegularizerRuns; j < count * (run + 1) / kRegularizerRuns;
          ++j) {
       const std::size_t r = std::size_t(rows[j]);
-      sum += opacity_weight * model::sigmoid<double>(p.opacity_logit[r]) / double(n);
-      for (int a = 0; a < 3; ++a)
-        sum += scale_weight * std::exp(double(p.log_scale[3 * r + a])) / double(3 * n);
+      sum = regularizer_add(sum, opacity_weight, scale_weight, n, p.opacity_logit[r],
+                            &p.log_scale[3 * r]);
     }
     partial[run] = sum;
   }
@@ -115,11 +114,9 @@ void regularizer_backward(const model::Primitives& p, const std::vector<std::int
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t j = 0; j < count; ++j) {
     const std::size_t r = std::size_t(rows[j]);
-    const double sigma = model::sigmoid<double>(p.opacity_logit[r]);
-    grads.v_opacity_logit[r] += float(opacity_weight / double(n) * sigma * (1 - sigma));
-    for (int a = 0; a < 3; ++a)
-      grads.v_log_scale[3 * r + a] +=
-          float(scale_weight / double(3 * n) * std::exp(double(p.log_scale[3 * r + a])));
+    regularizer_row_backward(opacity_weight, scale_weight, n, p.opacity_logit[r],
+                             &p.log_scale[3 * r], grads.v_opacity_logit[r],
+                             &grads.v_log_scale[3 * r]);
   }
 }
 

@@ -3,19 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numbers>
-
-#include <Eigen/Geometry>
 
 #include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/train/noise_formulas.hpp"
 
 namespace retimegs::train {
 
 namespace {
 
-constexpr double kNoiseScale = 5e5;        // 3DGS-MCMC noise_lr
-constexpr double kNoiseSharpness = 100.0;  // sigmoid(-k (σ - x0)): noise only on faint splats
-constexpr double kNoiseThreshold = 0.005;
 constexpr double kMaxOpacity = 1.0 - 1e-6;  // keep logits finite
 
 double opacity_of(const model::Primitives& p, std::size_t i) {
@@ -64,28 +59,6 @@ void correct_sources(model::Primitives& p, const std::vector<std::int32_t>& sour
     p.opacity_logit[i] = float(std::log(opacity / (1 - opacity)));
     for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] += float(std::log(factor));
   }
-}
-
-// splitmix64's finaliser: a bijection of 64-bit words whose outputs pass as independent uniform
-// bits for consecutive inputs.
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-// Three standard normal values for row `row` under `key`, counter-based: four uniforms in (0, 1]
-// from splitmix64 of (key, row, k), two Box–Muller pairs, the fourth value unused.
-Eigen::Vector3f normal3(std::uint64_t key, std::uint64_t row) {
-  const std::uint64_t base = splitmix64(key ^ splitmix64(row)) * 4;
-  double u[4];
-  for (int k = 0; k < 4; ++k)
-    u[k] = (double(splitmix64(base + k) >> 11) + 1.0) * 0x1.0p-53;  // 53 bits, never 0
-  const double r0 = std::sqrt(-2 * std::log(u[0])), r1 = std::sqrt(-2 * std::log(u[2]));
-  return Eigen::Vector3f(float(r0 * std::cos(2 * std::numbers::pi * u[1])),
-                         float(r0 * std::sin(2 * std::numbers::pi * u[1])),
-                         float(r1 * std::cos(2 * std::numbers::pi * u[3])));
 }
 
 }  // namespace
@@ -146,17 +119,8 @@ void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, d
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t j = 0; j < count; ++j) {
     const std::size_t i = std::size_t(rows[j]);
-    const double sigma = opacity_of(p, i);
-    const double gate = model::sigmoid(-kNoiseSharpness * (sigma - kNoiseThreshold));
-    if (gate < 1e-12) continue;
-    const Eigen::Vector3f eps = normal3(key, i);
-    const Eigen::Quaternionf q(p.q0[4 * i], p.q0[4 * i + 1], p.q0[4 * i + 2], p.q0[4 * i + 3]);
-    const Eigen::Matrix3f r = q.normalized().toRotationMatrix();
-    const Eigen::Vector3f s2(std::exp(2 * p.log_scale[3 * i]), std::exp(2 * p.log_scale[3 * i + 1]),
-                             std::exp(2 * p.log_scale[3 * i + 2]));
-    const Eigen::Vector3f delta = r * (s2.asDiagonal() * (r.transpose() * eps));
-    const float k = float(gate * lr_means * kNoiseScale);
-    for (int a = 0; a < 3; ++a) p.mu[3 * i + a] += k * delta[a];
+    noise_row(key, i, lr_means, p.opacity_logit[i], &p.q0[4 * i], &p.log_scale[3 * i],
+              &p.mu[3 * i]);
   }
 }
 

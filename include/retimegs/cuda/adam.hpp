@@ -12,6 +12,10 @@
 #include "retimegs/cuda/buffer.hpp"
 #include "retimegs/train/adam_update.hpp"
 
+namespace retimegs::train {
+class Adam;
+}  // namespace retimegs::train
+
 namespace retimegs::cuda {
 
 class DeviceAdam {
@@ -31,6 +35,19 @@ class DeviceAdam {
   void step_and_clear(float* params, float* grads, double lr);
   // Zeroes the moments of rows[0, count) (device): their parameters were replaced.
   void reset_rows(const std::int32_t* rows, std::size_t count);
+  // train::Adam::resize: grows (zero moments for the new rows) or shrinks to `rows` rows, the
+  // first rows' moments kept.
+  void resize(std::size_t rows);
+  // train::Adam::reorder: row k's moments become old row old_from_new[k]'s, for the rows() rows of
+  // old_from_new (device, int32, each in [0, rows())). Throws Error unless count == rows().
+  void reorder(const std::int32_t* old_from_new, std::size_t count);
+
+  // The whole state of a host group copied in: width, settings, column scales, moments and step
+  // count (a step moving its optimiser to the GPU, e.g. on resume from a checkpoint).
+  void assign(const train::Adam& host);
+  // The moments and the step count copied out into `host` (its rows resized to rows()), a group
+  // of the same width (checkpoints). Throws Error when the widths differ.
+  void download(train::Adam& host) const;
 
   std::size_t rows() const { return width_ ? m_.size() / width_ : 0; }
   int width() const { return width_; }

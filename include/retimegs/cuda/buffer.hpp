@@ -1,7 +1,7 @@
 #pragma once
 // An array in GPU memory that owns its allocation (cudaMalloc / cudaFree), with copies to and from
 // the host. resize() keeps the allocation while it is large enough, so that a loop that renders
-// every step allocates only until its sizes settle.
+// every step allocates only until its sizes settle; resize_keep() also keeps the contents.
 #include <cuda_runtime_api.h>
 
 #include <cstddef>
@@ -38,6 +38,28 @@ class DeviceBuffer {
     size_ = n;
   }
 
+  // n elements, the first min(n, size()) as they were, the rest unspecified. Where the allocation
+  // is too small, a new one of exactly n takes a device-side copy of the old contents.
+  void resize_keep(std::size_t n) {
+    if (n > capacity_) {
+      T* grown = nullptr;
+      const std::string what = "cudaMalloc(" + std::to_string(n * sizeof(T)) + " bytes)";
+      check(cudaMalloc(reinterpret_cast<void**>(&grown), n * sizeof(T)), what.c_str());
+      if (size_ > 0) {
+        const cudaError_t copied =
+            cudaMemcpy(grown, data_, size_ * sizeof(T), cudaMemcpyDeviceToDevice);
+        if (copied != cudaSuccess) cudaFree(grown);
+        check(copied, "resize_keep copy");
+      }
+      const std::size_t kept = size_;
+      release();
+      data_ = grown;
+      size_ = kept;
+      capacity_ = n;
+    }
+    size_ = n;
+  }
+
   // Copies host[0, n) in (resizing to n); synchronous.
   void upload(const T* host, std::size_t n) {
     resize(n);
@@ -57,9 +79,11 @@ class DeviceBuffer {
     download(host.data());
     return host;
   }
-  // Every byte set to `byte` (tests poison outputs with 0xff: every float a NaN).
-  void fill_bytes(unsigned char byte) {
-    if (size_ > 0) check(cudaMemset(data_, byte, size_ * sizeof(T)), "cudaMemset");
+  // Every byte of elements [first, size()) set to `byte` (tests poison outputs with 0xff: every
+  // float a NaN; 0 is +0.0 in every float).
+  void fill_bytes(unsigned char byte, std::size_t first = 0) {
+    if (size_ > first)
+      check(cudaMemset(data_ + first, byte, (size_ - first) * sizeof(T)), "cudaMemset");
   }
 
   T* data() { return data_; }

@@ -1,8 +1,9 @@
 #pragma once
-// The training step's per-pixel losses on the GPU (DESIGN.md §3 "A second device: CUDA"):
-// train/losses.hpp's image loss and flow loss and model/camera_color.hpp's colour map, forward
-// and backward, on device arrays. The per-pixel formulas are the CPU's own
-// (core/ssim_formulas.hpp, train/loss_formulas.hpp, model/camera_color.hpp); what differs:
+// The training step's losses on the GPU (DESIGN.md §3 "A second device: CUDA"):
+// train/losses.hpp's image loss, flow loss and regulariser and model/camera_color.hpp's colour
+// map, forward and backward, on device arrays, and the squared error of the log's PSNR. The
+// per-pixel formulas are the CPU's own (core/ssim_formulas.hpp, train/loss_formulas.hpp,
+// model/camera_color.hpp); what differs:
 //   - SSIM runs in float (the CPU in double): the loss agrees with the CPU's to ~1e-6 relative and
 //     its gradient to ~1e-5 of the gradient's largest value (tests/cuda/test_losses_cuda.cpp);
 //   - sums are per-block partials in double, added in a fixed order: the same value on every run,
@@ -18,6 +19,7 @@
 
 #include "retimegs/core/image.hpp"
 #include "retimegs/cuda/buffer.hpp"
+#include "retimegs/cuda/primitives.hpp"
 
 namespace retimegs::cuda {
 
@@ -72,6 +74,28 @@ void image_loss(const float* rgb, int rgb_channels, const DeviceSsimTarget& targ
 // to the loss, 0 (and no gradient) when no pixel is known. Throws Error on a size mismatch.
 void flow_loss(const float* render, int channels, int channel, const DeviceFlow& target,
                double weight, float* v_render, double* loss, LossScratch& scratch);
+
+// Σ over pixels and RGB channels of (rgb − target)², each difference taken in double: the sum of
+// core/psnr.hpp's psnr(), whose rule psnr_from_squared_error(*out, H·W·3) then applies on the
+// host. rgb [H, W, rgb_channels] holds RGB first, target [H, W, 3]; *out (device). Per-block
+// partials added in a fixed order: the same on every run, the CPU's sum to double rounding.
+void squared_error(const float* rgb, int rgb_channels, const float* target, int width, int height,
+                   double* out, LossScratch& scratch);
+// The same against a prepared view (its unpacked image).
+void squared_error(const float* rgb, int rgb_channels, const DeviceSsimTarget& target, double* out,
+                   LossScratch& scratch);
+
+// train::regularizer on the device over rows[0, count) (device, int32, distinct) of the N =
+// primitives.size() rows: *value (device) is set to it, 0 when count is 0. The rows' terms
+// (train/loss_formulas.hpp regularizer_add) are summed in double per block, the blocks in a fixed
+// order: the same on every run, the CPU's sum to double rounding.
+void regularizer(const DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
+                 double opacity_weight, double scale_weight, double* value, LossScratch& scratch);
+// train::regularizer_backward on the device: d regularizer / d opacity_logit and d / d log_scale
+// of the rows added into grads (regularizer_row_backward, the CPU's floats but for exp's last bit).
+void regularizer_backward(const DevicePrimitives& primitives, const std::int32_t* rows,
+                          std::size_t count, double opacity_weight, double scale_weight,
+                          DevicePrimitiveGrads& grads);
 
 // model::apply_camera_color on the device: out [H, W, 3] = exp(m) ⊙ rgb + c, rgb [H, W,
 // rgb_channels] with RGB first; color [6] (device) holds m then c, a camera's row of the step's

@@ -4,6 +4,8 @@
 // does and a copy either way is one memcpy per field.
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "retimegs/cuda/buffer.hpp"
 #include "retimegs/model/primitives.hpp"
@@ -29,6 +31,24 @@ struct DevicePrimitives {
   void upload(const model::Primitives& host);
   // Copies every field out into `host` (resized to size()).
   void download(model::Primitives& host) const;
+
+  // Grows (the new rows zero, as model::Primitives::resize) or shrinks to n rows, the first rows
+  // kept in every field.
+  void resize(std::size_t n);
+  // model::Primitives::reorder: row k of every field becomes old row old_from_new[k], for the
+  // size() rows of old_from_new (device, int32, each in [0, size())). Throws Error unless
+  // count == size().
+  void reorder(const std::int32_t* old_from_new, std::size_t count);
+  // The same from a host array.
+  void reorder(const std::vector<std::int32_t>& old_from_new);
+  // model::Primitives::copy_row for k in [0, count): row to[k] of every field takes row from[k]
+  // (to, from: device, int32, in [0, size())). The to rows are distinct and none of them is a from
+  // row (relocation's dead slots and growth's new rows take copies of live rows), so that the
+  // copies' order does not matter.
+  void copy_rows(const std::int32_t* to, const std::int32_t* from, std::size_t count);
+
+ private:
+  DeviceBuffer<float> scratch_;  // reorder's gather target, swapped field by field
 };
 
 struct DevicePrimitiveGrads {

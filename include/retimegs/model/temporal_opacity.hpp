@@ -5,12 +5,13 @@
 #include <cmath>
 #include <cstddef>
 
+#include "retimegs/core/hd.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::model {
 
 template <typename T>
-T sigmoid(T x) {
+RETIMEGS_HD T sigmoid(T x) {
   return T(1) / (T(1) + std::exp(-x));
 }
 

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "retimegs/model/primitives.hpp"
@@ -25,8 +26,15 @@ class Adam {
   Adam() = default;
   // column_scale [width] (optional) multiplies the learning rate per column, e.g. the higher SH
   // bands' 1/20 of the DC rate in one [N, 16, 3] field.
+  // (Inline: the CUDA optimiser's tests build host groups without the train library.)
   Adam(std::size_t rows, int width, AdamSettings settings = {},
-       std::vector<float> column_scale = {});
+       std::vector<float> column_scale = {})
+      : width_(width),
+        settings_(settings),
+        column_scale_(column_scale.empty() ? std::vector<float>(width, 1.0f)
+                                           : std::move(column_scale)),
+        m_(rows * width, 0.0f),
+        v_(rows * width, 0.0f) {}
 
   // params -= lr · s_col · m̂ / (sqrt(v̂) + ε) over the ascending `rows` (nullptr: all rows);
   // params and grads are [rows(), width].
@@ -44,6 +52,9 @@ class Adam {
   void reorder(const std::vector<std::int32_t>& old_from_new);
 
   std::size_t rows() const { return width_ ? m_.size() / width_ : 0; }
+  int width() const { return width_; }
+  const AdamSettings& settings() const { return settings_; }
+  const std::vector<float>& column_scale() const { return column_scale_; }  // [width]
   std::int64_t steps() const { return steps_; }
   // State, for checkpoints.
   std::vector<float>& m() { return m_; }

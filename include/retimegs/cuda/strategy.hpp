@@ -1,0 +1,22 @@
+#pragma once
+// The density strategy's per-step work on the GPU (train/strategy.hpp, DESIGN.md §3 "A second
+// device: CUDA"): the 3DGS-MCMC noise on the step's active rows. Each row runs
+// train/noise_formulas.hpp's noise_row, as train::inject_noise does: the same draws ε (integer
+// and double arithmetic; sin, cos and log may round a double's last bit differently, which
+// reaches a float rarely) and the same float steps, every multiply-add spelled out so that neither
+// compiler fuses differently; exp may differ by an ulp in rare near-ties
+// (tests/cuda/test_strategy_cuda.cpp states the bound).
+#include <cstddef>
+#include <cstdint>
+
+#include "retimegs/cuda/primitives.hpp"
+
+namespace retimegs::cuda {
+
+// train::inject_noise on the device over rows[0, count) (device, int32, distinct): each row's mean
+// moves by its noise under `key`, which the caller draws from its generator as the CPU does
+// (key = rng(), one per call), so that a run draws the same numbers on either device.
+void inject_noise(DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
+                  double lr_means, std::uint64_t key);
+
+}  // namespace retimegs::cuda

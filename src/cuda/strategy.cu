@@ -1,0 +1,33 @@
+// The MCMC noise on the device (include/retimegs/cuda/strategy.hpp): one thread per active row.
+#include <cuda_runtime.h>
+
+#include "retimegs/cuda/check.hpp"
+#include "retimegs/cuda/strategy.hpp"
+#include "retimegs/train/noise_formulas.hpp"
+
+namespace retimegs::cuda {
+namespace {
+
+constexpr int kThreads = 256;
+
+__global__ void __launch_bounds__(kThreads)
+    noise_kernel(const std::int32_t* rows, std::size_t count, double lr_means, std::uint64_t key,
+                 const float* opacity_logit, const float* q0, const float* log_scale, float* mu) {
+  const std::size_t j = std::size_t(blockIdx.x) * kThreads + threadIdx.x;
+  if (j >= count) return;
+  const std::size_t i = std::size_t(rows[j]);
+  train::noise_row(key, i, lr_means, opacity_logit[i], q0 + 4 * i, log_scale + 3 * i, mu + 3 * i);
+}
+
+}  // namespace
+
+void inject_noise(DevicePrimitives& p, const std::int32_t* rows, std::size_t count, double lr_means,
+                  std::uint64_t key) {
+  if (count == 0) return;
+  noise_kernel<<<int((count + kThreads - 1) / kThreads), kThreads>>>(
+      rows, count, lr_means, key, p.opacity_logit.data(), p.q0.data(), p.log_scale.data(),
+      p.mu.data());
+  check(cudaGetLastError(), "noise_kernel launch");
+}
+
+}  // namespace retimegs::cuda
