@@ -1,3 +1,5 @@
+// The CPU's spherical harmonics, compiled as before the formulas moved: model/sh_formulas.hpp
+// holds the same formulas for the CUDA kernels (TODO: one copy; see the slice-cuda report).
 #include "retimegs/model/sh.hpp"
 
 #include <cmath>

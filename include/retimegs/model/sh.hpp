@@ -2,18 +2,11 @@
 // Real spherical harmonics colour (3DGS / gsplat convention, degree 0..3): for a unit view
 // direction d, colour = max(sum_k b_k(d) h_k + 0.5, 0) per channel. Forward and vector-Jacobian
 // product, templated on the scalar so tests run them in double.
-#include <array>
 #include <cstddef>
 
+#include "retimegs/model/sh_formulas.hpp"  // the formulas; kMaxShDegree, kMaxShCoeffs, sh_coeffs
+
 namespace retimegs::model {
-
-constexpr int kMaxShDegree = 3;
-constexpr int kMaxShCoeffs = 16;
-constexpr double kShC0 = 0.28209479177387814;  // 1 / (2 sqrt(pi)): the DC basis function
-
-inline constexpr int sh_coeffs(int degree) {
-  return (degree + 1) * (degree + 1);
-}
 
 // The K = (degree + 1)^2 basis values at unit direction d (unused entries untouched).
 template <typename T>

@@ -9,17 +9,10 @@
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/model/primitives.hpp"
+#include "retimegs/model/slice_formulas.hpp"  // Group, kFlowChannels, the per-row math
 #include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::model {
-
-// Which primitives take part (docs/method.md, triple rendering). kLeft / kRight need t = t_i, a
-// training time: kLeft = active on [t_{i-1}, t_i], kRight = active on [t_i, t_{i+1}].
-enum class Group { kAll, kLeft, kRight };
-
-constexpr int kFlowChannels = 4;  // forward (u, v), backward (u, v) in pixels
-// Where the flow features sit in a render with flow_features: right after RGB.
-constexpr int kForwardFlowChannel = 3, kBackwardFlowChannel = 5;
 
 struct SliceOptions {
   Group group = Group::kAll;
@@ -93,6 +86,14 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                     const TimeGrid& grid, double t, const Camera& camera,
                     const std::vector<std::int32_t>& rows, const ShadedT<T>& shaded,
                     PrimitiveGradsT<T>& grads);
+
+// The settings of a slice at time t seen from `camera` in T (model/slice_formulas.hpp), as slice,
+// slice_backward, shade and their CUDA versions use them. Throws Error (slice's messages) when t is
+// not finite or when a group is requested at a time that is not an interior/end training time.
+template <typename T>
+SliceParams<T> slice_params(const ModelConfig& config, const TimeGrid& grid, double t,
+                            const Camera& camera, Group group, bool compensate, bool flow_features,
+                            double min_opacity);
 
 // Whether primitive i belongs to `group` at time t (always true for kAll).
 template <typename T>

@@ -24,20 +24,20 @@ struct RetimeWindow {
   T t_first, t_last;  // the clip's first and last training times
   T gamma, epsilon;   // frames
 
-  bool open_left() const { return mu_tau - tau_l <= t_first + epsilon; }
-  bool open_right() const { return mu_tau + tau_r >= t_last - epsilon; }
+  RETIMEGS_HD bool open_left() const { return mu_tau - tau_l <= t_first + epsilon; }
+  RETIMEGS_HD bool open_right() const { return mu_tau + tau_r >= t_last - epsilon; }
   // Whether the support covers [a, b] (up to ε): the group membership test of docs/method.md.
-  bool covers(T a, T b) const {
+  RETIMEGS_HD bool covers(T a, T b) const {
     return mu_tau - tau_l <= a + epsilon && mu_tau + tau_r >= b - epsilon;
   }
 
-  T operator()(T t) const {
+  RETIMEGS_HD T operator()(T t) const {
     const T left = open_left() ? T(1) : sigmoid((t - (mu_tau - tau_l)) / gamma);
     const T right = open_right() ? T(1) : sigmoid(((mu_tau + tau_r) - t) / gamma);
     return left * right;
   }
   // d σ_τ / d t (the window itself is not optimised).
-  T d_dt(T t) const {
+  RETIMEGS_HD T d_dt(T t) const {
     const T left = open_left() ? T(1) : sigmoid((t - (mu_tau - tau_l)) / gamma);
     const T right = open_right() ? T(1) : sigmoid(((mu_tau + tau_r) - t) / gamma);
     const T d_left = open_left() ? T(0) : left * (1 - left) / gamma;
@@ -49,12 +49,13 @@ struct RetimeWindow {
 // SpacetimeGaussians: σ_τ(t) = exp(-((t - μ_τ) / s)²), s = exp(log_scale); gradients with
 // respect to μ_τ and log_scale are accumulated into v_mu_tau, v_log_scale (scaled by v).
 template <typename T>
-T stgs_temporal_opacity(T mu_tau, T log_scale, T t) {
+RETIMEGS_HD T stgs_temporal_opacity(T mu_tau, T log_scale, T t) {
   const T d = (t - mu_tau) * std::exp(-log_scale);
   return std::exp(-d * d);
 }
 template <typename T>
-void stgs_temporal_opacity_vjp(T mu_tau, T log_scale, T t, T v, T& v_mu_tau, T& v_log_scale) {
+RETIMEGS_HD void stgs_temporal_opacity_vjp(T mu_tau, T log_scale, T t, T v, T& v_mu_tau,
+                                           T& v_log_scale) {
   const T d = (t - mu_tau) * std::exp(-log_scale);
   const T value = std::exp(-d * d);
   // dσ/dd = -2 d σ;  dd/dμ_τ = -1/s;  dd/dlog_scale = -d

@@ -2,6 +2,7 @@
 // Primitive trajectories as linear maps of the parameters (docs/method.md). For a fixed time every
 // trajectory is x(t) = μ + Σ_j c_j v_j (plus, for STGS, a dependence on μ_τ), so one set of
 // coefficients gives the position and its vector-Jacobian product alike.
+#include "retimegs/core/hd.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::model {
@@ -17,7 +18,7 @@ struct TrajectoryCoefficients {
 // Uniform Catmull-Rom weights of the control points p0..p3 at u (u = 0 at p1, u = 1 at p2);
 // outside [0, 1] the curve continues linearly with the end tangent ½(p2 - p0) or ½(p3 - p1).
 template <typename T>
-void catmull_rom_weights(T u, T w[4]) {
+RETIMEGS_HD void catmull_rom_weights(T u, T w[4]) {
   if (u < T(0)) {
     w[0] = -u / 2, w[1] = 1, w[2] = u / 2, w[3] = 0;
   } else if (u > T(1)) {
@@ -34,7 +35,7 @@ void catmull_rom_weights(T u, T w[4]) {
 // Control points as coefficients of (v1, v2, v3) on top of μ (Δt = step):
 //   p1 = μ - ½Δt v2, p2 = μ + ½Δt v2, p0 = p1 - Δt v1, p3 = p2 + Δt v3.
 template <typename T>
-TrajectoryCoefficients<T> control_point(int k, T step) {
+RETIMEGS_HD TrajectoryCoefficients<T> control_point(int k, T step) {
   TrajectoryCoefficients<T> c;
   const T h = step / 2;
   c.coef[1] = (k <= 1) ? -h : h;
@@ -46,8 +47,8 @@ TrajectoryCoefficients<T> control_point(int k, T step) {
 // Position coefficients at time t for a primitive with temporal centre μ_τ; the primitive's own
 // interval is [μ_τ - Δt/2, μ_τ + Δt/2] (stretching keeps μ_τ).
 template <typename T>
-TrajectoryCoefficients<T> trajectory_at(Representation representation, TrajectoryKind kind,
-                                        T mu_tau, T t, T step) {
+RETIMEGS_HD TrajectoryCoefficients<T> trajectory_at(Representation representation,
+                                                    TrajectoryKind kind, T mu_tau, T t, T step) {
   TrajectoryCoefficients<T> c;
   if (representation == Representation::kStgs) {
     const T d = t - mu_tau;
@@ -71,15 +72,17 @@ TrajectoryCoefficients<T> trajectory_at(Representation representation, Trajector
 
 // x = μ + Σ coef_j v_j.   mu [3], v [3, 3] (row j = v_{j+1}).
 template <typename T>
-void apply_trajectory(const TrajectoryCoefficients<T>& c, const T* mu, const T* v, T x[3]) {
+RETIMEGS_HD void apply_trajectory(const TrajectoryCoefficients<T>& c, const T* mu, const T* v,
+                                  T x[3]) {
   for (int a = 0; a < 3; ++a)
     x[a] = mu[a] + c.coef[0] * v[a] + c.coef[1] * v[3 + a] + c.coef[2] * v[6 + a];
 }
 
 // VJP: v_mu += v_x, v_v[j] += coef_j v_x; for STGS v_mu_tau += v_x · dx/dμ_τ.
 template <typename T>
-void apply_trajectory_vjp(Representation representation, const TrajectoryCoefficients<T>& c,
-                          const T* v, const T v_x[3], T* v_mu, T* v_v, T& v_mu_tau) {
+RETIMEGS_HD void apply_trajectory_vjp(Representation representation,
+                                      const TrajectoryCoefficients<T>& c, const T* v,
+                                      const T v_x[3], T* v_mu, T* v_v, T& v_mu_tau) {
   for (int a = 0; a < 3; ++a) {
     v_mu[a] += v_x[a];
     for (int j = 0; j < 3; ++j) v_v[3 * j + a] += c.coef[j] * v_x[a];
