@@ -1,9 +1,7 @@
 #pragma once
-// The spherical harmonics formulas of model/sh.hpp, RETIMEGS_HD (DESIGN.md §3): the CUDA kernels
-// (src/cuda/slice.cu) call these directly; the CPU calls them through sh.hpp's out-of-line
-// sh_basis, sh_color and sh_color_vjp (src/model/sh.cpp), compiled on their own as before, so
-// that g++'s contraction of a * b + c into FMA, which depends on what it can see around an
-// expression, and with it the CPU's float results stay as they were.
+// The spherical harmonics formulas of model/sh.hpp, RETIMEGS_HD (DESIGN.md §3), written once: the
+// CUDA kernels (src/cuda/slice.cu) call these directly, the CPU through sh.hpp's out-of-line
+// sh_basis, sh_color and sh_color_vjp (src/model/sh.cpp).
 #include <cmath>
 
 #include "retimegs/core/hd.hpp"
@@ -31,8 +29,8 @@ constexpr double C3_0 = -0.5900435899266435, C3_1 = 2.890611442640554, C3_2 = -0
 
 // Basis values and their gradients with respect to the unit direction (x, y, z).
 template <typename T>
-RETIMEGS_HD static inline void basis_and_gradient(int degree, const T d[3], T b[kMaxShCoeffs],
-                                                  T g[kMaxShCoeffs][3]) {
+RETIMEGS_HD inline void basis_and_gradient(int degree, const T d[3], T b[kMaxShCoeffs],
+                                           T g[kMaxShCoeffs][3]) {
   const T x = d[0], y = d[1], z = d[2];
   b[0] = T(kShC0);
   g[0][0] = g[0][1] = g[0][2] = 0;
@@ -74,22 +72,22 @@ RETIMEGS_HD static inline void basis_and_gradient(int degree, const T d[3], T b[
 }
 
 template <typename T>
-RETIMEGS_HD static inline T normalize(const T dir[3], T unit[3]) {
+RETIMEGS_HD inline T normalize(const T dir[3], T unit[3]) {
   const T norm = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
   const T inv = norm > T(0) ? T(1) / norm : T(0);
   for (int a = 0; a < 3; ++a) unit[a] = dir[a] * inv;
   return norm;
 }
 template <typename T>
-RETIMEGS_HD static inline void basis_values(int degree, const T d[3], T basis[kMaxShCoeffs]) {
+RETIMEGS_HD inline void basis_values(int degree, const T d[3], T basis[kMaxShCoeffs]) {
   T unused[kMaxShCoeffs][3];
   basis_and_gradient(degree, d, basis, unused);
 }
 
 // The clamped colour of coefficients h [K, 3] at the basis values of a direction.
 template <typename T>
-RETIMEGS_HD static inline void color_of_basis(int degree, const T* h, const T basis[kMaxShCoeffs],
-                                              T rgb[3]) {
+RETIMEGS_HD inline void color_of_basis(int degree, const T* h, const T basis[kMaxShCoeffs],
+                                       T rgb[3]) {
   for (int c = 0; c < 3; ++c) {
     T sum = T(0.5);
     for (int k = 0; k < sh_coeffs(degree); ++k) sum += basis[k] * h[3 * k + c];
@@ -99,7 +97,7 @@ RETIMEGS_HD static inline void color_of_basis(int degree, const T* h, const T ba
 
 // sh.hpp's sh_color: the colour of h at the unnormalised direction dir.
 template <typename T>
-RETIMEGS_HD static inline void color(int degree, const T* h, const T dir[3], T rgb[3]) {
+RETIMEGS_HD inline void color(int degree, const T* h, const T dir[3], T rgb[3]) {
   T unit[3], basis[kMaxShCoeffs];
   normalize(dir, unit);
   basis_values(degree, unit, basis);
@@ -107,8 +105,8 @@ RETIMEGS_HD static inline void color(int degree, const T* h, const T dir[3], T r
 }
 
 template <typename T>
-RETIMEGS_HD static inline void color_vjp(int degree, const T* h, const T dir[3], const T v_rgb[3],
-                                         T* v_h, T v_dir[3]) {
+RETIMEGS_HD inline void color_vjp(int degree, const T* h, const T dir[3], const T v_rgb[3], T* v_h,
+                                  T v_dir[3]) {
   T unit[3], basis[kMaxShCoeffs], grad[kMaxShCoeffs][3];
   const T norm = normalize(dir, unit);
   basis_and_gradient(degree, unit, basis, grad);
