@@ -68,10 +68,10 @@ void add_export_command(CLI::App& app) {
       spdlog::info("exported {} Gaussians at t = {} to {}", n, *args->time, args->out);
       return;
     }
-    const std::vector<double> times =
+    const std::vector<double> listed =
         playback::range_times(parse_time_range(args->times, "--times"), "--times");
-    playback::export_times(m, times, args->out, args->force);
-    spdlog::info("exported {} times to {}", times.size(), args->out);
+    playback::export_times(m, listed, args->out, args->force);
+    spdlog::info("exported {} times to {}", listed.size(), args->out);
   });
 }
 

@@ -38,7 +38,8 @@ struct Fixture {
       io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
     io::write_scene_json(scene);
 
-    model = test::soft_cloud({.count = 10, .seed = 11, .spread = 0.5f, .drift = 0.2f});
+    model = test::soft_cloud(
+        {.count = 10, .seed = 11, .spread = 0.5f, .drift = 0.2f, .opacity_logit = {}});
     model::write_model(dir / "model.rgs", model);
   }
   // `retimegs render` of this model and scene from cam00 with the near plane the library uses.

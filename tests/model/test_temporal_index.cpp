@@ -167,8 +167,9 @@ TEST(TemporalIndex, LocalityOrderPutsEachFramesRowsInFewRuns) {
           frames.push_back(j);
       return frames;
     };
-    if (frames_of(old_from_new[k]) == frames_of(old_from_new[k - 1]))
+    if (frames_of(old_from_new[k]) == frames_of(old_from_new[k - 1])) {
       ASSERT_LT(old_from_new[k - 1], old_from_new[k]) << k;
+    }
   }
   EXPECT_THROW(reorder_rows(p.mu, 3, std::vector<std::int32_t>(5)), Error);
 }

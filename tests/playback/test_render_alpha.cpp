@@ -17,7 +17,8 @@ namespace {
 // A few soft primitives in the middle of a 40x30 view (the border stays empty); camera cam00 has
 // a stored colour correction.
 model::Model cloud() {
-  model::Model model = test::soft_cloud({.count = 12, .seed = 5, .spread = 0.4f, .scale = 0.12f});
+  model::Model model = test::soft_cloud(
+      {.count = 12, .seed = 5, .spread = 0.4f, .scale = 0.12f, .opacity_logit = {}});
   model.camera_colors["cam00"] = {{0.3f, -0.2f, 0.1f}, {0.05f, -0.02f, 0.03f}};
   return model;
 }
