@@ -98,6 +98,15 @@ CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
           100 * io::kNearPlaneFraction));
 }
 
+CLI::Option* add_device_option(CLI::App& cmd, std::string& device) {
+  return cmd
+      .add_option("--device", device,
+                  "where to compute: cpu, cuda (an NVIDIA GPU; needs a build with the CUDA "
+                  "backend) or auto (cuda when the build has it and a GPU is present, else cpu); "
+                  "the log names the one that ran")
+      ->default_str("cpu");
+}
+
 }  // namespace retimegs::app
 
 namespace retimegs::app {

@@ -36,6 +36,9 @@ playback::TimeRange parse_time_range(const std::string& text, const std::string&
 // the scene's own, io::scene_near_plane). Resolve it with playback::near_plane().
 CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near);
 
+// --device cpu|cuda|auto into `device` (default cpu); resolve it with cuda::resolve_device.
+CLI::Option* add_device_option(CLI::App& cmd, std::string& device);
+
 }  // namespace retimegs::app
 
 namespace retimegs::app {

@@ -1,6 +1,6 @@
 // retimegs train --scene SCENE --out RUN [--train-frames even|all] [--preset fast|default|quality]
 //                [--iters N] [--cap N] [--config FILE] [--ablate LIST] [--baseline stgs]
-//                [--seed S] [--threads T] [--window A:B] [--resume]
+//                [--seed S] [--threads T] [--device cpu|cuda|auto] [--window A:B] [--resume]
 #include <fstream>
 #include <memory>
 #include <optional>
@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/train/run.hpp"
@@ -21,6 +22,7 @@ void add_train_command(CLI::App& app) {
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
+    std::string device = "cpu";
     int threads = 0;
     bool resume = false, force = false;
   };
@@ -54,6 +56,7 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--window", args->window,
                   "A:B: train only scene frames A..B (training frames; their flows and points), "
                   "a window of a long clip for `retimegs merge`");
+  add_device_option(*cmd, args->device);
   auto* resume = cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
   cmd->add_flag("--force", args->force,
                 "start afresh over an existing run (its model, config, log and checkpoints are "
@@ -73,6 +76,7 @@ void add_train_command(CLI::App& app) {
     run.resume = args->resume;
     run.iters = args->iters;
     run.force = args->force;
+    run.device = cuda::resolve_device(args->device);
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     if (!args->window.empty()) run.window = io::parse_frame_window(args->window, "--window");
     train::TrainConfig& config = run.config;

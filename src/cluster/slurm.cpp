@@ -123,7 +123,9 @@ SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
     models += " " + quoted(run / "windows" / std::to_string(k) / "model.rgs");
   }
   const std::string bin = quoted(binary), frames = shell_quote(job.train_frames);
-  // Threads: the CPUs Slurm gave the task, all cores outside Slurm.
+  // Threads: the CPUs Slurm gave the task, all cores outside Slurm. Device: the node's GPU where
+  // the job was given one (--sbatch-arg=--gres=gpu:1; Slurm shows the task only its own), else
+  // the CPU.
   write_script(
       s.window,
       fmt::format(R"SH(#!/bin/bash
@@ -141,7 +143,7 @@ echo "window $k ($window): start $(date +%s.%N)"
 resume=()
 if [ -e "$out/config.json" ]; then resume=(--resume); fi
 {bin} train --scene {scene} --out "$out" --train-frames {frames} --window "$window" \
-  --threads "$threads"{train_args} "${{resume[@]}}"
+  --threads "$threads" --device auto{train_args} "${{resume[@]}}"
 echo "window $k ($window): end $(date +%s.%N)"
 )SH",
                   fmt::arg("run", quoted(run)), fmt::arg("windows", windows.substr(1)),

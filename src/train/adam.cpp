@@ -119,9 +119,14 @@ void Optimizers::step(model::Primitives& p, model::PrimitiveGrads& grads,
                       const std::vector<std::int32_t>& rows, double means_decay, double decay) {
   for (std::size_t k = 0; k < groups_.size(); ++k) {
     const OptimisedField& f = kOptimised[k];
-    const double rate = (f.means_decay ? base_rates_[k] * means_decay : base_rates_[k]) * decay;
-    groups_[k].adam.step_and_clear((p.*f.values).data(), (grads.*f.grads).data(), rate, &rows);
+    groups_[k].adam.step_and_clear((p.*f.values).data(), (grads.*f.grads).data(),
+                                   rate(k, means_decay, decay), &rows);
   }
+}
+
+double Optimizers::rate(std::size_t group, double means_decay, double decay) const {
+  const double base = base_rates_[group];
+  return (kOptimised[group].means_decay ? base * means_decay : base) * decay;
 }
 
 double Optimizers::means_rate(double means_decay, double decay) const {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "retimegs/core/error.hpp"
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/camera_color.hpp"
@@ -95,16 +94,12 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
 }
 
 StepStats CpuStep::step() {
-  const int nc = int(set_.cameras.size()), nf = int(set_.frames.size());
-  std::uniform_int_distribution<int> pick_camera(0, nc - 1), pick_frame(0, nf - 1);
-  const int c = pick_camera(state_.rng), i = pick_frame(state_.rng);
+  const auto [c, i] = state_.draw_view();
   return step_view(c, i);
 }
 
 StepStats CpuStep::step_view(int c, int i) {
-  if (c < 0 || c >= int(set_.cameras.size()) || i < 0 || i >= int(set_.frames.size()))
-    fail("training step: no view (camera {}, frame {}) among {} cameras x {} frames", c, i,
-         set_.cameras.size(), set_.frames.size());
+  state_.check_view(c, i);
   Stopwatch step_clock;
   const int it = ++state_.iteration;
   StepStats stats;
@@ -158,10 +153,6 @@ StepStats CpuStep::step_view(int c, int i) {
   stats.primitives = p.size();
   stats.seconds.total = step_clock.lap();
   return stats;
-}
-
-std::unique_ptr<TrainingStep> make_step(const TrainingSet& set, const TrainConfig& config) {
-  return std::make_unique<CpuStep>(set, config);
 }
 
 }  // namespace retimegs::train

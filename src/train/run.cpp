@@ -227,7 +227,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   RunFolder folder(run);
   const TrainConfig& config = folder.config;
 
-  const std::unique_ptr<TrainingStep> owned_step = make_step(set, config);
+  const std::unique_ptr<TrainingStep> owned_step = make_step(set, config, run.device);
   TrainingStep& step = *owned_step;
   if (!folder.latest.empty()) {
     step.load_checkpoint(folder.latest);
@@ -247,9 +247,9 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   folder.commit();
   spdlog::info(
       "training {} primitives (cap {}) on {} cameras x {} frames ({:.0f} MB of images), {} flow "
-      "files, {} iterations",
+      "files, {} iterations, on {}",
       step.primitive_count(), config.cap, set.cameras.size(), set.frames.size(),
-      double(set.image_bytes()) / 1e6, set.flow_files(), config.iters);
+      double(set.image_bytes()) / 1e6, set.flow_files(), config.iters, cuda::describe(run.device));
 
   TrainingLog log(folder.file("log.jsonl"));
   // The loop handles Ctrl-C itself (below): its bar must not throw.

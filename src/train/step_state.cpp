@@ -120,6 +120,19 @@ std::string StepState::final_prune() {
       pruned.size(), config_.final_prune_opacity, kept);
 }
 
+std::pair<int, int> StepState::draw_view() {
+  const int nc = int(set_.cameras.size()), nf = int(set_.frames.size());
+  std::uniform_int_distribution<int> pick_camera(0, nc - 1), pick_frame(0, nf - 1);
+  const int c = pick_camera(rng), i = pick_frame(rng);
+  return {c, i};
+}
+
+void StepState::check_view(int c, int i) const {
+  if (c < 0 || c >= int(set_.cameras.size()) || i < 0 || i >= int(set_.frames.size()))
+    fail("training step: no view (camera {}, frame {}) among {} cameras x {} frames", c, i,
+         set_.cameras.size(), set_.frames.size());
+}
+
 void StepState::save_checkpoint(const fs::path& dir) const {
   NamedAdams optimizers;
   for (const auto& [name, group] : adam) optimizers.emplace_back(name, &group);

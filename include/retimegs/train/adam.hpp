@@ -96,7 +96,8 @@ class Optimizers {
   // the optimised fields zero.
   void step(model::Primitives& primitives, model::PrimitiveGrads& grads,
             const std::vector<std::int32_t>& rows, double means_decay, double decay);
-  // The means' rate of a step with these factors.
+  // The rate of group `group` (begin() order) in a step with these factors, and the means' rate.
+  double rate(std::size_t group, double means_decay, double decay) const;
   double means_rate(double means_decay, double decay) const;
   // Every field: zero moments for `rows`; grow (zero state) or shrink to `rows` rows; rows moved.
   void reset_rows(const std::vector<std::int32_t>& rows);

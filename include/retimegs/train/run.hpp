@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -25,6 +26,9 @@ struct TrainRun {
   // schedules follow the new total from the resume point on.
   std::optional<int> iters;
   bool force = false;  // replace an existing run's outputs (not with resume)
+  // Where the steps run (cuda::resolve_device). Checkpoints are the same on both devices: a run
+  // resumes on either.
+  cuda::Device device = cuda::Device::kCpu;
   bool progress = true;
 };
 

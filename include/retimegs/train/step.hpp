@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -77,7 +78,9 @@ class TrainingStep {
   virtual void load_checkpoint(const std::filesystem::path& dir) = 0;
 };
 
-// The step of this build for `config` on `set` (which must outlive it).
-std::unique_ptr<TrainingStep> make_step(const TrainingSet& set, const TrainConfig& config);
+// The step for `config` on `set` (which must outlive it) on `device` (cuda::resolve_device; the
+// CUDA step needs a build with the CUDA backend: Error otherwise).
+std::unique_ptr<TrainingStep> make_step(const TrainingSet& set, const TrainConfig& config,
+                                        cuda::Device device = cuda::Device::kCpu);
 
 }  // namespace retimegs::train

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "retimegs/model/camera_color.hpp"
@@ -36,6 +37,11 @@ class StepState {
   // train::faint_short_rows removed at config.final_prune_opacity (not for STGS, whose windows
   // are not intervals), with their optimiser state; returns the note to log.
   std::string final_prune();
+
+  // A view (camera slot, frame slot) drawn uniformly from the generator.
+  std::pair<int, int> draw_view();
+  // Throws Error unless (c, i) is a view of the training set.
+  void check_view(int c, int i) const;
 
   void save_checkpoint(const std::filesystem::path& dir) const;
   void load_checkpoint(const std::filesystem::path& dir);

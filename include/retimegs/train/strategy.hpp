@@ -47,7 +47,18 @@ class McmcStrategy final : public DensityStrategy {
                             model::Model& model, Optimizers& optimizers,
                             std::mt19937_64& rng) override;
 
+  // after_step's parts for a step whose arrays live elsewhere (the CUDA step): the noise, with
+  // its key drawn from the generator first, runs there every step; the rest is due at some
+  // iterations only and runs here on a host copy of the model and optimisers.
+  bool reshapes_at(int iteration) const;
+  // Relocation, growth and stretching as after_step does them after its noise.
+  DensityChanges reshape(int iteration, model::Model& model, Optimizers& optimizers,
+                         std::mt19937_64& rng);
+
  private:
+  bool relocates_at(int iteration) const;
+  bool stretches_at(int iteration, model::Representation representation) const;
+
   TrainConfig config_;
   double scene_extent_;
 };

@@ -1,0 +1,320 @@
+// The CUDA training step (include/retimegs/train/cuda_step.hpp).
+#include "retimegs/train/cuda_step.hpp"
+
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <iterator>
+
+#include "retimegs/core/error.hpp"
+#include "retimegs/core/psnr.hpp"
+#include "retimegs/core/stopwatch.hpp"
+#include "retimegs/cuda/adam.hpp"
+#include "retimegs/cuda/check.hpp"
+#include "retimegs/cuda/losses.hpp"
+#include "retimegs/cuda/primitives.hpp"
+#include "retimegs/cuda/rasterize.hpp"
+#include "retimegs/cuda/slice.hpp"
+#include "retimegs/cuda/strategy.hpp"
+#include "retimegs/train/schedule.hpp"
+#include "retimegs/train/step_state.hpp"
+#include "retimegs/train/strategy.hpp"
+
+namespace retimegs::train {
+namespace {
+
+// The numbers a step reads back, one slot each per render pass (device doubles).
+enum LossSlot { kImageLoss, kForwardFlowLoss, kBackwardFlowLoss, kSquaredError, kSlotsPerPass };
+
+// A stage's wall time: the device's queue drained first, so that each stage is charged its own
+// kernels (a few microseconds per stage, against milliseconds of work).
+double lap(Stopwatch& clock) {
+  cuda::check(cudaDeviceSynchronize(), "training step");
+  return clock.lap();
+}
+
+class CudaStep final : public TrainingStep {
+ public:
+  CudaStep(const TrainingSet& set, const TrainConfig& config)
+      : set_(set), config_(config), state_(set, config), strategy_(config, set.scene_extent) {
+    images_.resize(set.images.size());
+    for (std::size_t c = 0; c < set.images.size(); ++c) {
+      images_[c].resize(set.images[c].size());
+      for (std::size_t i = 0; i < set.images[c].size(); ++i) images_[c][i].upload(set.images[c][i]);
+    }
+  }
+
+  std::string initialize() override {
+    const std::string note = state_.initialize();
+    upload();
+    return note;
+  }
+  void initialize(model::Primitives primitives) override {
+    state_.initialize(std::move(primitives));
+    upload();
+  }
+  StepStats step() override {
+    const auto [c, i] = state_.draw_view();
+    return step_view(c, i);
+  }
+  StepStats step_view(int c, int i) override;
+  std::string finish() override {
+    download();
+    const std::string note = state_.final_prune();
+    upload();
+    return note;
+  }
+
+  int iteration() const override { return state_.iteration; }
+  std::size_t primitive_count() const override { return primitives_.size(); }
+  model::Model host_model() const override {
+    download();
+    return state_.model;
+  }
+  void save_checkpoint(const std::filesystem::path& dir) const override {
+    download();
+    state_.save_checkpoint(dir);
+  }
+  void load_checkpoint(const std::filesystem::path& dir) override {
+    state_.load_checkpoint(dir);
+    upload();
+  }
+
+ private:
+  // The device copy of the host state: primitives, zero gradient, Adam moments, the index's rows.
+  void upload();
+  // The host state brought up to date from the device (primitives and Adam moments).
+  void download() const;
+  void render_pass(const RenderPass& pass, std::size_t pass_index, int c, int i, double w_flow,
+                   StepStats& stats);
+
+  const TrainingSet& set_;
+  TrainConfig config_;
+  // The host mirror: authoritative after upload() until the next step, brought back by download().
+  mutable StepState state_;
+  McmcStrategy strategy_;
+
+  cuda::DevicePrimitives primitives_;
+  cuda::DevicePrimitiveGrads grads_;    // zero between steps, as the CPU step's
+  std::vector<cuda::DeviceAdam> adam_;  // one per state_.adam group, in its order
+  // Every frame's active rows (model::TemporalIndex::rows_at) one after another; frame i's are
+  // [row_offsets_[i], row_offsets_[i + 1]).
+  cuda::DeviceBuffer<std::int32_t> rows_;
+  std::vector<std::size_t> row_offsets_;
+
+  std::vector<std::vector<cuda::DevicePackedImage>> images_;  // [camera slot][frame slot]
+  cuda::DeviceFlow forward_flow_, backward_flow_;             // the step's view's, uploaded
+  cuda::DeviceSsimTarget target_;
+  cuda::LossScratch loss_scratch_;
+  cuda::DeviceBuffer<double> losses_;  // [passes, kSlotsPerPass], and the regulariser last
+  cuda::DeviceBuffer<float> color_, v_color_, corrected_, v_image_;
+  cuda::DeviceShaded shaded_;
+  std::array<cuda::DeviceTimeSlice, 3> slices_;  // by model::Group, as the CPU step's
+  cuda::DeviceRenderOutput render_;
+  cuda::DeviceGaussianGrads v_gaussians_;
+};
+
+// The device buffers of an optimised field and its gradient, by the optimiser group's name.
+std::pair<float*, float*> field_and_gradient(cuda::DevicePrimitives& p,
+                                             cuda::DevicePrimitiveGrads& g,
+                                             const std::string& name) {
+  const std::pair<const char*, std::pair<cuda::DeviceBuffer<float>*, cuda::DeviceBuffer<float>*>>
+      fields[] = {{"mu", {&p.mu, &g.v_mu}},
+                  {"velocity", {&p.velocity, &g.v_velocity}},
+                  {"log_scale", {&p.log_scale, &g.v_log_scale}},
+                  {"q0", {&p.q0, &g.v_q0}},
+                  {"q1", {&p.q1, &g.v_q1}},
+                  {"sh", {&p.sh, &g.v_sh}},
+                  {"opacity_logit", {&p.opacity_logit, &g.v_opacity_logit}},
+                  {"mu_tau", {&p.mu_tau, &g.v_mu_tau}},
+                  {"temporal_log_scale", {&p.temporal_log_scale, &g.v_temporal_log_scale}}};
+  for (const auto& [field, buffers] : fields)
+    if (name == field) return {buffers.first->data(), buffers.second->data()};
+  fail("CUDA training step: no optimised field '{}'", name);
+}
+
+void CudaStep::upload() {
+  primitives_.upload(state_.model.primitives);
+  grads_.resize_zero(primitives_.size());
+  // Assigned into the same DeviceAdams, which keep their allocations where large enough.
+  adam_.resize(std::size_t(std::distance(state_.adam.begin(), state_.adam.end())));
+  std::size_t k = 0;
+  for (const auto& [name, adam] : state_.adam) adam_[k++].assign(adam);
+  std::vector<std::int32_t> rows;
+  row_offsets_.assign(1, 0);
+  for (int f = 0; f < state_.index.frames(); ++f) {
+    const std::vector<std::int32_t>& frame = state_.index.rows_at(f);
+    rows.insert(rows.end(), frame.begin(), frame.end());
+    row_offsets_.push_back(rows.size());
+  }
+  rows_.upload(rows);
+}
+
+void CudaStep::download() const {
+  primitives_.download(state_.model.primitives);
+  std::size_t k = 0;
+  for (auto& [name, adam] : state_.adam) adam_[k++].download(adam);
+}
+
+void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c, int i,
+                           double w_flow, StepStats& stats) {
+  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  const model::Model& m = state_.model;
+  const double t = set_.grid.at(i);
+  cuda::DeviceSliceOptions options;
+  options.group = pass.group;
+  options.compensate = pass.compensate;
+  options.flow_features = pass.flow;
+  options.rows = rows_.data() + row_offsets_[i];
+  options.row_count = row_offsets_[i + 1] - row_offsets_[i];
+  Stopwatch clock;
+  cuda::DeviceTimeSlice& slice = slices_[int(pass.group)];
+  cuda::slice(primitives_, m.config, m.grid, t, camera, options, slice, &shaded_);
+  stats.seconds.slice += lap(clock);
+  const int channels = slice.gaussians.channels;
+  render::RenderOptions render_options;
+  render_options.near_plane = set_.near_plane;
+  cuda::rasterize_forward(slice.gaussians, camera, nullptr, render_options, render_);
+  stats.seconds.render_forward += lap(clock);
+
+  const int w = camera.width, h = camera.height;
+  v_image_.resize(std::size_t(w) * h * channels);
+  v_image_.fill_bytes(0);
+  double* losses = losses_.data() + pass_index * kSlotsPerPass;
+  const float* rgb = render_.blend.image.data();
+  // What the camera would have recorded: the render through the camera's colour correction.
+  const float* seen = rgb;
+  int seen_channels = channels;
+  if (state_.camera_color()) {
+    corrected_.resize(std::size_t(w) * h * 3);
+    cuda::apply_camera_color(rgb, channels, w, h, color_.data(), corrected_.data());
+    seen = corrected_.data(), seen_channels = 3;
+  }
+  cuda::image_loss(seen, seen_channels, target_, config_.ssim_lambda, 1.0, v_image_.data(),
+                   channels, losses + kImageLoss, loss_scratch_);
+  if (state_.camera_color())
+    cuda::apply_camera_color_backward(rgb, channels, w, h, color_.data(), v_image_.data(), channels,
+                                      v_color_.data(), loss_scratch_);
+  if (pass.flow) {
+    if (set_.forward[c][i])
+      cuda::flow_loss(rgb, channels, model::kForwardFlowChannel, forward_flow_, w_flow,
+                      v_image_.data(), losses + kForwardFlowLoss, loss_scratch_);
+    if (set_.backward[c][i])
+      cuda::flow_loss(rgb, channels, model::kBackwardFlowChannel, backward_flow_, w_flow,
+                      v_image_.data(), losses + kBackwardFlowLoss, loss_scratch_);
+  }
+  if (pass.group == model::Group::kAll)
+    cuda::squared_error(seen, seen_channels, target_, losses + kSquaredError, loss_scratch_);
+  stats.seconds.losses += lap(clock);
+  cuda::rasterize_backward(slice.gaussians, camera, nullptr, render_options, render_,
+                           v_image_.data(), nullptr, nullptr, v_gaussians_);
+  stats.seconds.render_backward += lap(clock);
+  cuda::slice_backward(primitives_, m.config, m.grid, t, camera, options, slice, v_gaussians_,
+                       grads_, &shaded_);
+  stats.seconds.slice_backward += lap(clock);
+}
+
+StepStats CudaStep::step_view(int c, int i) {
+  state_.check_view(c, i);
+  Stopwatch step_clock;
+  const int it = ++state_.iteration;
+  StepStats stats;
+  stats.iteration = it;
+  model::Model& m = state_.model;
+  m.config.sh_degree = sh_degree(config_, it);
+  stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
+
+  const model::Representation representation = m.config.representation;
+  const double w_flow = flow_weight(config_, representation, it);
+  const std::vector<RenderPass> passes =
+      render_passes(config_, representation, i, int(set_.frames.size()), w_flow > 0);
+  Stopwatch clock;
+  target_.assign(images_[c][i]);
+  const bool flow =
+      std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.flow; });
+  if (flow && set_.forward[c][i]) forward_flow_.upload(*set_.forward[c][i]);
+  if (flow && set_.backward[c][i]) backward_flow_.upload(*set_.backward[c][i]);
+  const std::size_t slots = passes.size() * kSlotsPerPass + 1;
+  losses_.resize(slots);
+  losses_.fill_bytes(0);
+  if (state_.camera_color()) {
+    const model::CameraColor color = state_.color_of(c);
+    float values[kColorWidth];
+    std::copy(color.m.begin(), color.m.end(), values);
+    std::copy(color.c.begin(), color.c.end(), values + 3);
+    color_.upload(values, kColorWidth);
+    v_color_.resize(kColorWidth);
+    v_color_.fill_bytes(0);
+  }
+  stats.seconds.losses += lap(clock);  // the SSIM loss's target side and the view's inputs
+  const std::int32_t* rows = rows_.data() + row_offsets_[i];
+  const std::size_t count = row_offsets_[i + 1] - row_offsets_[i];
+  stats.active = count;
+  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  cuda::shade(primitives_, m.config, m.grid, set_.grid.at(i), camera, rows, count, shaded_);
+  stats.seconds.slice += lap(clock);
+  for (std::size_t k = 0; k < passes.size(); ++k) render_pass(passes[k], k, c, i, w_flow, stats);
+  stats.renders = int(passes.size());
+  clock.lap();
+  cuda::shade_backward(primitives_, m.config, m.grid, set_.grid.at(i), camera, rows, count, shaded_,
+                       grads_);
+  stats.seconds.slice_backward += lap(clock);
+  double* reg = losses_.data() + slots - 1;
+  cuda::regularizer(primitives_, rows, count, config_.opacity_reg, config_.scale_reg, reg,
+                    loss_scratch_);
+  cuda::regularizer_backward(primitives_, rows, count, config_.opacity_reg, config_.scale_reg,
+                             grads_);
+
+  // Optimiser step at the CPU step's rates.
+  const double decay = lr_factor(config_, it);
+  const double means = means_decay(config_, it);
+  std::size_t k = 0;
+  for (const auto& [name, adam] : state_.adam) {
+    const auto [values, gradient] = field_and_gradient(primitives_, grads_, name);
+    adam_[k].step_and_clear(values, gradient, state_.adam.rate(k, means, decay), rows, count);
+    ++k;
+  }
+  // The step's numbers, and the camera colour's gradient for its Adam step on the host.
+  const std::vector<double> sums = losses_.download();
+  if (state_.camera_color()) {
+    v_color_.download(state_.color_grad(c));
+    state_.step_camera_color(c, decay);
+  }
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const double* s = &sums[p * kSlotsPerPass];
+    stats.image_loss += s[kImageLoss];
+    stats.flow_loss += s[kForwardFlowLoss] + s[kBackwardFlowLoss];
+    if (passes[p].group == model::Group::kAll)
+      stats.psnr =
+          psnr_from_squared_error(s[kSquaredError], std::size_t(camera.width) * camera.height * 3);
+  }
+  stats.loss = stats.image_loss + w_flow * stats.flow_loss + sums[slots - 1];
+  stats.flow_weight = w_flow;
+  stats.lr_means = state_.adam.means_rate(means, decay);
+  stats.seconds.optimizer = lap(clock);
+
+  // The strategy: noise here, with its key drawn first as McmcStrategy::after_step draws it; the
+  // rare reshaping on the host.
+  cuda::inject_noise(primitives_, rows, count, stats.lr_means, state_.rng());
+  if (strategy_.reshapes_at(it)) {
+    download();
+    const DensityChanges changes = strategy_.reshape(it, m, state_.adam, state_.rng);
+    stats.relocated = changes.relocated, stats.added = changes.added;
+    stats.stretched = changes.stretched, stats.pruned = changes.pruned;
+    if (changes.relocated || changes.added || changes.stretched || changes.pruned) {
+      state_.rebuild_index();
+      upload();
+    }
+  }
+  stats.primitives = primitives_.size();
+  stats.seconds.total = lap(step_clock);
+  return stats;
+}
+
+}  // namespace
+
+std::unique_ptr<TrainingStep> make_cuda_step(const TrainingSet& set, const TrainConfig& config) {
+  return std::make_unique<CudaStep>(set, config);
+}
+
+}  // namespace retimegs::train
