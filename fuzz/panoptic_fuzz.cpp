@@ -8,7 +8,7 @@
 
 #include "fuzz_util.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace fuzz = retimegs::fuzz;
 
@@ -17,10 +17,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const auto dir = fuzz::fresh_folder("panoptic");
     for (const char* camera : {"0", "1"}) {
       std::filesystem::create_directories(dir / "ims" / camera);
-      retimegs::io::write_png(dir / "ims" / camera / "000000.png", retimegs::Image(4, 3, 3, 0.5f));
+      retimegs::media::write_png(dir / "ims" / camera / "000000.png",
+                                 retimegs::Image(4, 3, 3, 0.5f));
     }
     std::filesystem::create_directories(dir / "seg" / "0");
-    retimegs::io::write_png(dir / "seg" / "0" / "000000.png", retimegs::Image(4, 3, 1, 1.0f));
+    retimegs::media::write_png(dir / "seg" / "0" / "000000.png", retimegs::Image(4, 3, 1, 1.0f));
     return dir;
   }();
   static const auto out = fuzz::scratch() / "panoptic_scene";

@@ -1,10 +1,10 @@
-// libFuzzer harness: render --retime CSV files (io::read_retime_csv) and the times their keyframes
-// give (playback::ramp_times).
+// libFuzzer harness: render --retime CSV files (media::read_retime_csv) and the times their
+// keyframes give (playback::ramp_times).
 #include <cstddef>
 #include <cstdint>
 
 #include "fuzz_util.hpp"
-#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/media/frame_writer.hpp"
 #include "retimegs/playback/times.hpp"
 
 namespace fuzz = retimegs::fuzz;
@@ -13,6 +13,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const auto path = fuzz::scratch() / "retime.csv";
   fuzz::write_bytes(path, fuzz::as_text(data, size));
   fuzz::refuse_with_error(
-      [&] { retimegs::playback::ramp_times(retimegs::io::read_retime_csv(path)); });
+      [&] { retimegs::playback::ramp_times(retimegs::media::read_retime_csv(path)); });
   return 0;
 }

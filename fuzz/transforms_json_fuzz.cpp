@@ -7,15 +7,15 @@
 
 #include "fuzz_util.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace fuzz = retimegs::fuzz;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const auto source = [] {
     const auto dir = fuzz::fresh_folder("nerfstudio");
-    retimegs::io::write_png(dir / "a.png", retimegs::Image(4, 3, 3, 0.5f));
-    retimegs::io::write_png(dir / "b.png", retimegs::Image(4, 3, 4, 0.75f));
+    retimegs::media::write_png(dir / "a.png", retimegs::Image(4, 3, 3, 0.5f));
+    retimegs::media::write_png(dir / "b.png", retimegs::Image(4, 3, 4, 0.75f));
     return dir;
   }();
   static const auto out = fuzz::scratch() / "nerfstudio_scene";

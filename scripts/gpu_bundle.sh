@@ -11,6 +11,7 @@ packages=(
   libfmt-dev libfmt9            # fmt's headers and CMake files; the shared library core links
   libgtest-dev libgmock-dev     # static libraries; GTest's CMake files refer to gmock's too
   nlohmann-json3-dev            # header-only
+  libnanoflann-dev              # header-only (train's nearest neighbours)
 )
 
 bundle="$root/.gpu"

@@ -13,6 +13,7 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::app {
@@ -75,7 +76,7 @@ void add_eval_command(CLI::App& app) {
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
     if (!args->baseline.empty() && near->count() > 0)
       fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);
-    const io::Scene scene = io::read_scene(args->scene);
+    const io::Scene scene = media::read_scene(args->scene);
     const double near_plane = playback::near_plane(args->near, scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");

@@ -14,6 +14,7 @@
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/prepare.hpp"
 
 namespace retimegs::app {
@@ -101,7 +102,7 @@ void add_prepare_command(CLI::App& app) {
       if (needs_dir) options.points_dir = args->points[1];
     }
 
-    const io::Scene scene = io::read_scene(args->scene);
+    const io::Scene scene = media::read_scene(args->scene);
     const prepare::PrepareReport r = prepare::prepare_scene(scene, options);
 
     if (options.masks)

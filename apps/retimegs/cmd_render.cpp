@@ -13,8 +13,9 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/camera_path_json.hpp"
-#include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/frame_writer.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/playback/output_size.hpp"
 #include "retimegs/playback/shot.hpp"
 
@@ -106,7 +107,7 @@ void add_render_command(CLI::App& app) {
     inputs.push_back({args->retime, "retime file"});
     check_output_overlap(args->out, "--out", inputs);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
-    const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
+    const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
     const render::RenderOptions render_options =
         playback::near_render_options(playback::near_plane(args->near, scene));
     playback::SceneShotRequest request = args->shot;
@@ -126,14 +127,14 @@ void add_render_command(CLI::App& app) {
     const playback::Shot shot =
         path_file ? playback::camera_path_shot(*path_file, request.time, model, request.size)
                   : playback::scene_shot(request, scene, model);
-    io::FrameWriterOptions writer_options;
+    media::FrameWriterOptions writer_options;
     writer_options.fps = args->fps.value_or(shot.fps);  // a video's: the source's by default
     writer_options.alpha = args->alpha;
     writer_options.bit_depth = args->bit_depth;
     writer_options.times = shot.times;
     writer_options.force = args->force;
     const std::size_t frames = shot.times.size();
-    io::FrameWriter writer(args->out, int(frames), writer_options);
+    media::FrameWriter writer(args->out, int(frames), writer_options);
     playback::render_shot(model, shot, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });

@@ -7,7 +7,8 @@
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/eval/contact_sheet.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::app {
 
@@ -39,7 +40,7 @@ void add_sheet_command(CLI::App& app) {
         inputs.push_back({dir, "render folder", true});
     check_output_overlap(args->out, "--out", inputs);
     check_output_free(args->out, args->force);
-    const io::Scene scene = io::read_scene(args->scene, io::SceneCheck::kJson);
+    const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
     eval::SheetOptions options;
     options.tile_width = args->tile_width;
     if (!args->cameras.empty())
@@ -48,7 +49,7 @@ void add_sheet_command(CLI::App& app) {
     if (!args->renders.empty())
       for (const auto& dir : split_list(args->renders, "--renders")) options.renders.push_back(dir);
     if (!args->frames.empty()) options.frames = parse_int_list(args->frames, "--frames");
-    io::write_png(args->out, eval::contact_sheet(scene, options));
+    media::write_png(args->out, eval::contact_sheet(scene, options));
     spdlog::info("contact sheet: {}", args->out);
   });
 }

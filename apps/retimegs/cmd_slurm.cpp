@@ -16,6 +16,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::app {
 
@@ -96,7 +97,7 @@ void add_slurm_command(CLI::App& app) {
       job.train_args.insert(job.train_args.end(), {"--cap", std::to_string(*args->cap)});
     if (args->seed)
       job.train_args.insert(job.train_args.end(), {"--seed", std::to_string(*args->seed)});
-    const io::Scene scene = io::read_scene(args->scene);
+    const io::Scene scene = media::read_scene(args->scene);
     const cluster::SlurmScripts scripts = cluster::write_slurm_scripts(job, scene);
     std::string windows;
     for (const io::FrameWindow& w : scripts.windows)

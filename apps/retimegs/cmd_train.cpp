@@ -12,7 +12,8 @@
 #include "retimegs/cuda/device.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
-#include "retimegs/train/run.hpp"
+#include "retimegs/media/scene_images.hpp"
+#include "retimegs/train_run/run.hpp"
 
 namespace retimegs::app {
 
@@ -83,7 +84,7 @@ void add_train_command(CLI::App& app) {
     config = training_config(args->preset, args->config, args->iters, args->cap, args->seed);
     if (!args->baseline.empty()) config.stgs_baseline = true;
     config.ablate = train::parse_ablations(args->ablate, config.ablate, "--ablate");
-    const io::Scene scene = io::read_scene(args->scene);
+    const io::Scene scene = media::read_scene(args->scene);
     train::train(scene, run);
   });
 }

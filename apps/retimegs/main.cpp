@@ -16,7 +16,7 @@
 #include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace {
 
@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("[%H:%M:%S] %v");
   retimegs::keep_freed_memory();  // training renders allocate ~100 MB per step
   retimegs::install_interrupt_handlers();
-  retimegs::io::quiet_opencv_log();
+  retimegs::media::quiet_opencv_log();
 
   retimegs::app::add_synth_command(app);
   retimegs::app::add_import_command(app);

@@ -10,7 +10,8 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::eval {
 
@@ -113,16 +114,16 @@ Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
       row.push_back(std::move(tile));
     };
     for (int k : frames) {
-      add(io::load_image(scene, c, k), fmt::format("frame {}: ground truth", k));
+      add(media::load_image(scene, c, k), fmt::format("frame {}: ground truth", k));
       for (const auto& dir : options.renders)
-        add(io::read_image(dir / name / fmt::format("{:05d}.png", k)),
+        add(media::read_image(dir / name / fmt::format("{:05d}.png", k)),
             fmt::format("frame {}: {}", k, output_path(dir).filename().string()));
     }
     if (!options.renders.empty()) {
       rows.push_back(std::move(row));
       continue;
     }
-    if (auto mask = io::load_mask(scene, c, frames[0]))
+    if (auto mask = media::load_mask(scene, c, frames[0]))
       add(*mask, fmt::format("frame {}: mask", frames[0]));
     if (frames[0] + 1 < scene.num_frames)
       if (auto flow = io::load_flow(scene, c, frames[0], frames[0] + 1))

@@ -13,8 +13,9 @@
 #include "retimegs/eval/flow_interpolate.hpp"
 #include "retimegs/eval/lpips.hpp"
 #include "retimegs/eval/metrics.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::eval {
 namespace fs = std::filesystem;
@@ -45,8 +46,8 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     const auto [c, k] = jobs[j];
     const Image image = render(c, k);
-    const Image truth = io::load_image(scene, c, k);
-    std::optional<Image> mask = io::load_mask(scene, c, k);
+    const Image truth = media::load_image(scene, c, k);
+    std::optional<Image> mask = media::load_mask(scene, c, k);
     // A mask without foreground (nothing of interest in view) scores the whole image.
     if (mask &&
         std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
@@ -67,7 +68,7 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
       v.psnr = v.whole.psnr, v.ssim = v.whole.ssim, v.lpips = v.whole.lpips;
     }
     if (renders)
-      io::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
+      media::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
     progress.tick();
   }
   progress.finish();
@@ -169,15 +170,15 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
   auto cache = std::make_shared<PairCache>();
   return [&scene, train_frames, baseline, cache](int camera, double time) {
     const auto hi = std::lower_bound(train_frames.begin(), train_frames.end(), time);
-    if (hi == train_frames.end()) return io::load_image(scene, camera, train_frames.back());
-    if (*hi == time || hi == train_frames.begin()) return io::load_image(scene, camera, *hi);
+    if (hi == train_frames.end()) return media::load_image(scene, camera, train_frames.back());
+    if (*hi == time || hi == train_frames.begin()) return media::load_image(scene, camera, *hi);
     const int a = *(hi - 1), b = *hi;
     const double s = (time - a) / double(b - a);
-    if (baseline == Baseline::kNearest) return io::load_image(scene, camera, s <= 0.5 ? a : b);
+    if (baseline == Baseline::kNearest) return media::load_image(scene, camera, s <= 0.5 ? a : b);
     PairCache& c = *cache;
     if (c.camera != camera || c.a != a || c.b != b) {
-      c.image_a = io::load_image(scene, camera, a);
-      c.image_b = io::load_image(scene, camera, b);
+      c.image_a = media::load_image(scene, camera, a);
+      c.image_b = media::load_image(scene, camera, b);
       c.flows.reset();
       c.camera = camera, c.a = a, c.b = b;
     }

@@ -9,6 +9,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/eval/protocol.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::eval {
 namespace {
@@ -48,7 +49,7 @@ StaticPixels static_pixels(const io::Scene& scene, int camera) {
   cv::Mat moving(cam.height, cam.width, CV_8U, cv::Scalar(0));
   std::vector<Image> masks;
   for (int k = 0; k < scene.num_frames; ++k) {
-    std::optional<Image> mask = io::load_mask(scene, camera, k);
+    std::optional<Image> mask = media::load_mask(scene, camera, k);
     if (!mask) break;
     for (std::size_t i = 0; i < n; ++i)
       if (is_foreground(*mask, i)) moving.data[i] = 1;
@@ -75,9 +76,9 @@ StaticPixels static_pixels(const io::Scene& scene, int camera) {
     for (std::size_t i = 0; i < n; ++i) result.is_static[i] = moving.data[i] ? 0 : 1;
     return result;
   }
-  Image lo = io::load_image(scene, camera, 0), hi = lo;
+  Image lo = media::load_image(scene, camera, 0), hi = lo;
   for (int k = 1; k < scene.num_frames; ++k) {
-    const Image image = io::load_image(scene, camera, k);
+    const Image image = media::load_image(scene, camera, k);
     for (std::size_t i = 0; i < image.data.size(); ++i) {
       lo.data[i] = std::min(lo.data[i], image.data[i]);
       hi.data[i] = std::max(hi.data[i], image.data[i]);

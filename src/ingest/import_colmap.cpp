@@ -13,8 +13,8 @@
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -101,14 +101,14 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
         const io::ColmapImage& im = model.images[i];
         const io::ColmapCamera& source_camera = model.camera(im.camera_id);
         const fs::path file = image_dir / im.name;
-        const Image image = io::read_image(file);
+        const Image image = media::read_image(file);
         if (image.width != source_camera.width || image.height != source_camera.height)
           fail("{}: image is {}x{} but COLMAP camera {} is {}x{}", file.string(), image.width,
                image.height, im.camera_id, source_camera.width, source_camera.height);
         const Camera& cam = scene.cameras[i];
-        io::write_png(scene.image_path(int(i), 0),
-                      detail::resize_area(undistorters.at(im.camera_id)->apply(image), cam.width,
-                                          cam.height));
+        media::write_png(scene.image_path(int(i), 0),
+                         detail::resize_area(undistorters.at(im.camera_id)->apply(image), cam.width,
+                                             cam.height));
         progress.tick();
       });
   if (!model.points.empty()) io::write_points_ply(scene.points_path(0), model.point_cloud());

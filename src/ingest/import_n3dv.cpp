@@ -16,9 +16,9 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -132,8 +132,8 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
           if (frame.cols != v.width || frame.rows != v.height)
             fail("{}: frame {} is {}x{} but the video header says {}x{}", v.path.string(), k,
                  frame.cols, frame.rows, v.width, v.height);
-          io::write_png(scene.image_path(int(c), k - first),
-                        detail::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
+          media::write_png(scene.image_path(int(c), k - first),
+                           detail::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
           progress.tick();
         }
       });

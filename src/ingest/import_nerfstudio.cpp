@@ -35,9 +35,9 @@
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -76,7 +76,7 @@ io::ColmapCamera intrinsics(const json& frame, const json& root, const fs::path&
   };
   // A declared size is checked against the image (its header only) before anything is sized by
   // it: the undistortion maps are w x h.
-  const io::ImageSize size = io::read_image_size(image);
+  const media::ImageSize size = media::read_image_size(image);
   const int w = size.width, h = size.height;
   if (lookup(frame, root, "w") || lookup(frame, root, "h")) {
     const double dw = number("w", w, false), dh = number("h", h, false);
@@ -158,7 +158,7 @@ std::string camera_key(const json& frame, const fs::path& image) {
   return image.parent_path().filename().string();
 }
 
-// The alpha channel of an RGBA / grey+alpha PNG as a mask (io::read_alpha_mask), else nullopt.
+// The alpha channel of an RGBA / grey+alpha PNG as a mask (media::read_alpha_mask), else nullopt.
 // Only the PNG header is read for images without alpha.
 std::optional<Image> alpha_mask(const fs::path& path) {
   unsigned char header[26] = {};  // signature (8), IHDR length + type (8), size (8), depth, colour
@@ -166,7 +166,7 @@ std::optional<Image> alpha_mask(const fs::path& path) {
   if (!in.read(reinterpret_cast<char*>(header), sizeof header) ||
       std::memcmp(header, "\x89PNG", 4) != 0 || (header[25] != 4 && header[25] != 6))
     return std::nullopt;
-  return io::read_alpha_mask(path);
+  return media::read_alpha_mask(path);
 }
 
 bool same_intrinsics(const io::ColmapCamera& a, const io::ColmapCamera& b) {
@@ -318,21 +318,21 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
         const int c = int(j / scene.num_frames), k = int(j % scene.num_frames);
         const Entry& e = entries[grid[c][first + k]];
         const Camera& cam = scene.cameras[c];
-        const Image image = io::read_image(e.image);
+        const Image image = media::read_image(e.image);
         if (image.width != e.intrinsics.width || image.height != e.intrinsics.height)
           fail("{}: image is {}x{} but {} says {}x{}", e.image.string(), image.width, image.height,
                file, e.intrinsics.width, e.intrinsics.height);
-        io::write_png(scene.image_path(c, k),
-                      detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
+        media::write_png(scene.image_path(c, k),
+                         detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
         // mask_path, else the alpha channel of an RGBA image (Blender renders).
         const std::optional<Image> mask =
-            e.mask.empty() ? alpha_mask(e.image) : std::optional<Image>(io::read_mask(e.mask));
+            e.mask.empty() ? alpha_mask(e.image) : std::optional<Image>(media::read_mask(e.mask));
         if (mask) {
           if (mask->width != image.width || mask->height != image.height)
             fail("{}: mask is {}x{} but its image is {}x{}", e.mask.string(), mask->width,
                  mask->height, image.width, image.height);
-          io::write_png(scene.mask_path(c, k),
-                        detail::resize_area(undistorters[c]->apply(*mask), cam.width, cam.height));
+          media::write_png(scene.mask_path(c, k), detail::resize_area(undistorters[c]->apply(*mask),
+                                                                      cam.width, cam.height));
         }
         progress.tick();
       });

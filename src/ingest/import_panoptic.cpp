@@ -13,9 +13,9 @@
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -168,20 +168,20 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
   const auto import_job = [&](std::size_t i, Progress& progress) {
     const Job& job = jobs[i];
     const Camera& cam = scene.cameras[job.camera];
-    const Image image = io::read_image(job.image);
+    const Image image = media::read_image(job.image);
     if (image.width != cams[job.camera].camera.width ||
         image.height != cams[job.camera].camera.height)
       fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
            image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
-    io::write_png(scene.image_path(job.camera, job.frame),
-                  detail::resize_area(image, cam.width, cam.height));
+    media::write_png(scene.image_path(job.camera, job.frame),
+                     detail::resize_area(image, cam.width, cam.height));
     if (!job.mask.empty()) {
-      const Image mask = io::read_mask(job.mask);
+      const Image mask = media::read_mask(job.mask);
       if (mask.width != image.width || mask.height != image.height)
         fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width, mask.height,
              image.width, image.height);
-      io::write_png(scene.mask_path(job.camera, job.frame),
-                    detail::resize_area(mask, cam.width, cam.height));
+      media::write_png(scene.mask_path(job.camera, job.frame),
+                       detail::resize_area(mask, cam.width, cam.height));
     }
     progress.tick();
   };

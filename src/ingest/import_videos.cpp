@@ -15,8 +15,8 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -94,7 +94,7 @@ void probe(Footage& f) {
     const detail::VideoInfo v = detail::probe_video(f.path);
     f.width = v.width, f.height = v.height, f.frames = v.frames, f.fps = v.fps;
   } else {
-    const io::ImageSize size = io::read_image_size(f.images.front());
+    const media::ImageSize size = media::read_image_size(f.images.front());
     f.width = size.width, f.height = size.height, f.frames = int(f.images.size());
   }
 }
@@ -240,14 +240,15 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
         const Camera& cam = scene.cameras[c];
         const int source_first = scene_start + offsets[c];  // source frame of scene frame 0
         auto store = [&](const Image& image, int frame) {
-          io::write_png(scene.image_path(int(c), frame),
-                        detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
+          media::write_png(
+              scene.image_path(int(c), frame),
+              detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
           progress.tick();
         };
         if (!f.video()) {
           for (int j = 0; j < scene.num_frames; ++j) {
             const fs::path& file = f.images[source_first + j];
-            const Image image = io::read_image(file);
+            const Image image = media::read_image(file);
             if (image.width != f.width || image.height != f.height)
               fail("{}: image is {}x{} but {} (the camera's first) is {}x{}", file.string(),
                    image.width, image.height, f.images.front().filename().string(), f.width,

@@ -12,7 +12,6 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/json_file.hpp"
 
 namespace retimegs::io {
@@ -97,31 +96,6 @@ Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
   return cam;
 }
 
-void check_size(const fs::path& file, const Camera& cam, int width, int height) {
-  if (width != cam.width || height != cam.height)
-    fail("{}: camera '{}' is {}x{} but the file is {}x{}", file.string(), cam.name, cam.width,
-         cam.height, width, height);
-}
-
-void check_files(const Scene& scene) {
-  for (int c = 0; c < int(scene.cameras.size()); ++c) {
-    const Camera& cam = scene.cameras[c];
-    for (int k = 0; k < scene.num_frames; ++k) {
-      const fs::path image = scene.image_path(c, k);
-      if (!fs::exists(image))
-        fail("{}: missing image of camera '{}' frame {} (num_frames is {})", image.string(),
-             cam.name, k, scene.num_frames);
-      const ImageSize size = read_image_size(image);
-      check_size(image, cam, size.width, size.height);
-      const fs::path mask = scene.mask_path(c, k);
-      if (fs::exists(mask)) {
-        const ImageSize msize = read_image_size(mask);
-        check_size(mask, cam, msize.width, msize.height);
-      }
-    }
-  }
-}
-
 }  // namespace
 
 int Scene::camera_index(const std::string& name) const {
@@ -130,6 +104,12 @@ int Scene::camera_index(const std::string& name) const {
   std::string known;
   for (const auto& c : cameras) known += (known.empty() ? "" : ", ") + c.name;
   fail("{}: no camera named '{}' (cameras: {})", json_path().string(), name, known);
+}
+
+void check_file_size(const fs::path& file, const Camera& cam, int width, int height) {
+  if (width != cam.width || height != cam.height)
+    fail("{}: camera '{}' is {}x{} but the file is {}x{}", file.string(), cam.name, cam.width,
+         cam.height, width, height);
 }
 
 void check_camera_name(const std::string& name, const std::string& where) {
@@ -166,7 +146,7 @@ fs::path Scene::points_path(int frame) const {
   return root / "points" / fmt::format("{:05d}.ply", frame);
 }
 
-Scene read_scene(const fs::path& root, SceneCheck check) {
+Scene read_scene_json(const fs::path& root) {
   Scene scene;
   scene.root = root;
   const fs::path file = scene.json_path();
@@ -198,7 +178,6 @@ Scene read_scene(const fs::path& root, SceneCheck check) {
     if (!names.insert(scene.cameras.back().name).second)
       fail("{}: camera name '{}' appears twice", file.string(), scene.cameras.back().name);
   }
-  if (check == SceneCheck::kFiles) check_files(scene);
   return scene;
 }
 
@@ -228,27 +207,12 @@ void write_scene_json(const Scene& scene) {
   write_text_file(scene.json_path(), j.dump(2) + "\n");
 }
 
-Image load_image(const Scene& scene, int camera, int frame) {
-  const fs::path path = scene.image_path(camera, frame);
-  Image image = read_image(path);
-  check_size(path, scene.cameras.at(camera), image.width, image.height);
-  return image;
-}
-
-std::optional<Image> load_mask(const Scene& scene, int camera, int frame) {
-  const fs::path path = scene.mask_path(camera, frame);
-  if (!fs::exists(path)) return std::nullopt;
-  Image mask = read_mask(path);
-  check_size(path, scene.cameras.at(camera), mask.width, mask.height);
-  return mask;
-}
-
 std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to) {
   const fs::path path = scene.flow_path(camera, from, to);
   if (!fs::exists(path)) return std::nullopt;
   check_input_file(path, "a flow");
   Flow flow = read_flo(path);
-  check_size(path, scene.cameras.at(camera), flow.width, flow.height);
+  check_file_size(path, scene.cameras.at(camera), flow.width, flow.height);
   return flow;
 }
 

@@ -5,8 +5,8 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/interrupt.hpp"
-#include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/media/frame_writer.hpp"
 #include "retimegs/model/export.hpp"
 
 namespace retimegs::playback {
@@ -31,7 +31,7 @@ void export_times(const model::Model& model, const std::vector<double>& times,
     io::write_splat_ply(dir.temp_path() / fmt::format("{:05d}.ply", k),
                         model::export_splats(model, times[k]));
   }
-  io::write_times_csv(dir.temp_path() / "times.csv", times);
+  media::write_times_csv(dir.temp_path() / "times.csv", times);
   dir.commit();
 }
 

@@ -32,7 +32,7 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
   else if (request.slowmo)  // a static model: the scene's clip
     shot.times = slowmo_times(0, scene.num_frames - 1, *request.slowmo);
   else if (!request.retime.empty())
-    shot.times = ramp_times(io::read_retime_csv(request.retime));
+    shot.times = ramp_times(media::read_retime_csv(request.retime));
   else
     fail("render: give one of --time, --times, --slowmo or --retime");
   if (model_4d) model::check_times(*model_4d, shot.times, "render");
@@ -72,7 +72,7 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 
 namespace {
 // One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
-Image frame_for(const io::FrameWriter& writer, const LoadedModel& model, const Camera& camera,
+Image frame_for(const media::FrameWriter& writer, const LoadedModel& model, const Camera& camera,
                 double t, const float* background, const render::RenderOptions& options,
                 Colors colors) {
   if (writer.alpha()) return render_loaded_rgba(model, camera, t, options, colors);
@@ -81,7 +81,7 @@ Image frame_for(const io::FrameWriter& writer, const LoadedModel& model, const C
 }  // namespace
 
 void render_shot(const LoadedModel& model, const Shot& shot, const float* background,
-                 io::FrameWriter& writer, const render::RenderOptions& options) {
+                 media::FrameWriter& writer, const render::RenderOptions& options) {
   if (shot.per_frame && shot.cameras.size() != shot.times.size())
     fail("render: {} cameras for {} times", shot.cameras.size(), shot.times.size());
   const int frames = int(shot.times.size());

@@ -31,7 +31,7 @@ std::vector<double> slowmo_times(double first, double last, int factor) {
   return times;
 }
 
-std::vector<double> ramp_times(const std::vector<io::RetimeKey>& keys) {
+std::vector<double> ramp_times(const std::vector<media::RetimeKey>& keys) {
   std::vector<double> times;
   if (keys.empty()) return times;
   auto it = keys.begin();

@@ -11,6 +11,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/points.hpp"
 
 namespace retimegs::prepare {
@@ -187,7 +188,7 @@ io::PointCloud visual_hull(const io::Scene& scene, const std::vector<int>& camer
   std::vector<View> views(cameras.size());
   parallel_for(cameras.size(), [&](std::size_t v) {
     const int c = cameras[v];
-    const std::optional<Image> mask = io::load_mask(scene, c, frame);
+    const std::optional<Image> mask = media::load_mask(scene, c, frame);
     if (!mask)
       fail("{}: no mask; the visual hull needs the masks of every training camera",
            scene.mask_path(c, frame).string());
@@ -197,7 +198,7 @@ io::PointCloud visual_hull(const io::Scene& scene, const std::vector<int>& camer
         background.at<unsigned char>(y, x) = mask->at(y, x) > 0.5f ? 0 : 255;
     views[v].camera = &scene.cameras[c];
     cv::distanceTransform(background, views[v].distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    views[v].image = io::load_image(scene, c, frame);
+    views[v].image = media::load_image(scene, c, frame);
   });
   const CarveRule rule{std::max(2, (int(views.size()) + 1) / 2), std::max(0, options.slack)};
 

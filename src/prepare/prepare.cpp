@@ -14,7 +14,8 @@
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::prepare {
 
@@ -152,14 +153,14 @@ void write_masks(const io::Scene& scene, const std::vector<int>& train_frames,
   parallel_for(cameras.size(), [&](std::size_t i) {
     const int c = cameras[i];
     std::vector<Image> clip;
-    for (int k = 0; k < scene.num_frames; ++k) clip.push_back(io::load_image(scene, c, k));
+    for (int k = 0; k < scene.num_frames; ++k) clip.push_back(media::load_image(scene, c, k));
     const std::vector<Image> masks = background_masks(clip, learn, mask_options);
     std::size_t written = 0;
     double share = 0;
     for (int k = 0; k < scene.num_frames; ++k) {
       const fs::path path = scene.mask_path(c, k);
       if (!options.force && fs::exists(path)) continue;
-      io::write_png(path, masks[k]);
+      media::write_png(path, masks[k]);
       share +=
           std::count(masks[k].data.begin(), masks[k].data.end(), 1.0f) / double(masks[k].pixels());
       ++written;
@@ -274,8 +275,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
         if (job.write_backward)
           copy_atomic(import_path(dir, scene, job.camera, job.to, job.from), backward);
       } else {
-        const FlowPair pair = estimate_flow_pair(io::load_image(scene, job.camera, job.from),
-                                                 io::load_image(scene, job.camera, job.to),
+        const FlowPair pair = estimate_flow_pair(media::load_image(scene, job.camera, job.from),
+                                                 media::load_image(scene, job.camera, job.to),
                                                  options.flow_method, options.consistency);
         std::size_t marked = 0;
         if (job.write_forward) io::write_flo(forward, pair.forward);

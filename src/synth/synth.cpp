@@ -10,9 +10,9 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "synth_world.hpp"
 
 namespace retimegs::synth {
@@ -256,8 +256,8 @@ void synthesize_scene(const SynthOptions& options, const std::filesystem::path& 
     const Rays rays(scene.cameras[c]);
     for (int k = 0; k < frames; ++k) {
       const View view = render_view(world, posed[k], rays, options.supersample);
-      io::write_png(scene.image_path(c, k), view.image);
-      io::write_png(scene.mask_path(c, k), view.mask);
+      media::write_png(scene.image_path(c, k), view.image);
+      media::write_png(scene.mask_path(c, k), view.mask);
       for (int stride : kStrides) {
         const int to = k + stride;
         if (to < 0 || to >= frames) continue;

@@ -147,6 +147,8 @@ void CudaStep::upload() {
     rows.insert(rows.end(), frame.begin(), frame.end());
     row_offsets_.push_back(rows.size());
   }
+  // A frame's list is never a null pointer, which the kernels read as "every row".
+  if (rows.empty()) rows.push_back(0);
   rows_.upload(rows);
 }
 

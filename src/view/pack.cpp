@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/playback/render_model.hpp"
 
@@ -213,7 +214,7 @@ Packed pack_for_web(const std::filesystem::path& model_path,
   std::optional<io::Scene> scene;
   PackScene pack_scene;
   if (!scene_path.empty()) {
-    scene = io::read_scene(scene_path, io::SceneCheck::kJson);
+    scene = media::read_scene(scene_path, media::SceneCheck::kJson);
     pack_scene.scene = &*scene;
     pack_scene.near_plane = playback::near_plane(near, *scene);
   } else if (near) {

@@ -13,8 +13,8 @@
 #include <opencv2/videoio.hpp>
 
 #include "moving_model_scene.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "test_util.hpp"
 
@@ -97,8 +97,8 @@ TEST(CameraPathCli, APathAtSceneCamerasRendersWhatThoseCamerasRender) {
     const fs::path single = dir / ("single" + std::to_string(i) + ".png");
     run_ok(f.base + " --camera " + expected[i][0] + " --time " + expected[i][1] + " --out " +
            single.string());
-    frames.push_back(io::read_image(dir / "frames" / fmt::format("{:05d}.png", i)));
-    const Image reference = io::read_image(single);
+    frames.push_back(media::read_image(dir / "frames" / fmt::format("{:05d}.png", i)));
+    const Image reference = media::read_image(single);
     ASSERT_EQ(frames[i].width, 64);
     ASSERT_EQ(frames[i].height, 48);
     EXPECT_LE(max_abs_diff(frames[i], reference), 1.0 / 255 + 1e-6) << i;
@@ -122,7 +122,7 @@ TEST(CameraPathCli, FixedTimeTakesTheFilesSizeAndFrameRate) {
   const std::string path = " --camera-path " + (dir / "path.json").string();
   run_ok(f.base + path + " --time 3.5 --out " + (dir / "frames").string());
   for (int i = 0; i < 3; ++i) {
-    const Image image = io::read_image(dir / "frames" / fmt::format("{:05d}.png", i));
+    const Image image = media::read_image(dir / "frames" / fmt::format("{:05d}.png", i));
     EXPECT_EQ(image.width, 80);
     EXPECT_EQ(image.height, 40);
   }
@@ -167,7 +167,7 @@ TEST(CameraPathCli, BadFilesExitTwoWithOneLine) {
   }
   // --camera-path is a camera choice and a time choice of its own.
   test::write_text(dir / "ok.json", path_file({cam0}, {0.5}, 64, 48, 24).dump());
-  for (const std::string& other : {" --camera cam00", " --slowmo 2", " --times 0:1:1"}) {
+  for (const std::string other : {" --camera cam00", " --slowmo 2", " --times 0:1:1"}) {
     const auto r = test::run_cli(f.base + " --camera-path " + (dir / "ok.json").string() + other +
                                  " --out " + (dir / "out").string());
     EXPECT_EQ(r.status, 2) << other;

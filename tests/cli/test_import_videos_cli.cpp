@@ -6,8 +6,9 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs {
@@ -33,7 +34,7 @@ void make_capture(const fs::path& dir, const std::string& cam01_extra = "") {
       Image image(cam.width, cam.height, 3);
       for (std::size_t i = 0; i < image.data.size(); ++i)
         image.data[i] = float((i * 7 + 40 * k + 90 * c) % 256) / 255;
-      io::write_png(dir / "src" / cam.name / fmt::format("frame{:03d}.png", k), image);
+      media::write_png(dir / "src" / cam.name / fmt::format("frame{:03d}.png", k), image);
     }
   }
   test::write_text(dir / "rig.yaml", rig);
@@ -59,12 +60,12 @@ TEST(ImportVideosCli, ImportsImageFoldersWithARigFile) {
                                 " --test-cameras cam01 --offsets cam00:1 --fps 24",
                             dir.path());
   ASSERT_EQ(r.status, 0) << r.err;
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), 2u);
   EXPECT_EQ(scene.num_frames, 2);  // cam00 from its frame 1: frames 1, 2 of cam00, 0, 1 of cam01
   EXPECT_EQ(scene.fps, 24.0);
   EXPECT_EQ(scene.cameras[1].split, Split::kTest);
-  const Image first = io::load_image(scene, 0, 0);
+  const Image first = media::load_image(scene, 0, 0);
   EXPECT_NEAR(first.data[0], 40.0f / 255, 1e-6);  // cam00's source frame 1
   EXPECT_NE(r.err.find("import videos: 2 cameras (1 test) x 2 frames at 24 fps"), std::string::npos)
       << r.err;

@@ -9,10 +9,10 @@
 
 #include "moving_model_scene.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/playback/render_model.hpp"
@@ -80,18 +80,18 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
   run(base + " --camera cam01 --time 2.5 --out " + (dir / "one.png").string());
   const float black[3] = {0, 0, 0};
   const Image lib = playback::render_model(f.model, f.scene.cameras[1], 2.5, black);
-  EXPECT_LT(mean_abs_diff(io::read_image(dir / "one.png"), lib), 1.0 / 255);
+  EXPECT_LT(mean_abs_diff(media::read_image(dir / "one.png"), lib), 1.0 / 255);
   // 4x slow motion over 9 frames: 8 * 4 + 1 frames; consecutive frames differ (motion).
   run(base + " --camera cam00 --slowmo 4 --out " + (dir / "slow").string());
   int count = 0;
   for (const auto& e : fs::directory_iterator(dir / "slow"))
     count += e.path().extension() == ".png";
   EXPECT_EQ(count, 33);
-  EXPECT_GT(mean_abs_diff(io::read_image(dir / "slow" / "00005.png"),
-                          io::read_image(dir / "slow" / "00006.png")),
+  EXPECT_GT(mean_abs_diff(media::read_image(dir / "slow" / "00005.png"),
+                          media::read_image(dir / "slow" / "00006.png")),
             1e-3);
   // Frame 10 of the 4x slow motion is t = 2.5 from cam00.
-  EXPECT_LT(mean_abs_diff(io::read_image(dir / "slow" / "00010.png"),
+  EXPECT_LT(mean_abs_diff(media::read_image(dir / "slow" / "00010.png"),
                           playback::render_model(f.model, f.scene.cameras[0], 2.5, black)),
             1.0 / 255);
   // A speed ramp: keyframes (0, 0), (4, 1), (6, 5) -> times 0, .25, .5, .75, 1, 3, 5.
@@ -100,16 +100,16 @@ TEST(ModelCli, SlowMotionRampsBulletTimeAndVideo) {
       (dir / "ramp").string());
   EXPECT_TRUE(fs::exists(dir / "ramp" / "00006.png"));
   EXPECT_FALSE(fs::exists(dir / "ramp" / "00007.png"));
-  EXPECT_LT(mean_abs_diff(io::read_image(dir / "ramp" / "00005.png"),
+  EXPECT_LT(mean_abs_diff(media::read_image(dir / "ramp" / "00005.png"),
                           playback::render_model(f.model, f.scene.cameras[0], 3.0, black)),
             1.0 / 255);
   // Bullet time: fixed time, the camera moves from cam00 to cam01.
   run(base + " --path cam00,cam01 --time 3 --path-frames 5 --out " + (dir / "bullet").string());
-  EXPECT_LT(mean_abs_diff(io::read_image(dir / "bullet" / "00004.png"),
+  EXPECT_LT(mean_abs_diff(media::read_image(dir / "bullet" / "00004.png"),
                           playback::render_model(f.model, f.scene.cameras[1], 3.0, black)),
             1.0 / 255);
-  EXPECT_GT(mean_abs_diff(io::read_image(dir / "bullet" / "00000.png"),
-                          io::read_image(dir / "bullet" / "00004.png")),
+  EXPECT_GT(mean_abs_diff(media::read_image(dir / "bullet" / "00000.png"),
+                          media::read_image(dir / "bullet" / "00004.png")),
             1e-3);
   // Video at the scene's fps.
   run(base + " --camera cam00 --times 0:8:0.5 --out " + (dir / "clip.mp4").string());

@@ -12,9 +12,9 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/playback/render_model.hpp"
@@ -40,7 +40,7 @@ struct Fixture {
     if (rig_radius > 0) scene.cameras.push_back(test::small_camera("cam01", {0, 0, rig_radius}));
     for (int c = 0; c < int(scene.cameras.size()); ++c)
       for (int k = 0; k < scene.num_frames; ++k)
-        io::write_png(scene.image_path(c, k), Image(64, 48, 3, 0.5f));
+        media::write_png(scene.image_path(c, k), Image(64, 48, 3, 0.5f));
     io::write_scene_json(scene);
 
     model.grid = {0.0, 2.0, 2};
@@ -88,8 +88,8 @@ TEST(NearCli, AGaussianInFrontOfTheCameraCoversTheImageUnlessBeyondTheNearPlane)
     const auto r = test::run_cli(base + (dir / out).string() + near);
     ASSERT_EQ(r.status, 0) << r.err;
   }
-  EXPECT_GT(min_max(io::read_image(dir / "default.png")).first, 0.5f);
-  EXPECT_EQ(min_max(io::read_image(dir / "near.png")).second, 0.0f);
+  EXPECT_GT(min_max(media::read_image(dir / "default.png")).first, 0.5f);
+  EXPECT_EQ(min_max(media::read_image(dir / "near.png")).second, 0.0f);
 }
 
 // By default the near plane is kNearPlaneFraction of the extent of the training cameras: 9 % of
@@ -112,9 +112,9 @@ TEST(NearCli, TheDefaultNearPlaneIsTheScenes) {
         f->scene.root.string() + " --camera cam00 --time 1 --out " + out.string());
     ASSERT_EQ(r.status, 0) << r.err;
     if (f == &lone)
-      EXPECT_GT(min_max(io::read_image(out)).first, 0.5f);
+      EXPECT_GT(min_max(media::read_image(out)).first, 0.5f);
     else
-      EXPECT_EQ(min_max(io::read_image(out)).second, 0.0f);
+      EXPECT_EQ(min_max(media::read_image(out)).second, 0.0f);
   }
 }
 

@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/sh.hpp"
 #include "test_util.hpp"
@@ -27,7 +27,7 @@ struct Fixture {
     const Camera cam = test::small_camera("cam00", {0, 0, -4.0});
     scene.cameras.push_back(cam);
     for (int k = 0; k < scene.num_frames; ++k)
-      io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
+      media::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
     io::write_scene_json(scene);
     model::Model model;
     model.grid = {0.0, 2.0, 2};

@@ -6,10 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/render/rasterize.hpp"
@@ -75,7 +75,7 @@ TEST(RenderCli, StaticPlyMatchesLibraryRender) {
                                (dir / "scene").string() + " --camera garden --time 0 --out " +
                                (dir / "out.png").string() + " --background 1,1,1");
   ASSERT_EQ(r.status, 0) << r.err;
-  const Image cli = io::read_image(dir / "out.png");
+  const Image cli = media::read_image(dir / "out.png");
   const Camera& cam = f.scene.cameras[0];
   const float background[3] = {1, 1, 1};
   const auto lib =

@@ -12,8 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "soft_cloud.hpp"
@@ -35,7 +35,7 @@ struct Fixture {
     scene.fps = 24;
     scene.cameras.push_back(test::small_camera("cam00", {0, 0, -4.0}));
     for (int k = 0; k < scene.num_frames; ++k)
-      io::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
+      media::write_png(scene.image_path(0, k), Image(64, 48, 3, 0.5f));
     io::write_scene_json(scene);
 
     model = test::soft_cloud(
@@ -70,7 +70,8 @@ TEST(RenderOutputsCli, SizeAndScaleRenderAtTheNewSize) {
   const std::string at = " --time 1 --out ";
   ASSERT_EQ(f.render("--size 32x24" + at + (dir / "size.png").string()).status, 0);
   ASSERT_EQ(f.render("--scale 0.5" + at + (dir / "scale.png").string()).status, 0);
-  const Image size = io::read_image(dir / "size.png"), scale = io::read_image(dir / "scale.png");
+  const Image size = media::read_image(dir / "size.png"),
+              scale = media::read_image(dir / "scale.png");
   ASSERT_EQ(size.width, 32);
   ASSERT_EQ(size.height, 24);
   EXPECT_EQ(size.data, scale.data);
@@ -89,7 +90,7 @@ TEST(RenderOutputsCli, AlphaWritesStraightRgbaThatCompositesToTheRender) {
   ASSERT_EQ(f.render(at + (dir / "rgb.png").string()).status, 0);
   const cv::Mat rgba = cv::imread((dir / "rgba.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(rgba.type(), CV_8UC4);
-  const Image rgb = io::read_image(dir / "rgb.png");
+  const Image rgb = media::read_image(dir / "rgb.png");
   const Image lib = playback::render_loaded_rgba(f.model, f.scene.cameras[0], 1.0, near_001());
   int empty = 0, partial = 0;
   for (int y = 0; y < rgba.rows; ++y)

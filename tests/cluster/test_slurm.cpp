@@ -11,6 +11,7 @@
 
 #include "retimegs/cluster/slurm.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/synth/synth.hpp"
 #include "test_util.hpp"
@@ -71,7 +72,7 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   job.windows = 2;
   job.train_args = {"--iters", "77"};
   job.sbatch_args = {"--partition=gpu", "--time=1:00:00"};
-  const SlurmScripts s = write_slurm_scripts(job, io::read_scene(scene_dir));
+  const SlurmScripts s = write_slurm_scripts(job, media::read_scene(scene_dir));
   ASSERT_EQ(s.windows.size(), 2u);
   EXPECT_EQ(s.windows[0].last, 4);
   for (const fs::path& p : {s.window, s.train, s.merge, s.local}) {
@@ -94,20 +95,20 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
     EXPECT_NE(text.find("#SBATCH --time=1:00:00\n"), std::string::npos) << text;
   }
   const std::string run = (dir / "run").string();
-  const std::string merge_line = "/opt/x/retimegs merge --force --out " + run + "/model.rgs " + run +
-                                 "/windows/0/model.rgs " + run + "/windows/1/model.rgs";
+  const std::string merge_line = "/opt/x/retimegs merge --force --out " + run + "/model.rgs " +
+                                 run + "/windows/0/model.rgs " + run + "/windows/1/model.rgs";
   EXPECT_NE(merge.find(merge_line), std::string::npos) << merge;
   EXPECT_NE(local.find(merge_line), std::string::npos) << local;
   // Written again: the same scripts are kept (a resubmission), other settings need --force.
-  EXPECT_NO_THROW(write_slurm_scripts(job, io::read_scene(scene_dir)));
+  EXPECT_NO_THROW(write_slurm_scripts(job, media::read_scene(scene_dir)));
   job.train_args = {"--iters", "78"};
-  test::expect_error([&] { write_slurm_scripts(job, io::read_scene(scene_dir)); },
+  test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene_dir)); },
                      {"window.sh", "--force"});
   job.force = true;
-  write_slurm_scripts(job, io::read_scene(scene_dir));
+  write_slurm_scripts(job, media::read_scene(scene_dir));
   EXPECT_NE(test::read_text(s.window).find("--iters 78"), std::string::npos);
   job.sbatch_args = {"partition=gpu"};
-  test::expect_error([&] { write_slurm_scripts(job, io::read_scene(scene_dir)); },
+  test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene_dir)); },
                      {"--sbatch-arg 'partition=gpu'"});
 }
 

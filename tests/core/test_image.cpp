@@ -9,7 +9,7 @@
 namespace retimegs {
 namespace {
 
-// The values io::read_image gives (OpenCV's convertTo: code × (1 / 255) or × (1 / 65535) in
+// The values media::read_image gives (OpenCV's convertTo: code × (1 / 255) or × (1 / 65535) in
 // double, rounded to float) survive packing exactly, for every 8-bit and 16-bit code.
 TEST(PackedImage, EveryEightAndSixteenBitValueRoundTripsExactly) {
   Image eight(256, 1, 1), sixteen(65536, 1, 1);

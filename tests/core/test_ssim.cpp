@@ -124,7 +124,7 @@ TEST(Ssim, BackwardMatchesFiniteDifferences) {
 TEST(Ssim, PreparedTargetAddsTheSameGradient) {
   const int threads_before = max_threads();
   for (const int threads : {1, 2})
-    for (const auto [channels, wide_channels] :
+    for (const auto& [channels, wide_channels] :
          {std::pair{3, 5}, std::pair{3, 3}, std::pair{1, 2}}) {
       set_threads(threads);
       const auto [b, unused] = random_pair(150, 130, channels, 5);

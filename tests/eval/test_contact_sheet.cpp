@@ -4,8 +4,9 @@
 
 #include "io/small_scene.hpp"
 #include "retimegs/eval/contact_sheet.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -19,7 +20,7 @@ TEST(ContactSheet, RendersFollowTheirGroundTruth) {
   const fs::path renders = dir / "renders";
   Image red(12, 8, 3);
   for (std::size_t p = 0; p < red.pixels(); ++p) red.data[3 * p] = 1;
-  io::write_png(renders / "7" / "00001.png", red);
+  media::write_png(renders / "7" / "00001.png", red);
   SheetOptions options;
   options.cameras = {1};
   options.frames = {1};
@@ -30,7 +31,7 @@ TEST(ContactSheet, RendersFollowTheirGroundTruth) {
   const Image sheet = contact_sheet(scene, options);
   EXPECT_EQ(sheet.width, 2 + 2 * (12 + 2));  // ground truth, render; no mask / flow column
   EXPECT_EQ(sheet.height, 2 + 8 + 2);
-  const Image truth = io::load_image(scene, 1, 1);
+  const Image truth = media::load_image(scene, 1, 1);
   for (int c = 0; c < 3; ++c) {
     EXPECT_NEAR(sheet.at(2 + 3, 2 + 5, c), truth.at(3, 5, c), 1e-6);
     EXPECT_NEAR(sheet.at(2 + 3, 16 + 5, c), c == 0 ? 1.0f : 0.0f, 1e-6);

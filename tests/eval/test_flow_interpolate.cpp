@@ -7,7 +7,8 @@
 #include "retimegs/eval/flow_interpolate.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -63,8 +64,9 @@ TEST(FlowInterpolate, KnownTranslationWithEstimatedFlow) {
 TEST(FlowInterpolate, BeatsTheAverageOnMiddleburyUrban) {
   RETIMEGS_REQUIRE_DATA("flow/middlebury-urban");
   const auto dir = test::shared_data() / "flow" / "middlebury-urban";
-  const Image a = io::read_image(dir / "frame10.png"), b = io::read_image(dir / "frame11.png");
-  const Image truth = io::read_image(dir / "frame10i11.png");
+  const Image a = media::read_image(dir / "frame10.png"),
+              b = media::read_image(dir / "frame11.png");
+  const Image truth = media::read_image(dir / "frame10i11.png");
   EXPECT_NEAR(psnr(crossfade(a, b, 0.5), truth), 27.33, 0.05);
   const double ours = psnr(interpolate_flow(a, b, prepare::estimate_flow_pair(a, b), 0.5), truth);
   EXPECT_GT(ours, 32.0) << ours;  // 33.46 dB with OpenCV 4.6 DIS
@@ -138,20 +140,20 @@ TEST(FlowInterpolate, BaselineUsesTheScenesFlowFiles) {
   cam.fx = cam.fy = 40, cam.cx = Occlusion::kW / 2.0, cam.cy = Occlusion::kH / 2.0;
   scene.cameras.push_back(cam);
   for (int k = 0; k < 3; ++k)
-    io::write_png(scene.image_path(0, k), Occlusion::frame(k * Occlusion::kMove / 2));
+    media::write_png(scene.image_path(0, k), Occlusion::frame(k * Occlusion::kMove / 2));
   io::write_flo(scene.flow_path(0, 0, 2), Occlusion::flow(0, Occlusion::kMove));
   io::write_flo(scene.flow_path(0, 2, 0), Occlusion::flow(Occlusion::kMove, -Occlusion::kMove));
   io::write_scene_json(scene);
-  scene = io::read_scene(scene.root);
+  scene = media::read_scene(scene.root);
 
   const FrameRenderer flow = baseline_renderer(scene, {0, 2}, Baseline::kFlow);
   const FrameRenderer fade = baseline_renderer(scene, {0, 2}, Baseline::kCrossfade);
-  const Image truth = io::load_image(scene, 0, 1);
+  const Image truth = media::load_image(scene, 0, 1);
   // 8-bit rounding of the frames is all that is left.
   EXPECT_GT(psnr(flow(0, 1.0), truth), 50.0);
   EXPECT_LT(psnr(fade(0, 1.0), truth), 25.0);
-  EXPECT_EQ(flow(0, 2.0).data, io::load_image(scene, 0, 2).data);
-  EXPECT_EQ(flow(0, 5.0).data, io::load_image(scene, 0, 2).data);  // past the end: last frame
+  EXPECT_EQ(flow(0, 2.0).data, media::load_image(scene, 0, 2).data);
+  EXPECT_EQ(flow(0, 5.0).data, media::load_image(scene, 0, 2).data);  // past the end: last frame
   EXPECT_EQ(parse_baseline("flow", "--baseline"), Baseline::kFlow);
   EXPECT_THROW(parse_baseline("warp", "--baseline"), Error);
 }

@@ -8,8 +8,8 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/eval/lpips.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/npy.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -37,7 +37,7 @@ const Lpips& reference_lpips() {
 }
 
 Image read(const char* name) {
-  return io::read_image(data_dir() / name);
+  return media::read_image(data_dir() / name);
 }
 
 using test::message_of;

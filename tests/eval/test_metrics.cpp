@@ -10,7 +10,7 @@
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/ssim.hpp"
 #include "retimegs/eval/metrics.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -60,7 +60,7 @@ TEST(Metrics, PsnrAndSsimMatchScikitImageReferences) {
   RETIMEGS_REQUIRE_DATA("metrics/ssim_psnr");
   const auto dir = test::shared_data() / "metrics/ssim_psnr";
   for (const Reference& r : kReferences) {
-    const Image a = io::read_image(dir / r.a), b = io::read_image(dir / r.b);
+    const Image a = media::read_image(dir / r.a), b = media::read_image(dir / r.b);
     EXPECT_NEAR(psnr(a, b), r.psnr, kPsnrRelative * r.psnr) << r.a;
     EXPECT_NEAR(psnr(b, a), r.psnr, kPsnrRelative * r.psnr) << r.a;
     EXPECT_NEAR(ssim_in_box(a, b), r.ssim_3dgs, 1e-6) << r.a;

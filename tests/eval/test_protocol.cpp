@@ -5,7 +5,8 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -26,17 +27,17 @@ io::Scene ramp_scene(const std::filesystem::path& root) {
     scene.cameras.push_back(cam);
     for (int k = 0; k < 5; ++k) {
       Image image(32, 32, 3, 0.2f + 0.1f * k);
-      io::write_png(scene.image_path(c, k), image);
+      media::write_png(scene.image_path(c, k), image);
       if (c == 0) {
         Image mask(32, 32, 1, 0.0f);
         for (int y = 0; y < 32; ++y)
           for (int x = 0; x < 16; ++x) mask.at(y, x) = 1;
-        io::write_png(scene.mask_path(c, k), mask);
+        media::write_png(scene.mask_path(c, k), mask);
       }
     }
   }
   io::write_scene_json(scene);
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 TEST(Protocol, BaselinesOnALinearRamp) {
@@ -61,7 +62,7 @@ TEST(Protocol, BaselinesOnALinearRamp) {
   // So is the flow baseline (flat images: zero flow), at in-between and training times alike.
   const FrameRenderer flow = baseline_renderer(scene, {0, 2, 4}, Baseline::kFlow);
   EXPECT_GT(evaluate_views(scene, flow, options).psnr, 45.0);
-  EXPECT_EQ(flow(1, 2.0).data, io::load_image(scene, 1, 2).data);
+  EXPECT_EQ(flow(1, 2.0).data, media::load_image(scene, 1, 2).data);
   const auto j = nlohmann::json::parse(to_json(nearest));
   for (const char* key : {"psnr", "ssim", "lpips", "masked", "near", "frames", "per_view"})
     EXPECT_TRUE(j.contains(key)) << key;
@@ -83,7 +84,7 @@ TEST(Protocol, MaskedAndWholeImageSideBySide) {
   options.cameras = {0, 1};
   options.progress = false;
   const FrameRenderer off = [&scene](int camera, double time) {
-    Image image = io::load_image(scene, camera, int(time));
+    Image image = media::load_image(scene, camera, int(time));
     for (int y = 0; y < image.height; ++y)
       for (int x = 0; x < image.width; ++x)
         for (int c = 0; c < 3; ++c) image.at(y, x, c) += x < 16 ? 0.01f : 0.1f;

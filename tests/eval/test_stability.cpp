@@ -5,7 +5,8 @@
 
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::eval {
@@ -53,12 +54,12 @@ io::Scene square_scene(const std::filesystem::path& root) {
         image.at(30, 30, 1) = (100 + (k == 4)) / 255.0f;
         image.at(30, 32, 1) = (100 + 2 * (k == 4)) / 255.0f;
       }
-      io::write_png(scene.image_path(c, k), image);
-      if (c == 0) io::write_png(scene.mask_path(c, k), mask);
+      media::write_png(scene.image_path(c, k), image);
+      if (c == 0) media::write_png(scene.mask_path(c, k), mask);
     }
   }
   io::write_scene_json(scene);
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 TEST(Stability, StaticPixelsFromMasksOrValues) {
@@ -96,12 +97,12 @@ TEST(Stability, TheMasksPathsAlongTheFlowsAreNotStatic) {
     for (int y = 0; y < kSize; ++y)
       for (int x = 0; x < kSize; ++x)
         if (inside(x, y, k)) mask.at(y, x) = 1, image.at(y, x, 0) = 1;
-    io::write_png(scene.image_path(0, k), image);
-    io::write_png(scene.mask_path(0, k), mask);
+    media::write_png(scene.image_path(0, k), image);
+    media::write_png(scene.mask_path(0, k), mask);
   }
   io::write_scene_json(scene);
   const auto at = [](const StaticPixels& s, int x, int y) { return s.is_static[y * kSize + x]; };
-  const StaticPixels masks_only = static_pixels(io::read_scene(scene.root), 0);
+  const StaticPixels masks_only = static_pixels(media::read_scene(scene.root), 0);
   EXPECT_FALSE(masks_only.swept);
   EXPECT_EQ(at(masks_only, 7, 11), 1);  // in the gap between frames 0 and 1
   for (int k = 0; k < 3; ++k) {
@@ -111,7 +112,7 @@ TEST(Stability, TheMasksPathsAlongTheFlowsAreNotStatic) {
         if (inside(x, y, k)) flow.uv[2 * (y * kSize + x)] = 8;
     io::write_flo(scene.flow_path(0, k, k + 1), flow);
   }
-  const StaticPixels swept = static_pixels(io::read_scene(scene.root), 0);
+  const StaticPixels swept = static_pixels(media::read_scene(scene.root), 0);
   EXPECT_TRUE(swept.swept);
   for (const int x : {7, 15, 23}) EXPECT_EQ(at(swept, x, 11), 0) << x;  // the gaps
   EXPECT_EQ(at(swept, 7, 8), 1);    // two pixels above the path: static

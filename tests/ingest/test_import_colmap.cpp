@@ -7,8 +7,9 @@
 
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::ingest {
@@ -150,7 +151,7 @@ void make_project(const fs::path& dir, const io::ColmapModel& m, bool binary) {
     const io::ColmapCamera& cam = m.camera(im.camera_id);
     Image image(cam.width, cam.height, 3);
     for (std::size_t i = 0; i < image.data.size(); ++i) image.data[i] = float((i * 37) % 101) / 100;
-    io::write_png(dir / "images" / im.name, image);
+    media::write_png(dir / "images" / im.name, image);
   }
 }
 
@@ -163,7 +164,7 @@ TEST(ColmapImport, PinholeCamerasPosesAndPoints) {
     ImportOptions options;
     options.progress = false;
     import_colmap(dir / "src", dir / "scene", options);
-    const io::Scene scene = io::read_scene(dir / "scene");
+    const io::Scene scene = media::read_scene(dir / "scene");
     EXPECT_EQ(scene.num_frames, 1);
     ASSERT_EQ(scene.cameras.size(), 2u);
     EXPECT_EQ(scene.cameras[0].name, "a");
@@ -179,8 +180,8 @@ TEST(ColmapImport, PinholeCamerasPosesAndPoints) {
     EXPECT_FLOAT_EQ(points->xyz[3], -1.0f);
     EXPECT_NEAR(points->rgb[4], 128 / 255.0, 1e-6);
     // Pinhole images are copied unchanged.
-    const Image src = io::read_image(dir / "src" / "images" / "left" / "b.png");
-    const Image out = io::load_image(scene, 1, 0);
+    const Image src = media::read_image(dir / "src" / "images" / "left" / "b.png");
+    const Image out = media::load_image(scene, 1, 0);
     ASSERT_EQ(src.data.size(), out.data.size());
     for (std::size_t i = 0; i < src.data.size(); i += 97)
       EXPECT_NEAR(src.data[i], out.data[i], 1e-6);
@@ -245,15 +246,15 @@ TEST(ColmapImport, UndistortedImagesMatchThePinholeCamera) {
             image.at(i, j, c) += float(std::exp(-d2 / (2 * sigma * sigma)));
         }
     }
-    io::write_png(dir / "src" / "images" / "view.png", image, 16);
+    media::write_png(dir / "src" / "images" / "view.png", image, 16);
     ImportOptions options;
     options.progress = false;
     import_colmap(dir / "src", dir / "scene", options);
-    const io::Scene scene = io::read_scene(dir / "scene");
+    const io::Scene scene = media::read_scene(dir / "scene");
     const Camera& cam = scene.cameras[0];
     EXPECT_EQ(cam.width, source.width);
     EXPECT_EQ(cam.height, source.height);
-    const Image out = io::load_image(scene, 0, 0);
+    const Image out = media::load_image(scene, 0, 0);
     for (const auto& ray : rays) {
       const Eigen::Vector2d expected = cam.project(Eigen::Vector3d(ray.x(), ray.y(), 1));
       ASSERT_TRUE(cam.in_image(expected)) << source.model << " " << expected.transpose();
@@ -296,7 +297,7 @@ TEST_F(ColmapBadInput, ImportsWhenIntact) {
   const auto r = test::run_cli("import colmap --in " + (dir_ / "src").string() + " --out " +
                                (dir_ / "out").string());
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(io::read_scene(dir_ / "out").cameras.size(), 2u);
+  EXPECT_EQ(media::read_scene(dir_ / "out").cameras.size(), 2u);
 }
 
 TEST_F(ColmapBadInput, MissingImage) {
@@ -340,7 +341,7 @@ TEST_F(ColmapBadInput, MalformedText) {
 }
 
 TEST_F(ColmapBadInput, ImageSizeMismatch) {
-  io::write_png(dir_ / "src" / "images" / "a.png", Image(41, 30, 3));
+  media::write_png(dir_ / "src" / "images" / "a.png", Image(41, 30, 3));
   expect_error({"a.png", "41x30", "40x30"});
 }
 

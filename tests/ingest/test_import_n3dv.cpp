@@ -4,9 +4,10 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::ingest {
@@ -66,7 +67,7 @@ TEST(N3dvImport, LlffPosesProjectAKnownPointToTheExpectedPixels) {
   ImportOptions options;
   options.progress = false;
   import_n3dv(dir / "src", dir / "scene", options);
-  const io::Scene scene = io::read_scene(dir / "scene");  // every image present with its size
+  const io::Scene scene = media::read_scene(dir / "scene");  // every image present with its size
   ASSERT_EQ(scene.cameras.size(), 3u);
   EXPECT_EQ(scene.num_frames, kFrames);
   EXPECT_NEAR(scene.fps, kFps, 1e-6);
@@ -96,7 +97,7 @@ TEST(N3dvImport, LlffPosesProjectAKnownPointToTheExpectedPixels) {
   EXPECT_GT(scene.up.y(), 0.8);
   // Frame k of the scene is video frame k.
   for (int k : {0, 3}) {
-    const Image image = io::load_image(scene, 1, k);
+    const Image image = media::load_image(scene, 1, k);
     EXPECT_NEAR(image.at(20, 30, 1) * 255, gray(k), 4) << k;
   }
 }
@@ -107,7 +108,7 @@ TEST(N3dvImport, FrameRangeAndDownscale) {
   const auto r = test::run_cli("import n3dv --in " + (dir / "src").string() + " --out " +
                                (dir / "scene").string() + " --frames 1:3 --downscale 2");
   ASSERT_EQ(r.status, 0) << r.err;
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   EXPECT_EQ(scene.num_frames, 3);
   EXPECT_EQ(scene.cameras[2].width, kWidth / 2);
   EXPECT_EQ(scene.cameras[2].height, kHeight / 2);
@@ -115,7 +116,7 @@ TEST(N3dvImport, FrameRangeAndDownscale) {
   const Eigen::Vector3d x(1, 0.5, 0);
   EXPECT_LT((scene.cameras[2].project(x) - Eigen::Vector2d(16 + 25 / 3.5, 12)).norm(), 1e-5);
   for (int k = 0; k < 3; ++k)
-    EXPECT_NEAR(io::load_image(scene, 2, k).at(10, 10, 0) * 255, gray(k + 1), 4) << k;
+    EXPECT_NEAR(media::load_image(scene, 2, k).at(10, 10, 0) * 255, gray(k + 1), 4) << k;
 }
 
 // Bad inputs: one line naming the file, exit status 2, nothing written.

@@ -4,8 +4,9 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::ingest {
@@ -27,7 +28,7 @@ json transform(const Eigen::Vector3d& eye, int axes) {
 }
 
 void write_gray(const fs::path& path, float value, int w = kW, int h = kH) {
-  io::write_png(path, Image(w, h, 3, value));
+  media::write_png(path, Image(w, h, 3, value));
 }
 
 // Static capture: two frames without time, global intrinsics.
@@ -45,7 +46,7 @@ TEST(NerfstudioImport, StaticCaptureProjectsAKnownPoint) {
   ImportOptions options;
   options.progress = false;
   import_nerfstudio(dir / "src", dir / "scene", options);
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   EXPECT_EQ(scene.num_frames, 1);
   ASSERT_EQ(scene.cameras.size(), 2u);
   EXPECT_EQ(scene.cameras[0].name, "frame_00001");
@@ -58,7 +59,7 @@ TEST(NerfstudioImport, StaticCaptureProjectsAKnownPoint) {
       1e-9);
   EXPECT_NEAR(scene.cameras[1].world_to_cam(x).z(), 4, 1e-9);
   EXPECT_LT((scene.cameras[1].project(x) - Eigen::Vector2d(20, 15 - 31 * 0.5 / 4)).norm(), 1e-9);
-  EXPECT_NEAR(io::load_image(scene, 1, 0).at(3, 3, 0), 0.6f, 1e-3);
+  EXPECT_NEAR(media::load_image(scene, 1, 0).at(3, 3, 0), 0.6f, 1e-3);
   EXPECT_GT(scene.up.y(), 0.99);  // both cameras have world +y up
 }
 
@@ -70,8 +71,8 @@ TEST(NerfstudioImport, DistortionMatchesTheColmapImporter) {
   for (int i = 0; i < 120; ++i)
     for (int j = 0; j < 160; ++j)
       for (int c = 0; c < 3; ++c) image.at(i, j, c) = float(((i / 8 + j / 8 + c) % 3) / 2.0);
-  io::write_png(dir / "ns" / "images" / "view.png", image);
-  io::write_png(dir / "cm" / "images" / "view.png", image);
+  media::write_png(dir / "ns" / "images" / "view.png", image);
+  media::write_png(dir / "cm" / "images" / "view.png", image);
   json j = {{"fl_x", 120.0}, {"fl_y", 118.0}, {"cx", 81.5}, {"cy", 59.0},  {"w", 160},
             {"h", 120},      {"k1", -0.18},   {"k2", 0.03}, {"p1", 0.002}, {"p2", -0.0015}};
   j["frames"] = {{{"file_path", "images/view.png"}, {"transform_matrix", transform({0, 0, 0}, 0)}}};
@@ -84,12 +85,12 @@ TEST(NerfstudioImport, DistortionMatchesTheColmapImporter) {
   options.progress = false;
   import_nerfstudio(dir / "ns", dir / "a", options);
   import_colmap(dir / "cm", dir / "b", options);
-  const io::Scene a = io::read_scene(dir / "a"), b = io::read_scene(dir / "b");
+  const io::Scene a = media::read_scene(dir / "a"), b = media::read_scene(dir / "b");
   EXPECT_LT(std::abs(a.cameras[0].fx - b.cameras[0].fx), 1e-9);
   EXPECT_LT(std::abs(a.cameras[0].cy - b.cameras[0].cy), 1e-9);
   EXPECT_LT((a.cameras[0].world_to_camera - b.cameras[0].world_to_camera).norm(), 1e-12);
   EXPECT_LT(a.cameras[0].fx, 119.0);  // barrel distortion: a wider pinhole view
-  const Image ia = io::load_image(a, 0, 0), ib = io::load_image(b, 0, 0);
+  const Image ia = media::load_image(a, 0, 0), ib = media::load_image(b, 0, 0);
   EXPECT_EQ(ia.data, ib.data);
 }
 
@@ -98,19 +99,19 @@ TEST(NerfstudioImport, AlphaChannelBecomesTheMask) {
   Image rgba(kW, kH, 4, 0.5f);
   for (int i = 0; i < kH; ++i)
     for (int x = 0; x < kW; ++x) rgba.at(i, x, 3) = x < kW / 2 ? 1.0f : 0.0f;
-  io::write_png(dir / "src" / "r_0.png", rgba);
+  media::write_png(dir / "src" / "r_0.png", rgba);
   json j = {{"camera_angle_x", 1.0}};
   j["frames"] = {{{"file_path", "./r_0"}, {"transform_matrix", transform({0, 0, 4}, 0)}}};
   test::write_text(dir / "src" / "transforms.json", j.dump());
   ImportOptions options;
   options.progress = false;
   import_nerfstudio(dir / "src", dir / "scene", options);
-  const io::Scene scene = io::read_scene(dir / "scene");
-  const auto mask = io::load_mask(scene, 0, 0);
+  const io::Scene scene = media::read_scene(dir / "scene");
+  const auto mask = media::load_mask(scene, 0, 0);
   ASSERT_TRUE(mask.has_value());
   EXPECT_EQ(mask->at(5, 3), 1.0f);
   EXPECT_EQ(mask->at(5, kW - 3), 0.0f);
-  EXPECT_NEAR(io::load_image(scene, 0, 0).at(5, 3, 1), 0.5f, 3e-3);
+  EXPECT_NEAR(media::load_image(scene, 0, 0).at(5, 3, 1), 0.5f, 3e-3);
 }
 
 // Dynamic capture: per-frame time, camera identity from "camera" or the folder.
@@ -139,7 +140,7 @@ TEST(NerfstudioImport, FramesGroupedByTimeAndCamera) {
     const auto r = test::run_cli("import nerfstudio --in " + (dir / "src").string() + " --out " +
                                  (dir / "scene").string() + " --frames 1:2");
     ASSERT_EQ(r.status, 0) << r.err;
-    const io::Scene scene = io::read_scene(dir / "scene");
+    const io::Scene scene = media::read_scene(dir / "scene");
     EXPECT_EQ(scene.num_frames, 2);
     EXPECT_DOUBLE_EQ(scene.fps, 12.5);
     ASSERT_EQ(scene.cameras.size(), 2u);
@@ -149,7 +150,7 @@ TEST(NerfstudioImport, FramesGroupedByTimeAndCamera) {
     EXPECT_NEAR(scene.cameras[0].cx, 20.0, 1e-9);
     for (int c = 0; c < 2; ++c)
       for (int k = 0; k < 2; ++k)  // scene frame k is time (k + 1) / 2
-        EXPECT_NEAR(io::load_image(scene, c, k).at(1, 1, 0), 0.1f + 0.3f * (k + 1) + 0.05f * c,
+        EXPECT_NEAR(media::load_image(scene, c, k).at(1, 1, 0), 0.1f + 0.3f * (k + 1) + 0.05f * c,
                     2e-3)
             << c << " " << k;
   }

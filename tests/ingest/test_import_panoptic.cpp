@@ -7,8 +7,9 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::ingest {
@@ -39,7 +40,7 @@ test::TempDir* PanopticImport::dir_ = nullptr;
 
 TEST_F(PanopticImport, CamerasFramesSplitsAndMasks) {
   const io::Scene scene =
-      io::read_scene(scene_dir());  // also checks every image exists with its size
+      media::read_scene(scene_dir());  // also checks every image exists with its size
   EXPECT_EQ(scene.num_frames, 17);
   ASSERT_EQ(scene.cameras.size(), 31u);
   int train = 0, with_masks = 0;
@@ -71,9 +72,9 @@ TEST_F(PanopticImport, CamerasFramesSplitsAndMasks) {
 }
 
 TEST_F(PanopticImport, ImagesAreLosslessCopiesOfTheDecodedJpegs) {
-  const io::Scene scene = io::read_scene(scene_dir(), io::SceneCheck::kJson);
-  const Image source = io::read_image(test::shared_data() / kClip / "ims" / "22" / "000009.jpg");
-  const Image imported = io::load_image(scene, 22, 9);
+  const io::Scene scene = media::read_scene(scene_dir(), media::SceneCheck::kJson);
+  const Image source = media::read_image(test::shared_data() / kClip / "ims" / "22" / "000009.jpg");
+  const Image imported = media::load_image(scene, 22, 9);
   ASSERT_EQ(source.data.size(), imported.data.size());
   float max_diff = 0;
   for (std::size_t i = 0; i < source.data.size(); ++i)
@@ -85,7 +86,7 @@ TEST_F(PanopticImport, ImagesAreLosslessCopiesOfTheDecodedJpegs) {
 // camera, in front of it, and on the foreground mask of the training cameras that see it: image,
 // mask and calibration agree.
 TEST_F(PanopticImport, TriangulatedBallProjectsOntoForegroundEverywhere) {
-  const io::Scene scene = io::read_scene(scene_dir(), io::SceneCheck::kJson);
+  const io::Scene scene = media::read_scene(scene_dir(), media::SceneCheck::kJson);
   const auto verification =
       nlohmann::json::parse(test::read_text(test::shared_data() / kClip / "verification.json"));
   const auto& x = verification["ball_triangulation"]["0"]["X"];
@@ -97,7 +98,7 @@ TEST_F(PanopticImport, TriangulatedBallProjectsOntoForegroundEverywhere) {
     EXPECT_GT(p.z(), 1.5) << cam.name;
     const Eigen::Vector2d uv = cam.project(ball);
     EXPECT_TRUE(cam.in_image(uv)) << cam.name << " " << uv.transpose();
-    if (const auto mask = io::load_mask(scene, c, 0)) {
+    if (const auto mask = media::load_mask(scene, c, 0)) {
       ++masked;
       // Any foreground within 3 px (the ball is ~10 px across; residuals are ~1 px).
       bool hit = false;
@@ -122,19 +123,19 @@ TEST_F(PanopticImport, FrameRangeAndDownscale) {
   options.downscale = 2;
   options.progress = false;
   import_panoptic(test::shared_data() / kClip, dir / "half", options);
-  const io::Scene scene = io::read_scene(dir / "half");
+  const io::Scene scene = media::read_scene(dir / "half");
   EXPECT_EQ(scene.num_frames, 3);
   EXPECT_EQ(scene.cameras[3].width, 320);
   EXPECT_EQ(scene.cameras[3].height, 180);
-  const io::Scene full = io::read_scene(scene_dir(), io::SceneCheck::kJson);
+  const io::Scene full = media::read_scene(scene_dir(), media::SceneCheck::kJson);
   EXPECT_NEAR(scene.cameras[3].fx, full.cameras[3].fx / 2, 1e-9);
   EXPECT_NEAR(scene.cameras[3].cx, full.cameras[3].cx / 2, 1e-9);
   // Same 3D point, half the pixel coordinates.
   const Eigen::Vector3d x(0.1, -1.2, 0.3);
   EXPECT_LT((scene.cameras[3].project(x) - full.cameras[3].project(x) / 2).norm(), 1e-9);
   // Frame 0 of the import is source frame 4.
-  const Image a = io::load_image(scene, 3, 0);
-  const Image b = io::load_image(full, 3, 4);
+  const Image a = media::load_image(scene, 3, 0);
+  const Image b = media::load_image(full, 3, 4);
   double mean_a = 0, mean_b = 0;
   for (float v : a.data) mean_a += v;
   for (float v : b.data) mean_b += v;
@@ -170,7 +171,7 @@ TEST_F(PanopticBadInput, SmallCopyImports) {
   const auto r = test::run_cli("import panoptic --in " + (dir_ / "src").string() + " --out " +
                                (dir_ / "out").string());
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(io::read_scene(dir_ / "out").num_frames, 2);
+  EXPECT_EQ(media::read_scene(dir_ / "out").num_frames, 2);
 }
 
 TEST_F(PanopticBadInput, MissingMetadata) {

@@ -13,8 +13,9 @@
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::ingest {
@@ -163,7 +164,7 @@ void expect_same_camera(const Camera& got, const Camera& want) {
 // Image of scene camera c, frame j is source frame k of camera c: bit for bit (PNG footage, a
 // lossless video) or within `min_psnr` dB (a lossy video).
 void expect_frame(const io::Scene& scene, int c, int j, int k, double min_psnr = INFINITY) {
-  const Image image = io::load_image(scene, c, j), source = source_image(c, k);
+  const Image image = media::load_image(scene, c, j), source = source_image(c, k);
   if (!std::isinf(min_psnr)) {
     EXPECT_GT(psnr(image, source), min_psnr) << "camera " << c << " frame " << j << " vs " << k;
     return;
@@ -189,7 +190,7 @@ TEST(VideosImport, PngFoldersWithColmapModelKeepTheCalibrationAndThePixels) {
   const io::ColmapModel model = colmap_model(cams);
   io::write_colmap_model_txt(model, dir / "src" / "sparse" / "0");
   const VideosReport r = import_videos(dir / "src", dir / "scene", quiet(), calib(dir / "src"));
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), 3u);
   EXPECT_EQ(scene.num_frames, kFrames);
   EXPECT_EQ(scene.fps, 30.0);  // image folders: the default
@@ -220,7 +221,7 @@ TEST(VideosImport, RigYamlAndJsonGiveTheCalibrationExactly) {
     const VideosReport r = import_videos(dir / "src", out, quiet(), calib(dir / file));
     EXPECT_NE(r.calibration.find(file), std::string::npos) << r.calibration;
     EXPECT_EQ(r.undistorted, 0) << file;  // zero coefficients: a pinhole
-    const io::Scene scene = io::read_scene(out);
+    const io::Scene scene = media::read_scene(out);
     ASSERT_EQ(scene.cameras.size(), 3u);
     for (int c = 0; c < 3; ++c) {
       expect_same_camera(scene.cameras[c], cams[c]);
@@ -240,7 +241,7 @@ TEST(VideosImport, RodriguesVectorAndImageSizeScaleTheIntrinsics) {
                    "    rvec: [0, 0, 1.5707963267948966]\n    T: [0.5, 0, 3]\n"
                    "    image_size: [128, 96]\n");
   import_videos(dir / "src", dir / "scene", quiet(), calib(dir / "rig.yml"));
-  const Camera cam = io::read_scene(dir / "scene").cameras[0];
+  const Camera cam = media::read_scene(dir / "scene").cameras[0];
   EXPECT_EQ(cam.width, kWidth);
   EXPECT_DOUBLE_EQ(cam.fx, 50);
   EXPECT_DOUBLE_EQ(cam.fy, 60);
@@ -260,7 +261,7 @@ TEST(VideosImport, VideosDecodeCloseToTheSourceWithTheirFrameRate) {
   io::write_colmap_model_bin(colmap_model(cams, 2.0), dir / "model");
   const VideosReport r = import_videos(dir / "src", dir / "scene", quiet(), calib(dir / "model"));
   EXPECT_EQ(r.fps_source, "from the videos");
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   EXPECT_NEAR(scene.fps, 25.0, 1e-9);
   EXPECT_EQ(scene.num_frames, kFrames);
   for (int c = 0; c < 3; ++c) {
@@ -279,11 +280,11 @@ TEST(VideosImport, FpsOptionOverridesAndIsReported) {
   test::write_text(dir / "rig.yaml", rig_yaml(cams));
   VideosOptions v = calib(dir / "rig.yaml");
   VideosReport r = import_videos(dir / "src", dir / "a", quiet(), v);
-  EXPECT_NEAR(io::read_scene(dir / "a").fps, 24.0, 1e-9);
+  EXPECT_NEAR(media::read_scene(dir / "a").fps, 24.0, 1e-9);
   EXPECT_EQ(r.without_footage, std::vector<std::string>{"cam02"});
   v.fps = 12.5;
   r = import_videos(dir / "src", dir / "b", quiet(), v);
-  EXPECT_EQ(io::read_scene(dir / "b").fps, 12.5);
+  EXPECT_EQ(media::read_scene(dir / "b").fps, 12.5);
   EXPECT_NE(r.fps_source.find("the videos say 24"), std::string::npos) << r.fps_source;
 }
 
@@ -299,7 +300,7 @@ TEST(VideosImport, OffsetsShiftEachCameraAndFramesSelectWithin) {
   v.offsets = {{"cam01", 2}, {"cam02", -1}};
   VideosReport r = import_videos(dir / "src", dir / "a", quiet(), v);
   EXPECT_EQ(r.first_frame, 1);
-  io::Scene scene = io::read_scene(dir / "a");
+  io::Scene scene = media::read_scene(dir / "a");
   ASSERT_EQ(scene.num_frames, 3);
   for (int j = 0; j < 3; ++j) {
     expect_frame(scene, 0, j, 1 + j);
@@ -310,7 +311,7 @@ TEST(VideosImport, OffsetsShiftEachCameraAndFramesSelectWithin) {
   options.first_frame = 1, options.last_frame = 2;
   r = import_videos(dir / "src", dir / "b", options, v);
   EXPECT_EQ(r.first_frame, 2);
-  scene = io::read_scene(dir / "b");
+  scene = media::read_scene(dir / "b");
   ASSERT_EQ(scene.num_frames, 2);
   expect_frame(scene, 0, 0, 2);
   expect_frame(scene, 1, 1, 5);
@@ -326,7 +327,7 @@ TEST(VideosImport, TestCamerasGetSplitTest) {
   v.test_cameras = {"cam02", "cam00"};
   const VideosReport r = import_videos(dir / "src", dir / "scene", quiet(), v);
   EXPECT_EQ(r.test_cameras, 2);
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   EXPECT_EQ(scene.cameras[0].split, Split::kTest);
   EXPECT_EQ(scene.cameras[1].split, Split::kTrain);
   EXPECT_EQ(scene.cameras[2].split, Split::kTest);
@@ -367,13 +368,14 @@ TEST(VideosImport, DistortedRigMatchesTheColmapImporter) {
     fs::copy_file(dir / "src" / "cam00" / "0000.png", dir / "colmap" / "images" / "cam00.png");
     import_colmap(dir / "colmap", dir / "reference", quiet());
 
-    const io::Scene a = io::read_scene(dir / "videos"), b = io::read_scene(dir / "reference");
+    const io::Scene a = media::read_scene(dir / "videos"), b = media::read_scene(dir / "reference");
     Camera want = b.cameras[0];
     want.world_to_camera = cam.world_to_camera;
     expect_same_camera(a.cameras[0], want);
     EXPECT_NE(a.cameras[0].fx, cam.fx) << cs.model << ": resampled, so the focal length moved";
-    EXPECT_TRUE(std::isinf(psnr(io::load_image(a, 0, 0), io::load_image(b, 0, 0)))) << cs.model;
-    EXPECT_LT(psnr(io::load_image(a, 0, 0), source_image(0, 0)), 40) << cs.model;
+    EXPECT_TRUE(std::isinf(psnr(media::load_image(a, 0, 0), media::load_image(b, 0, 0))))
+        << cs.model;
+    EXPECT_LT(psnr(media::load_image(a, 0, 0), source_image(0, 0)), 40) << cs.model;
   }
 }
 

@@ -4,8 +4,8 @@
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 
 namespace retimegs::test {
 
@@ -30,8 +30,8 @@ inline io::Scene write_small_scene(const std::filesystem::path& root) {
       Image image(12, 8, 3);
       for (std::size_t i = 0; i < image.data.size(); ++i)
         image.data[i] = float((i * 7 + k) % 256) / 255;
-      io::write_png(scene.image_path(c, k), image);
-      if (c == 0) io::write_png(scene.mask_path(c, k), Image(12, 8, 1, 1.0f));
+      media::write_png(scene.image_path(c, k), image);
+      if (c == 0) media::write_png(scene.mask_path(c, k), Image(12, 8, 1, 1.0f));
     }
   Flow flow(12, 8);
   flow.uv[0] = 1.5f;

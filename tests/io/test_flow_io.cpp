@@ -9,7 +9,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::io {
@@ -96,8 +96,8 @@ TEST(FlowIo, SintelZeroFlowEpeWithInvalidAndOcclusionMasks) {
   EXPECT_EQ(flow.width, 1024);
   EXPECT_EQ(flow.height, 436);
   EXPECT_EQ(std::count(flow.valid.begin(), flow.valid.end(), 1), 1024 * 436);  // no unknowns
-  const Image invalid = read_mask(dir / "invalid_0002.png");
-  const Image occluded = read_mask(dir / "occlusions_0002.png");
+  const Image invalid = media::read_mask(dir / "invalid_0002.png");
+  const Image occluded = media::read_mask(dir / "occlusions_0002.png");
   ASSERT_EQ(invalid.pixels(), flow.pixels());
   std::vector<bool> all(flow.pixels()), noc(flow.pixels());
   for (std::size_t i = 0; i < flow.pixels(); ++i) {

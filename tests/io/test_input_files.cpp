@@ -14,11 +14,11 @@
 #include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/frame_writer.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/npy.hpp"
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/splat_ply.hpp"
+#include "retimegs/media/frame_writer.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::io {
@@ -38,9 +38,9 @@ TEST(InputFiles, EveryParserRefusesFifosAndFoldersNamingThePath) {
       {"read_npy", [](const fs::path& p) { read_npy(p); }},
       {"read_points_ply", [](const fs::path& p) { read_points_ply(p); }},
       {"read_splat_ply", [](const fs::path& p) { read_splat_ply(p); }},
-      {"read_retime_csv", [](const fs::path& p) { read_retime_csv(p); }},
+      {"read_retime_csv", [](const fs::path& p) { media::read_retime_csv(p); }},
       {"read_camera_path_json", [](const fs::path& p) { read_camera_path_json(p); }},
-      {"read_image", [](const fs::path& p) { read_image(p); }},
+      {"read_image", [](const fs::path& p) { media::read_image(p); }},
   };
   for (const auto& entry : parsers) {  // no structured binding: clang 14 cannot capture one
     const std::string& name = entry.first;

@@ -9,8 +9,9 @@
 #include "io/small_scene.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::io {
@@ -18,6 +19,11 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 using test::write_small_scene;
+// The scene's image files are media's (media/scene_images.hpp), its JSON io's.
+using media::load_image;
+using media::load_mask;
+using media::read_scene;
+using media::write_png;
 
 json read_json(const fs::path& path) {
   return json::parse(test::read_text(path));

@@ -8,7 +8,7 @@
 
 #include "playback/two_camera_cloud.hpp"
 #include "retimegs/core/camera_path.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/playback/shot.hpp"
 #include "test_util.hpp"
 
@@ -164,13 +164,13 @@ TEST(CameraPathShot, AnUntimedPathNeedsATimeForA4dModel) {
 // 8 bits (half a level).
 void expect_written(const fs::path& png, Image image) {
   for (float& v : image.data) v = std::clamp(v, 0.0f, 1.0f);
-  EXPECT_LT(test::max_abs_diff(io::read_image(png), image), 0.5 / 255 + 1e-6) << png;
+  EXPECT_LT(test::max_abs_diff(media::read_image(png), image), 0.5 / 255 + 1e-6) << png;
 }
 
 // The frames of `shot` as PNGs in `folder`.
 void render_to(const fs::path& folder, const model::Model& model, const Shot& shot) {
   const float black[3] = {0, 0, 0};
-  io::FrameWriter writer(folder, int(shot.times.size()), 24);
+  media::FrameWriter writer(folder, int(shot.times.size()), 24);
   render_shot(model, shot, black, writer);
 }
 

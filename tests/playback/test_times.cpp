@@ -56,7 +56,7 @@ TEST(Times, SlowMotionFactorMustBePositiveAndTheCountBounded) {
 
 TEST(Times, RampInterpolatesBetweenKeyframes) {
   // Real time to frame 4, a hold over frames 4..6, then twice the speed.
-  const std::vector<io::RetimeKey> keys = {{0, 0.0}, {4, 2.0}, {6, 2.0}, {8, 6.0}};
+  const std::vector<media::RetimeKey> keys = {{0, 0.0}, {4, 2.0}, {6, 2.0}, {8, 6.0}};
   EXPECT_EQ(ramp_times(keys), (std::vector<double>{0, 0.5, 1, 1.5, 2, 2, 2, 4, 6}));
   // The output starts at the first keyframe; a reverse ramp runs time backwards.
   EXPECT_EQ(ramp_times({{3, 8.0}, {5, 7.0}}), (std::vector<double>{8, 7.5, 7}));

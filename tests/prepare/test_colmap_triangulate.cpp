@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
 #include "retimegs/synth/synth.hpp"
 #include "test_util.hpp"
@@ -27,7 +28,7 @@ io::Scene minimal_scene(const fs::path& root) {
   options.width = 400, options.height = 300;
   options.progress = false;
   synth::synthesize_scene(options, root);
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 // COLMAP with the synthetic scene's known poses must put its points on the scene's surfaces:
@@ -99,7 +100,7 @@ TEST(ColmapTriangulate, FailingCommandShowsItsErrorLine) {
     o.cameras = 2, o.frames = 2, o.width = 32, o.height = 24, o.supersample = 1;
     o.progress = false;
     synth::synthesize_scene(o, dir / "scene");
-    return io::read_scene(dir / "scene");
+    return media::read_scene(dir / "scene");
   }();
   const fs::path fake = dir / "fake-colmap";
   test::write_text(

@@ -11,7 +11,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/prepare/flow_estimate.hpp"
 #include "test_util.hpp"
 
@@ -55,7 +55,7 @@ fs::path flow_data(const std::string& rel) {
 std::vector<unsigned char> valid_pixels(const RefPair& pair, const Flow& gt) {
   std::vector<unsigned char> valid = gt.valid;
   if (pair.key == "sintel-alley_1-clean") {
-    const Image invalid = io::read_mask(flow_data("sintel-alley_1-clean/invalid_0002.png"));
+    const Image invalid = media::read_mask(flow_data("sintel-alley_1-clean/invalid_0002.png"));
     for (std::size_t i = 0; i < valid.size(); ++i) valid[i] &= invalid.data[i] < 0.5f;
   }
   return valid;
@@ -78,7 +78,8 @@ struct Timed {
   double seconds;
 };
 Timed timed_flow(const RefPair& pair, FlowMethod method) {
-  const Image a = io::read_image(flow_data(pair.first)), b = io::read_image(flow_data(pair.second));
+  const Image a = media::read_image(flow_data(pair.first)),
+              b = media::read_image(flow_data(pair.second));
   const auto start = std::chrono::steady_clock::now();
   Flow flow = estimate_flow(a, b, method);
   return {std::move(flow),
@@ -108,7 +109,7 @@ TEST(FlowEstimate, DisBeatsTheMediumYardstickOnSintelNonOccludedPixels) {
   RETIMEGS_REQUIRE_DATA("flow/sintel-alley_1-clean");
   const RefPair& pair = reference_pairs()[2];
   const Flow gt = io::read_flo(flow_data(pair.gt));
-  const Image occluded = io::read_mask(flow_data("sintel-alley_1-clean/occlusions_0002.png"));
+  const Image occluded = media::read_mask(flow_data("sintel-alley_1-clean/occlusions_0002.png"));
   std::vector<unsigned char> noc = valid_pixels(pair, gt);
   for (std::size_t i = 0; i < noc.size(); ++i) noc[i] &= occluded.data[i] < 0.5f;
   const double e = epe(timed_flow(pair, FlowMethod::kDis).flow, gt, noc);
@@ -135,9 +136,9 @@ TEST(FlowEstimate, DeepFlowAndTvl1BeatTheDisMediumYardstickOnRubberWhale) {
 
 TEST(FlowEstimate, ConsistencyCheckFindsSintelOcclusionsAndKeepsVisiblePixels) {
   RETIMEGS_REQUIRE_DATA("flow/sintel-alley_1-clean");
-  const Image a = io::read_image(flow_data("sintel-alley_1-clean/frame_0002.png"));
-  const Image b = io::read_image(flow_data("sintel-alley_1-clean/frame_0003.png"));
-  const Image occluded = io::read_mask(flow_data("sintel-alley_1-clean/occlusions_0002.png"));
+  const Image a = media::read_image(flow_data("sintel-alley_1-clean/frame_0002.png"));
+  const Image b = media::read_image(flow_data("sintel-alley_1-clean/frame_0003.png"));
+  const Image occluded = media::read_mask(flow_data("sintel-alley_1-clean/occlusions_0002.png"));
   const FlowPair pair = estimate_flow_pair(a, b);
   std::size_t unknown = 0, unknown_occluded = 0, occluded_total = 0, visible = 0, kept = 0;
   for (std::size_t i = 0; i < pair.forward.pixels(); ++i) {

@@ -7,8 +7,9 @@
 #include <vector>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/masks.hpp"
 #include "retimegs/prepare/prepare.hpp"
 #include "retimegs/synth/synth.hpp"
@@ -77,7 +78,7 @@ TEST(BackgroundMasks, FindTheMovingSquareWithItsHoleFilledAndWithoutSpecks) {
       const int x = left[k];
       EXPECT_GT(foreground(m, x + 1, 21, x + 15, 35), 0.95) << k;
       EXPECT_EQ(foreground(m, x + 6, 26, x + 10, 30), 1.0) << "hole " << k;  // filled
-      EXPECT_EQ(foreground(m, 0, 45, width, height), 0.0) << "speck " << k;   // dropped
+      EXPECT_EQ(foreground(m, 0, 45, width, height), 0.0) << "speck " << k;  // dropped
       // Nothing far from the square.
       EXPECT_EQ(foreground(m, 0, 0, width, 12), 0.0) << k;
     }
@@ -132,7 +133,7 @@ TEST(PrepareMasks, WritesMasksForEveryFrameAndThePointsUseThem) {
   synth::synthesize_scene(so, dir / "scene");
   fs::rename(dir / "scene" / "masks", dir / "truth");
   fs::remove_all(dir / "scene" / "points");
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
 
   PrepareOptions options;
   options.progress = false;
@@ -148,10 +149,10 @@ TEST(PrepareMasks, WritesMasksForEveryFrameAndThePointsUseThem) {
   double both = 0, found = 0, truth_area = 0;
   for (int c = 0; c < 3; ++c)
     for (int k = 0; k < 9; ++k) {
-      const std::optional<Image> mask = io::load_mask(scene, c, k);
+      const std::optional<Image> mask = media::load_mask(scene, c, k);
       ASSERT_TRUE(mask) << c << " " << k;
       const fs::path rel = fs::relative(scene.mask_path(c, k), scene.root / "masks");
-      const Image truth = io::read_mask(dir / "truth" / rel);
+      const Image truth = media::read_mask(dir / "truth" / rel);
       for (std::size_t i = 0; i < truth.pixels(); ++i) {
         const bool a = is_foreground(*mask, i), b = is_foreground(truth, i);
         both += a && b;

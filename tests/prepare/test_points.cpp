@@ -12,6 +12,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/points.hpp"
 #include "retimegs/prepare/prepare.hpp"
 #include "retimegs/synth/synth.hpp"
@@ -30,7 +31,7 @@ io::Scene minimal_scene(const fs::path& root, int cameras, int width, int height
   options.width = width, options.height = height;
   options.progress = false;
   synth::synthesize_scene(options, root);
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 // Distance from each query point to the nearest point of `cloud` (k-d tree).
@@ -153,7 +154,7 @@ TEST(VisualHull, CoversPanopticPlayersCutByTheImageBorder) {
   import.downscale = 4;  // 160x90
   import.progress = false;
   ingest::import_panoptic(shared_data() / "panoptic-basketball", dir / "scene", import);
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   const std::vector<int> cameras = training_cameras(scene);
   HullOptions options;
   options.resolution = 96;
@@ -161,7 +162,7 @@ TEST(VisualHull, CoversPanopticPlayersCutByTheImageBorder) {
   std::size_t foreground = 0, covered = 0;
   for (int c : cameras) {
     const Camera& cam = scene.cameras[c];
-    const Image mask = *io::load_mask(scene, c, 0);
+    const Image mask = *media::load_mask(scene, c, 0);
     // Pixels within 1 px of a projected hull point.
     std::vector<unsigned char> hit(mask.pixels(), 0);
     for (std::size_t i = 0; i < hull.size(); ++i) {

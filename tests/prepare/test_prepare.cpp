@@ -9,6 +9,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/prepare.hpp"
 #include "retimegs/synth/synth.hpp"
 #include "test_util.hpp"
@@ -30,7 +31,7 @@ io::Scene bare_scene(const fs::path& root, const fs::path& exact, int frames = 5
   fs::create_directories(exact);
   fs::rename(root / "flow", exact / "flow");
   fs::rename(root / "points", exact / "points");
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 // Without COLMAP (whether or not this machine has it): the default points are then hull + random

@@ -10,9 +10,10 @@
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/flow_io.hpp"
-#include "retimegs/io/image_io.hpp"
 #include "retimegs/io/ply.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/synth/synth.hpp"
 #include "test_util.hpp"
 
@@ -35,7 +36,7 @@ SynthOptions small_options(const std::string& preset, int cameras, int frames, i
 io::Scene make_scene(const test::TempDir& dir, const SynthOptions& options) {
   const auto root = dir / "scene";
   synthesize_scene(options, root);
-  return io::read_scene(root, io::SceneCheck::kFiles);
+  return media::read_scene(root, media::SceneCheck::kFiles);
 }
 
 double flow_norm(const Flow& f, std::size_t p) {
@@ -50,8 +51,8 @@ struct WarpErrors {
 };
 
 void add_warp_errors(const io::Scene& scene, int cam, int from, int to, WarpErrors& e) {
-  const Image a = io::read_image(scene.image_path(cam, from));
-  const Image b = io::read_image(scene.image_path(cam, to));
+  const Image a = media::read_image(scene.image_path(cam, from));
+  const Image b = media::read_image(scene.image_path(cam, to));
   const Flow f = io::read_flo(scene.flow_path(cam, from, to));
   for (int y = 0; y < f.height; ++y) {
     for (int x = 0; x < f.width; ++x) {
@@ -169,7 +170,7 @@ TEST(Synth, OcclusionsMakeFlowUnknown) {
     }
     // Foreground at the last frame that has no correspondence in the frame before: the sphere
     // that emerges from the box (and whatever the others uncover).
-    const Image mask = io::read_mask(scene.mask_path(cam, last));
+    const Image mask = media::read_mask(scene.mask_path(cam, last));
     const Flow back = io::read_flo(scene.flow_path(cam, last, last - 1));
     for (std::size_t p = 0; p < back.pixels(); ++p) appearing += mask.data[p] > 0 && !back.valid[p];
   }
@@ -196,7 +197,8 @@ TEST(Synth, SameSeedGivesIdenticalFilesForAnyThreadCount) {
   options.seed = 8;
   synthesize_scene(options, dir / "other");
   set_threads(threads);
-  const io::Scene again = io::read_scene(dir / "again"), other = io::read_scene(dir / "other");
+  const io::Scene again = media::read_scene(dir / "again"),
+                  other = media::read_scene(dir / "other");
   for (const auto& file :
        {std::filesystem::path("scene.json"), std::filesystem::path("points/00001.ply")})
     EXPECT_EQ(file_bytes(one.root / file), file_bytes(again.root / file)) << file;
@@ -219,7 +221,7 @@ TEST(Synth, PointsLieOnTheObjectsOfTheirFrame) {
     ASSERT_LE(points.size(), 30000u) << "frame " << k;
     ASSERT_EQ(points.rgb.size(), points.xyz.size());
     // Foreground coverage of camera 0 (read_image keeps the fraction, read_mask thresholds it).
-    const Image coverage = io::read_image(scene.mask_path(0, k));
+    const Image coverage = media::read_image(scene.mask_path(0, k));
     auto near_foreground = [&](const Eigen::Vector2d& uv) {
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
@@ -308,7 +310,7 @@ TEST(Synth, CommandLineWritesASceneAndRejectsBadFlags) {
   auto ok = test::run_cli("synth --preset minimal --out " + out.string() +
                           " --cameras 2 --frames 2 --size 24x16 --seed 3 --threads 1");
   ASSERT_EQ(ok.status, 0) << ok.err;
-  const io::Scene scene = io::read_scene(out);
+  const io::Scene scene = media::read_scene(out);
   EXPECT_EQ(scene.cameras.size(), 2u);
   EXPECT_EQ(scene.cameras[1].name, "cam01");
   EXPECT_EQ(scene.cameras[0].width, 24);

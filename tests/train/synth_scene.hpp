@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/synth/synth.hpp"
 
 namespace retimegs::train {
@@ -16,7 +17,7 @@ inline io::Scene minimal_scene(const std::filesystem::path& root, int cameras, i
   options.width = width, options.height = height;
   options.progress = false;
   synth::synthesize_scene(options, root);
-  return io::read_scene(root);
+  return media::read_scene(root);
 }
 
 }  // namespace retimegs::train

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/train/cpu_step.hpp"
+#include "retimegs/train_run/load_training_set.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 

@@ -8,10 +8,12 @@
 
 #include <gtest/gtest.h>
 
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/model/trajectory.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/neighbors.hpp"
+#include "retimegs/train_run/load_training_set.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 
@@ -21,7 +23,7 @@ namespace {
 TEST(Initialize, FlowMotionCarriesPointsToTheNextFrame) {
   test::TempDir dir;
   minimal_scene(dir / "scene", 6, 128, 96);
-  const io::Scene scene = io::read_scene(dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
   const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);  // frames 0, 2, 4
   const std::vector<PointMotion> motion = estimate_point_motion(set, 1);        // frame 2
   const io::PointCloud& here = *set.points[1];
@@ -94,7 +96,7 @@ TEST(Initialize, MovingSeedsPassWhereTheFlowsPutThePoint) {
   test::TempDir dir;
   minimal_scene(dir / "scene", 6, 128, 96);
   const TrainingSet set =
-      load_training_set(io::read_scene(dir / "scene"), io::FrameSelection::kEven);  // 0, 2, 4
+      load_training_set(media::read_scene(dir / "scene"), io::FrameSelection::kEven);  // 0, 2, 4
   std::string note;
   const model::Primitives p = initialize(set, {}, note);
   auto control_points = [&](std::size_t i) {
@@ -149,7 +151,7 @@ struct RepeatedGround {
 
 RepeatedGround repeated_ground(const std::filesystem::path& root) {
   minimal_scene(root, 6, 128, 96);
-  RepeatedGround out{load_training_set(io::read_scene(root), io::FrameSelection::kAll), {}, {}};
+  RepeatedGround out{load_training_set(media::read_scene(root), io::FrameSelection::kAll), {}, {}};
   TrainingSet& set = out.set;
   EXPECT_EQ(set.frames.size(), 5u);  // frames 0..4: four intervals of one frame
   auto select = [](const io::PointCloud& cloud, auto keep) {
@@ -263,7 +265,7 @@ TEST(Initialize, RandomFallbackWithoutPointsIsStated) {
   minimal_scene(dir / "scene", 3, 48, 36);
   std::filesystem::remove_all(dir / "scene" / "points");
   const TrainingSet set =
-      load_training_set(io::read_scene(dir / "scene"), io::FrameSelection::kEven);
+      load_training_set(media::read_scene(dir / "scene"), io::FrameSelection::kEven);
   std::string note;
   InitOptions init;
   init.max_primitives = 5000;

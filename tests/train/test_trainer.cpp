@@ -12,13 +12,15 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/eval/protocol.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
+#include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/train/cpu_step.hpp"
 #include "retimegs/train/relocation.hpp"
-#include "retimegs/train/run.hpp"
+#include "retimegs/train_run/load_training_set.hpp"
+#include "retimegs/train_run/run.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 
@@ -298,10 +300,10 @@ TEST(Trainer, CameraColorRecoversAKnownGain) {
   constexpr int kDark = 1;
   std::vector<float> values;  // the undarkened camera's, to compare the maps over
   for (int k = 0; k < scene.num_frames; ++k) {
-    Image image = io::load_image(scene, kDark, k);
+    Image image = media::load_image(scene, kDark, k);
     for (float& v : image.data) v *= kGain;
-    io::write_png(scene.image_path(kDark, k), image);
-    const Image other = io::load_image(scene, 1 - kDark, k);
+    media::write_png(scene.image_path(kDark, k), image);
+    const Image other = media::load_image(scene, 1 - kDark, k);
     values.insert(values.end(), other.data.begin(), other.data.end());
   }
   const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);

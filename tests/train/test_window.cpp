@@ -9,7 +9,8 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/train/dataset.hpp"
-#include "retimegs/train/run.hpp"
+#include "retimegs/train_run/load_training_set.hpp"
+#include "retimegs/train_run/run.hpp"
 #include "synth_scene.hpp"
 #include "test_util.hpp"
 

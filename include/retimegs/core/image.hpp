@@ -29,7 +29,7 @@ struct Image {
 };
 
 // An image kept at 16 bits per value, value = code / 65535: half the memory of an Image, for the
-// training views held through a whole run. Exact for what io::read_image gives: its 8-bit values
+// training views held through a whole run. Exact for what media::read_image gives: its 8-bit values
 // k / 255 are the codes 257 k, its 16-bit values the codes themselves (tests/core checks all).
 struct PackedImage {
   int width = 0, height = 0, channels = 0;
@@ -48,8 +48,8 @@ PackedImage pack(const Image& image, const std::string& what);
 // The float image, written into `out` (resized; its allocation is reused).
 void unpack(const PackedImage& packed, Image& out);
 
-// Masks are [H, W, 1] with foreground where > 0.5 (io::read_mask gives 0 / 1; a soft mask is split
-// at one half).
+// Masks are [H, W, 1] with foreground where > 0.5 (media::read_mask gives 0 / 1; a soft mask is
+// split at one half).
 constexpr float kMaskThreshold = 0.5f;
 inline bool is_foreground(const Image& mask, std::size_t pixel) {
   return mask.data[pixel] > kMaskThreshold;

@@ -1,7 +1,7 @@
 #pragma once
 // Image-quality metrics of the evaluation protocol (docs/method.md, evaluation), on images with
 // values in [0, 1], besides PSNR (core/psnr.hpp, which training shares). `a` is the render and `b`
-// the ground truth; masks are [H, W, 1] with foreground where > 0.5 (io::read_mask gives 0 / 1).
+// the ground truth; masks are [H, W, 1] with foreground where > 0.5 (media::read_mask gives 0 / 1).
 // Every function throws Error naming the problem on a size or channel mismatch, a non-finite value,
 // or a mask without foreground.
 #include "retimegs/core/image.hpp"

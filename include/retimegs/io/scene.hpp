@@ -42,22 +42,21 @@ struct Scene {
 // the name.
 void check_camera_name(const std::string& name, const std::string& where);
 
-enum class SceneCheck {
-  kJson,   // scene.json only
-  kFiles,  // + every image exists with its camera's size, and so has every mask that exists
-};
-
 // Reads and validates scene.json (required keys, types, finite numbers, positive sizes and
 // intrinsics, rigid world_to_camera, unique camera names, fps > 0, num_frames >= 1). Throws
-// Error naming the file and the field at fault.
-Scene read_scene(const std::filesystem::path& root, SceneCheck check = SceneCheck::kFiles);
+// Error naming the file and the field at fault. The image files are not looked at:
+// media::read_scene reads this and checks them too.
+Scene read_scene_json(const std::filesystem::path& root);
 
 // Writes root/scene.json atomically (the images are the caller's business).
 void write_scene_json(const Scene& scene);
 
-// Loaders that check the size against the camera; errors name the file.
-Image load_image(const Scene& scene, int camera, int frame);
-std::optional<Image> load_mask(const Scene& scene, int camera, int frame);  // nullopt if absent
+// Throws Error naming `file` when its size (width x height) is not the camera's.
+void check_file_size(const std::filesystem::path& file, const Camera& camera, int width,
+                     int height);
+
+// Loaders that check the size against the camera; errors name the file. The images and masks are
+// media's (media/scene_images.hpp).
 std::optional<Flow> load_flow(const Scene& scene, int camera, int from, int to);
 std::optional<PointCloud> load_points(const Scene& scene, int frame);
 

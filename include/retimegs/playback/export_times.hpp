@@ -16,7 +16,7 @@ std::size_t export_time(const model::Model& model, double t, const std::filesyst
                         bool force);
 
 // The Gaussians at times[k] as folder `out`/<k:05d>.ply with `out`/times.csv
-// (io::write_times_csv), written whole or not at all (an error or Ctrl-C leaves nothing), an
+// (media::write_times_csv), written whole or not at all (an error or Ctrl-C leaves nothing), an
 // existing folder replaced only with `force`. Throws Error as export_time on a time out of range,
 // before anything is written.
 void export_times(const model::Model& model, const std::vector<double>& times,

@@ -10,8 +10,8 @@
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/io/camera_path_json.hpp"
-#include "retimegs/io/frame_writer.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/frame_writer.hpp"
 #include "retimegs/playback/output_size.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/playback/times.hpp"
@@ -44,7 +44,7 @@ struct SceneShotRequest {
   std::optional<double> time;      // --time T
   std::optional<TimeRange> times;  // --times A:B:STEP
   std::optional<int> slowmo;       // --slowmo F
-  std::filesystem::path retime;    // --retime FILE (empty: none), read by io::read_retime_csv
+  std::filesystem::path retime;    // --retime FILE (empty: none), read by media::read_retime_csv
   OutputSize size;                 // --size / --scale
 };
 
@@ -67,6 +67,6 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 // (3 values, RGB). Every frame renders with `options`; a progress bar is shown when there is more
 // than one frame.
 void render_shot(const LoadedModel& model, const Shot& shot, const float* background,
-                 io::FrameWriter& writer, const render::RenderOptions& options = {});
+                 media::FrameWriter& writer, const render::RenderOptions& options = {});
 
 }  // namespace retimegs::playback

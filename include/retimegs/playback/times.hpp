@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/media/frame_writer.hpp"
 
 namespace retimegs::playback {
 
@@ -30,8 +30,8 @@ std::vector<double> range_times(const TimeRange& range, const std::string& flag)
 std::vector<double> slowmo_times(double first, double last, int factor);
 
 // --retime: one time per output frame from the first keyframe's to the last's, linearly
-// interpolated between keyframes; `keys` as io::read_retime_csv gives them (in increasing
+// interpolated between keyframes; `keys` as media::read_retime_csv gives them (in increasing
 // output-frame order; none: no frames).
-std::vector<double> ramp_times(const std::vector<io::RetimeKey>& keys);
+std::vector<double> ramp_times(const std::vector<media::RetimeKey>& keys);
 
 }  // namespace retimegs::playback

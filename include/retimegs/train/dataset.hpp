@@ -1,6 +1,8 @@
 #pragma once
 // What training reads from a scene, loaded once: the training cameras and frames, their images,
-// masks, the flows between consecutive training frames, and the per-frame point clouds.
+// masks, the flows between consecutive training frames, and the per-frame point clouds. Loaded
+// from a scene's files by train_run/load_training_set.hpp (which reads the images through
+// media), or built in memory (tests/cuda_train/tiny_scene.hpp).
 #include <optional>
 #include <vector>
 
@@ -33,11 +35,5 @@ struct TrainingSet {
   std::size_t flow_files() const;
   std::size_t image_bytes() const;  // of the packed images
 };
-
-// Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
-// the wrong size, ...). Needs at least 2 training frames and 1 training camera.
-// With a window, only the training frames within it (io::training_views with the window).
-TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
-                              const std::optional<io::FrameWindow>& window = std::nullopt);
 
 }  // namespace retimegs::train

@@ -3,7 +3,7 @@
 // their Adam moments and gradients, the per-camera colours, the training images and the
 // generator. One step draws a view (or is given one), renders it (train/schedule.hpp decides the
 // passes), adds the losses' gradient, steps the optimisers and calls the density strategy.
-// The run above it (train/run.hpp: schedule of iterations, checkpoints, resume, logs, locks,
+// The run above it (train_run/run.hpp: schedule of iterations, checkpoints, resume, logs, locks,
 // interrupts) sees only this interface and asks for host copies at checkpoints and at the end.
 #include <cstddef>
 #include <filesystem>

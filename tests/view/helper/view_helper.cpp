@@ -10,7 +10,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/ssim.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
 int main(int argc, char** argv) {
   using namespace retimegs;
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (command == "compare" && argc == 4) {
-      const Image a = io::read_image(argv[2]), b = io::read_image(argv[3]);
+      const Image a = media::read_image(argv[2]), b = media::read_image(argv[3]);
       std::printf("psnr %.3f ssim %.4f\n", psnr(a, b), ssim(a, b));
       return 0;
     }

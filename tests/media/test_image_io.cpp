@@ -5,10 +5,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 namespace {
 using test::read_text;
 using test::shared_data;
@@ -196,4 +196,4 @@ TEST(ImageIo, FailedWritesLeaveNoFile) {
 }
 
 }  // namespace
-}  // namespace retimegs::io
+}  // namespace retimegs::media

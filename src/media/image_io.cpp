@@ -1,4 +1,4 @@
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
 #include <algorithm>
 #include <array>
@@ -23,7 +23,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 namespace fs = std::filesystem;
 
 namespace {
@@ -403,4 +403,4 @@ void quiet_opencv_log() {
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
 }
 
-}  // namespace retimegs::io
+}  // namespace retimegs::media

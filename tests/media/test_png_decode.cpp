@@ -16,10 +16,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 namespace {
 namespace fs = std::filesystem;
 using Bytes = std::vector<unsigned char>;
@@ -359,4 +359,4 @@ TEST(JpegDecode, ErrorsAreOneErrorNamingTheFile) {
 }
 
 }  // namespace
-}  // namespace retimegs::io
+}  // namespace retimegs::media

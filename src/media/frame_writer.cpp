@@ -1,4 +1,4 @@
-#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/media/frame_writer.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -11,9 +11,9 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
-#include "retimegs/io/image_io.hpp"
+#include "retimegs/media/image_io.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 namespace fs = std::filesystem;
 
 struct FrameWriter::Video {
@@ -199,4 +199,4 @@ std::vector<RetimeKey> read_retime_csv(const fs::path& path) {
   return keys;
 }
 
-}  // namespace retimegs::io
+}  // namespace retimegs::media

@@ -1,4 +1,4 @@
-#include "retimegs/train/run.hpp"
+#include "retimegs/train_run/run.hpp"
 
 #include <fstream>
 
@@ -15,6 +15,7 @@
 #include "retimegs/model/window.hpp"
 #include "retimegs/train/dataset.hpp"
 #include "retimegs/train/step.hpp"
+#include "retimegs/train_run/load_training_set.hpp"
 
 namespace retimegs::train {
 namespace fs = std::filesystem;

@@ -6,7 +6,7 @@
 
 #include "retimegs/core/image.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 
 struct ImageSize {
   int width = 0, height = 0;
@@ -34,4 +34,4 @@ void quiet_opencv_log();
 // Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded).
 void write_png(const std::filesystem::path& path, const Image& image, int bits = 8);
 
-}  // namespace retimegs::io
+}  // namespace retimegs::media

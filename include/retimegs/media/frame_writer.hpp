@@ -23,7 +23,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/image.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 
 struct FrameWriterOptions {
   double fps = 0;             // frame rate of a video, finite and > 0; PNG outputs ignore it
@@ -80,4 +80,4 @@ struct RetimeKey {
 // every output frame). Returns at least one keyframe; throws Error naming the file and line.
 std::vector<RetimeKey> read_retime_csv(const std::filesystem::path& path);
 
-}  // namespace retimegs::io
+}  // namespace retimegs::media

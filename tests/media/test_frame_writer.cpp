@@ -13,10 +13,10 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
-#include "retimegs/io/frame_writer.hpp"
+#include "retimegs/media/frame_writer.hpp"
 #include "test_util.hpp"
 
-namespace retimegs::io {
+namespace retimegs::media {
 namespace {
 namespace fs = std::filesystem;
 using test::expect_error;
@@ -276,4 +276,4 @@ TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
 }
 
 }  // namespace
-}  // namespace retimegs::io
+}  // namespace retimegs::media

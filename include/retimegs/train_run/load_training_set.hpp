@@ -1,0 +1,19 @@
+#pragma once
+// A scene's training set read from its files (train/dataset.hpp): the images and masks through
+// media's codecs, the flows and points through io. Here rather than in train, so that train (the
+// step and what it needs) builds without image codecs (the lean GPU build, DESIGN.md §3).
+#include <optional>
+
+#include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
+#include "retimegs/train/dataset.hpp"
+
+namespace retimegs::train {
+
+// Loads everything in parallel. Throws Error naming the file at fault (missing image, a flow of
+// the wrong size, ...). Needs at least 2 training frames and 1 training camera.
+// With a window, only the training frames within it (io::training_views with the window).
+TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
+                              const std::optional<io::FrameWindow>& window = std::nullopt);
+
+}  // namespace retimegs::train

@@ -1,0 +1,254 @@
+// The CUDA training step (train/cuda_step.hpp) against the CPU step on the tiny in-memory scene
+// (tiny_scene.hpp, with flows added so that every part of the recipe runs): the first steps' losses
+// and parameter updates, repeatability, training quality, the strategy's host reshaping and
+// checkpoints that resume on either device.
+//
+// Tolerances. The two steps run the same formulas, but nvcc and g++ contract different products
+// into fused multiply-adds, the device's exp/log round their last bit their own way, the GPU's
+// SSIM runs in float (the CPU's in double) and its backward adds gradients in the order the
+// atomics land. A first step from the same parameters therefore gives losses equal to ~1e-6
+// relative; its Adam update is lr · sign(g) for every value whose gradient is well above rounding,
+// so the updates agree in sign except where a gradient is within rounding of zero.
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "cuda/require_gpu.hpp"
+#include "cuda_train/tiny_scene.hpp"
+#include "retimegs/model/slice.hpp"
+#include "retimegs/render/rasterize.hpp"
+#include "retimegs/train/cpu_step.hpp"
+#include "retimegs/train/step.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::train {
+namespace {
+namespace fs = std::filesystem;
+
+// The tiny scene over 5 frames (3 interior ones: triple rendering) with 3 cameras, and its flows:
+// the ball's pixels move by its centre's displacement in the image, the background stays
+// (flow 0); every pixel known.
+TrainingSet flow_scene() {
+  test::TinySceneOptions options;
+  options.cameras = 3;
+  options.frames = 5;
+  TrainingSet set = test::tiny_training_set(options);
+  const int nf = int(set.frames.size());
+  for (std::size_t c = 0; c < set.cameras.size(); ++c) {
+    const Camera& cam = set.scene.cameras[set.cameras[c]];
+    const auto centre_px = [&](int frame) {
+      return cam.project_cam(cam.world_to_cam(test::tiny_ball_centre(frame)));
+    };
+    for (int i = 0; i < nf; ++i) {
+      const Eigen::Vector2d here = centre_px(set.frames[i]);
+      const double radius = cam.fx * test::kTinyBallRadius /
+                            cam.world_to_cam(test::tiny_ball_centre(set.frames[i])).z();
+      const auto flow_to = [&](int j) {
+        const Eigen::Vector2d d = centre_px(set.frames[j]) - here;
+        Flow f(cam.width, cam.height);
+        for (int y = 0; y < cam.height; ++y)
+          for (int x = 0; x < cam.width; ++x) {
+            const bool ball = (Eigen::Vector2d(x + 0.5, y + 0.5) - here).norm() < radius;
+            const std::size_t p = std::size_t(y) * cam.width + x;
+            f.uv[2 * p] = ball ? float(d.x()) : 0.0f;
+            f.uv[2 * p + 1] = ball ? float(d.y()) : 0.0f;
+            f.valid[p] = 1;
+          }
+        return f;
+      };
+      if (i + 1 < nf) set.forward[c][i] = flow_to(i + 1);
+      if (i > 0) set.backward[c][i] = flow_to(i - 1);
+    }
+  }
+  return set;
+}
+
+TrainConfig tiny_config(int iters) {
+  TrainConfig config;
+  config.iters = iters;
+  config.cap = 3000;
+  return config;
+}
+
+// The CUDA step and a CPU step from the same initial primitives.
+struct Pair {
+  std::unique_ptr<TrainingStep> gpu;
+  CpuStep cpu;
+  Pair(const TrainingSet& set, const TrainConfig& config) : cpu(set, config) {
+    cpu.initialize();
+    gpu = make_step(set, config, cuda::Device::kCuda);
+    gpu->initialize(cpu.model().primitives);
+  }
+};
+
+double relative(double a, double b) {
+  return std::abs(a - b) / std::max({std::abs(a), std::abs(b), 1e-12});
+}
+
+TEST(CudaStep, FirstStepLossesMatchTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  // Views at an end frame (one render) and interior frames (three renders with flow), every camera.
+  const int views[][2] = {{0, 0}, {1, 2}, {2, 4}, {0, 3}};
+  for (const auto& [c, i] : views) {
+    Pair pair(set, tiny_config(200));
+    const StepStats g = pair.gpu->step_view(c, i), h = pair.cpu.step_view(c, i);
+    SCOPED_TRACE("view camera " + std::to_string(c) + " frame " + std::to_string(i));
+    EXPECT_EQ(g.renders, h.renders);
+    EXPECT_EQ(g.active, h.active);
+    EXPECT_EQ(g.primitives, h.primitives);
+    EXPECT_GT(h.flow_loss, 0) << "the flow path runs";
+    EXPECT_LT(relative(g.image_loss, h.image_loss), 1e-4) << g.image_loss << " vs " << h.image_loss;
+    EXPECT_LT(relative(g.flow_loss, h.flow_loss), 1e-4) << g.flow_loss << " vs " << h.flow_loss;
+    EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
+    EXPECT_NEAR(g.psnr, h.psnr, 1e-3);
+    EXPECT_EQ(g.lr_means, h.lr_means);
+  }
+}
+
+// After one step from the same parameters, every optimised value moved as the CPU's did: the same
+// rows and, but for gradients within rounding of zero, the same direction and size.
+TEST(CudaStep, FirstStepUpdateMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  Pair pair(set, tiny_config(200));
+  const model::Primitives before = pair.cpu.model().primitives;
+  pair.gpu->step_view(1, 2);
+  pair.cpu.step_view(1, 2);
+  const model::Primitives g = pair.gpu->host_model().primitives, &h = pair.cpu.model().primitives;
+  ASSERT_EQ(g.size(), h.size());
+  const auto fields_g = g.fields(), fields_h = h.fields(), fields_0 = before.fields();
+  std::size_t moved = 0, agree = 0;
+  for (int f = 0; f < model::Primitives::kFieldCount; ++f) {
+    const std::vector<float>&a = *fields_g[f].values, &b = *fields_h[f].values,
+          &o = *fields_0[f].values;
+    for (std::size_t k = 0; k < b.size(); ++k) {
+      ASSERT_TRUE(std::isfinite(a[k])) << fields_g[f].name << " value " << k;
+      const double dg = double(a[k]) - o[k], dh = double(b[k]) - o[k];
+      if (dh == 0 && dg == 0) continue;
+      ++moved;
+      if (std::abs(dg - dh) <= 1e-2 * std::abs(dh) + 1e-7 * (1 + std::abs(o[k]))) ++agree;
+    }
+  }
+  EXPECT_GT(moved, 1000u);
+  EXPECT_GE(double(agree), 0.98 * double(moved)) << agree << " of " << moved << " values agree";
+}
+
+// Two CUDA runs from the same state agree (the rasteriser's backward sums in the order its atomics
+// land: not bit for bit).
+TEST(CudaStep, TwoRunsAgree) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  const TrainConfig config = tiny_config(200);
+  CpuStep seed(set, config);
+  seed.initialize();
+  std::unique_ptr<TrainingStep> a = make_step(set, config, cuda::Device::kCuda);
+  std::unique_ptr<TrainingStep> b = make_step(set, config, cuda::Device::kCuda);
+  a->initialize(seed.model().primitives);
+  b->initialize(seed.model().primitives);
+  for (int s = 0; s < 20; ++s) {
+    const StepStats x = a->step(), y = b->step();
+    ASSERT_EQ(x.camera, y.camera);
+    ASSERT_EQ(x.frame, y.frame);
+    EXPECT_LT(relative(x.loss, y.loss), 1e-3) << "step " << s + 1;
+  }
+}
+
+// PSNR of a model's renders at every training view, on the CPU renderer.
+double training_view_psnr(const model::Model& m, const TrainingSet& set) {
+  double sum = 0;
+  int count = 0;
+  Image target;
+  for (std::size_t c = 0; c < set.cameras.size(); ++c)
+    for (std::size_t i = 0; i < set.frames.size(); ++i) {
+      const Camera& cam = set.scene.cameras[set.cameras[c]];
+      const model::TimeSlice s =
+          model::slice(m.primitives, m.config, m.grid, set.grid.at(int(i)), cam, {});
+      const float black[3] = {0, 0, 0};
+      render::RenderOptions options;
+      options.near_plane = set.near_plane;
+      const Image image = render::rasterize_forward(s.gaussians, cam, black, options).blend.image;
+      unpack(set.images[c][i], target);
+      double se = 0;
+      for (std::size_t k = 0; k < image.data.size(); ++k)
+        se += double(image.data[k] - target.data[k]) * (image.data[k] - target.data[k]);
+      sum += 10 * std::log10(double(image.data.size()) / std::max(se, 1e-30));
+      ++count;
+    }
+  return sum / count;
+}
+
+// The whole recipe (triple rendering, flow, relocation, growth, stretching, SH schedule) for 2 000
+// steps on each device: the models score alike.
+TEST(CudaStep, TrainsAsWellAsTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  const TrainConfig config = tiny_config(2000);
+  Pair pair(set, config);
+  for (int s = 0; s < config.iters; ++s) {
+    pair.gpu->step();
+    pair.cpu.step();
+  }
+  pair.gpu->finish();
+  pair.cpu.finish();
+  const double g = training_view_psnr(pair.gpu->host_model(), set);
+  const double h = training_view_psnr(pair.cpu.model(), set);
+  std::printf("training-view PSNR after %d steps: cuda %.3f dB, cpu %.3f dB\n", config.iters, g, h);
+  EXPECT_GT(h, 25) << "the CPU run learns the scene";
+  EXPECT_NEAR(g, h, 0.3);
+}
+
+// Relocation and growth run on a host copy at the CPU's iterations: the same counts added, and
+// the state the device continues from is the host's.
+TEST(CudaStep, ReshapesOnTheHostAtTheCpusIterations) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  TrainConfig config = tiny_config(200);  // scaled: relocation every step from step 5
+  config.cap = 6000;
+  Pair pair(set, config);
+  std::size_t added = 0;
+  for (int s = 0; s < 30; ++s) {
+    const StepStats g = pair.gpu->step(), h = pair.cpu.step();
+    EXPECT_EQ(g.added, h.added) << "step " << s + 1;
+    EXPECT_EQ(g.primitives, h.primitives) << "step " << s + 1;
+    ASSERT_TRUE(std::isfinite(g.loss)) << "step " << s + 1;
+    added += g.added;
+  }
+  EXPECT_GT(added, 0u);
+  EXPECT_EQ(pair.gpu->host_model().primitives.size(), pair.gpu->primitive_count());
+}
+
+// A checkpoint written on one device resumes on the other: the model read back is the one
+// written, bit for bit, and training continues from it.
+TEST(CudaStep, CheckpointsResumeOnEitherDevice) {
+  RETIMEGS_REQUIRE_GPU();
+  test::TempDir dir;
+  const TrainingSet set = flow_scene();
+  const TrainConfig config = tiny_config(200);
+  Pair pair(set, config);
+  for (int s = 0; s < 15; ++s) pair.gpu->step();
+  pair.gpu->save_checkpoint(dir / "gpu");
+  CpuStep cpu(set, config);
+  cpu.load_checkpoint(dir / "gpu");
+  const model::Model written = pair.gpu->host_model();
+  EXPECT_EQ(cpu.iteration(), 15);
+  EXPECT_EQ(cpu.model().primitives.mu, written.primitives.mu);
+  EXPECT_EQ(cpu.model().primitives.sh, written.primitives.sh);
+  for (int s = 0; s < 10; ++s) ASSERT_TRUE(std::isfinite(cpu.step().loss));
+  cpu.save_checkpoint(dir / "cpu");
+  std::unique_ptr<TrainingStep> gpu = make_step(set, config, cuda::Device::kCuda);
+  gpu->load_checkpoint(dir / "cpu");
+  EXPECT_EQ(gpu->iteration(), 25);
+  EXPECT_EQ(gpu->host_model().primitives.opacity_logit, cpu.model().primitives.opacity_logit);
+  for (int s = 0; s < 10; ++s) ASSERT_TRUE(std::isfinite(gpu->step().loss));
+  const std::string note = gpu->finish();
+  EXPECT_NE(note.find("final prune"), std::string::npos) << note;
+}
+
+}  // namespace
+}  // namespace retimegs::train

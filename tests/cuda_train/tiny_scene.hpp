@@ -1,0 +1,110 @@
+#pragma once
+// A tiny training set built in memory, for the training step's tests on both devices (CpuStep,
+// the CUDA step): no files and no image codecs, so that it builds in the lean GPU build
+// (RETIMEGS_GPU_ONLY, DESIGN.md §3), where neither media nor load_training_set exists.
+//
+// The scene: `cameras` cameras on a quarter of a ring of radius 4 around the origin (all "train"),
+// looking at it, and `frames` scene frames, all of them training frames (io::FrameSelection::kAll).
+// A ball of radius 0.5 moves along x at 0.1 per frame in front of a black background; each image is
+// the ball's projection drawn as a disc of its colour, with a one-pixel soft edge. Each frame slot
+// has the ball's surface as a point cloud (the flow-aware initialisation's seeds); there are no
+// masks and no flows. The fields the loader derives from a scene (frames, grid, extent, near plane)
+// come from the same functions load_training_set calls (io::training_views,
+// io::scene_near_plane).
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <fmt/format.h>
+#include <Eigen/Core>
+
+#include "retimegs/core/camera.hpp"
+#include "retimegs/core/image.hpp"
+#include "retimegs/io/scene.hpp"
+#include "retimegs/io/training_views.hpp"
+#include "retimegs/train/dataset.hpp"
+
+namespace retimegs::test {
+
+struct TinySceneOptions {
+  int cameras = 2;
+  int frames = 3;
+  int width = 32, height = 24;
+  int points_per_frame = 200;  // on the ball's surface (a Fibonacci sphere)
+};
+
+// The ball's centre at scene frame k.
+inline Eigen::Vector3d tiny_ball_centre(int frame) {
+  return {-0.1 + 0.1 * frame, 0, 0};
+}
+constexpr double kTinyBallRadius = 0.5;
+constexpr float kTinyBallColour[3] = {0.9f, 0.5f, 0.2f};
+
+inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}) {
+  io::Scene scene;
+  scene.num_frames = options.frames;
+  scene.fps = 10;
+  scene.up = {0, -1, 0};
+  for (int c = 0; c < options.cameras; ++c) {
+    const double angle = 0.5 * std::numbers::pi * c / options.cameras;
+    Camera cam;
+    cam.name = fmt::format("cam{:02d}", c);
+    cam.width = options.width, cam.height = options.height;
+    cam.fx = cam.fy = options.width;  // about 53 degrees across
+    cam.cx = 0.5 * options.width, cam.cy = 0.5 * options.height;
+    const Eigen::Vector3d eye(4 * std::sin(angle), -0.5, -4 * std::cos(angle));
+    cam.world_to_camera = look_at(eye, Eigen::Vector3d::Zero(), scene.up);
+    cam.split = Split::kTrain;
+    scene.cameras.push_back(cam);
+  }
+
+  const io::TrainingViews views = io::training_views(scene, io::FrameSelection::kAll);
+  train::TrainingSet set;
+  set.scene = scene;
+  set.cameras = views.cameras;
+  set.frames = views.frames;
+  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
+  set.scene_extent = views.extent;
+  set.near_plane = float(io::scene_near_plane(scene));
+
+  const std::size_t nc = set.cameras.size(), nf = set.frames.size();
+  set.images.assign(nc, std::vector<PackedImage>(nf));
+  set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
+  set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
+  set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
+  set.points.assign(nf, std::nullopt);
+  for (std::size_t i = 0; i < nf; ++i) {
+    const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i]);
+    for (std::size_t c = 0; c < nc; ++c) {
+      const Camera& cam = scene.cameras[set.cameras[c]];
+      const Eigen::Vector3d x_cam = cam.world_to_cam(centre);
+      const Eigen::Vector2d uv = cam.project_cam(x_cam);
+      const double radius = cam.fx * kTinyBallRadius / x_cam.z();  // pixels
+      Image image(cam.width, cam.height, 3);
+      for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+          const double d = (Eigen::Vector2d(x + 0.5, y + 0.5) - uv).norm();
+          const float cover = float(std::clamp(radius + 0.5 - d, 0.0, 1.0));
+          for (int a = 0; a < 3; ++a) image.at(y, x, a) = cover * kTinyBallColour[a];
+        }
+      set.images[c][i] = pack(image, fmt::format("tiny scene camera {} frame {}", c, i));
+    }
+    io::PointCloud cloud;
+    const int n = options.points_per_frame;
+    for (int k = 0; k < n; ++k) {  // Fibonacci sphere: evenly spread, deterministic
+      const double z = 1 - 2 * (k + 0.5) / n, r = std::sqrt(1 - z * z);
+      const double phi = k * std::numbers::pi * (3 - std::sqrt(5.0));
+      const Eigen::Vector3d x =
+          centre + kTinyBallRadius * Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+      for (int a = 0; a < 3; ++a) {
+        cloud.xyz.push_back(float(x[a]));
+        cloud.rgb.push_back(kTinyBallColour[a]);
+      }
+    }
+    set.points[i] = std::move(cloud);
+  }
+  return set;
+}
+
+}  // namespace retimegs::test
