@@ -110,7 +110,7 @@ void add_eval_command(CLI::App& app) {
                                       playback::near_render_options(near_plane), device);
     }
     spdlog::info("evaluating {} views{} on {}", options.cameras.size() * options.frames.size(),
-                 args->stability ? " and the stability" : "",
+                 args->stability ? " and temporal stability" : "",
                  args->baseline.empty() ? cuda::describe(device) : "cpu (a baseline)");
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     if (args->baseline.empty()) result.near = near_plane;
