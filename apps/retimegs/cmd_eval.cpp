@@ -1,6 +1,7 @@
 // retimegs eval (--model MODEL | --baseline crossfade|nearest|flow) --scene SCENE
 //               [--frames odd|all|LIST] [--cameras LIST] [--train-frames even|all] [--stability]
-//               [--lpips-weights DIR] [--save-renders DIR] [--near D] --out METRICS.json
+//               [--lpips-weights DIR] [--save-renders DIR] [--near D] [--device cpu|cuda|auto]
+//               --out METRICS.json
 #include <filesystem>
 #include <memory>
 
@@ -11,6 +12,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/eval/protocol.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -26,6 +28,7 @@ void add_eval_command(CLI::App& app) {
     int threads = 0;
     std::optional<double> near;
     bool stability = false, force = false;
+    std::string device = "cpu";
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -63,6 +66,7 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "metrics JSON to write")->required();
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
+  add_device_option(*cmd, args->device);
   cmd->add_flag("--force", args->force, "replace an existing --out file and --save-renders folder");
   cmd->callback([args, near] {
     set_threads(args->threads);
@@ -76,6 +80,7 @@ void add_eval_command(CLI::App& app) {
     if (args->model.empty() == args->baseline.empty()) fail("eval: give --model or --baseline");
     if (!args->baseline.empty() && near->count() > 0)
       fail("--near {}: a baseline renders no Gaussians; give --near with --model", *args->near);
+    const cuda::Device device = cuda::resolve_device(args->device);
     const io::Scene scene = media::read_scene(args->scene);
     const double near_plane = playback::near_plane(args->near, scene);
     eval::EvalOptions options;
@@ -103,8 +108,11 @@ void add_eval_command(CLI::App& app) {
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
       renderer = eval::model_renderer(scene, playback::load_model(args->model),
-                                      playback::near_render_options(near_plane));
+                                      playback::near_render_options(near_plane), device);
     }
+    spdlog::info("evaluating {} views{} on {}", options.cameras.size() * options.frames.size(),
+                 args->stability ? " and temporal stability" : "",
+                 args->baseline.empty() ? cuda::describe(device) : "cpu (a baseline)");
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     if (args->baseline.empty()) result.near = near_plane;
     eval::write_json(result, args->out);

@@ -2,6 +2,7 @@
 //                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
 // retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
 //   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--force]
+//   [--device cpu|cuda|auto] [--threads T]
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -12,10 +13,12 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/frame_writer.hpp"
 #include "retimegs/media/scene_images.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/playback/output_size.hpp"
 #include "retimegs/playback/shot.hpp"
 
@@ -33,6 +36,7 @@ void add_render_command(CLI::App& app) {
     std::optional<double> scale, fps;
     bool alpha = false;
     int bit_depth = 8;
+    std::string device = "cpu";
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -98,6 +102,7 @@ void add_render_command(CLI::App& app) {
   add_near_option(*cmd, args->near);
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
+  add_device_option(*cmd, args->device);
   cmd->add_flag("--force", args->force, "replace an existing output");
   cmd->callback([args] {
     set_threads(args->threads);
@@ -107,6 +112,7 @@ void add_render_command(CLI::App& app) {
     inputs.push_back({args->retime, "retime file"});
     check_output_overlap(args->out, "--out", inputs);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
+    const cuda::Device device = cuda::resolve_device(args->device);
     const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
     const render::RenderOptions render_options =
         playback::near_render_options(playback::near_plane(args->near, scene));
@@ -120,7 +126,7 @@ void add_render_command(CLI::App& app) {
     std::optional<io::CameraPathFile> path_file;  // read before the model: fail fast
     if (!args->camera_path.empty()) path_file = io::read_camera_path_json(args->camera_path);
 
-    const playback::LoadedModel model = playback::load_model(args->model);
+    playback::LoadedModel model = playback::load_model(args->model);
     if (!args->times.empty()) request.times = parse_time_range(args->times, "--times");
     if (!args->path.empty()) request.path = split_list(args->path, "--path");
     request.retime = args->retime;
@@ -135,7 +141,10 @@ void add_render_command(CLI::App& app) {
     writer_options.force = args->force;
     const std::size_t frames = shot.times.size();
     media::FrameWriter writer(args->out, int(frames), writer_options);
-    playback::render_shot(model, shot, background.data(), writer, render_options);
+    spdlog::info("rendering {} frame{} on {}", frames, frames > 1 ? "s" : "",
+                 cuda::describe(device));
+    const playback::ModelRenderer renderer(std::move(model), device);
+    playback::render_shot(renderer, shot, background.data(), writer, render_options);
     spdlog::info("rendered {} frame{} to {}", frames, frames > 1 ? "s" : "", args->out);
   });
 }

@@ -194,12 +194,11 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
 }
 
 FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,
-                             const render::RenderOptions& options) {
-  auto owned = std::make_shared<const playback::LoadedModel>(std::move(model));
-  return [&scene, owned, options](int camera, double time) {
+                             const render::RenderOptions& options, cuda::Device device) {
+  auto renderer = std::make_shared<const playback::ModelRenderer>(std::move(model), device);
+  return [&scene, renderer, options](int camera, double time) {
     const float black[3] = {0, 0, 0};
-    return playback::render_loaded(*owned, scene.cameras[camera], time, black, options,
-                                   playback::Colors::kCamera);
+    return renderer->render(scene.cameras[camera], time, black, options, playback::Colors::kCamera);
   };
 }
 

@@ -72,15 +72,15 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 
 namespace {
 // One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
-Image frame_for(const media::FrameWriter& writer, const LoadedModel& model, const Camera& camera,
+Image frame_for(const media::FrameWriter& writer, const ModelRenderer& renderer, const Camera& camera,
                 double t, const float* background, const render::RenderOptions& options,
                 Colors colors) {
-  if (writer.alpha()) return render_loaded_rgba(model, camera, t, options, colors);
-  return render_loaded(model, camera, t, background, options, colors);
+  if (writer.alpha()) return renderer.render_rgba(camera, t, options, colors);
+  return renderer.render(camera, t, background, options, colors);
 }
 }  // namespace
 
-void render_shot(const LoadedModel& model, const Shot& shot, const float* background,
+void render_shot(const ModelRenderer& renderer, const Shot& shot, const float* background,
                  media::FrameWriter& writer, const render::RenderOptions& options) {
   if (shot.per_frame && shot.cameras.size() != shot.times.size())
     fail("render: {} cameras for {} times", shot.cameras.size(), shot.times.size());
@@ -88,8 +88,8 @@ void render_shot(const LoadedModel& model, const Shot& shot, const float* backgr
   const Colors colors = shot_colors(shot);
   Progress progress("render", frames, frames > 1);
   for (int f = 0; f < frames; ++f) {
-    writer.write(
-        frame_for(writer, model, shot_camera(shot, f), shot.times[f], background, options, colors));
+    writer.write(frame_for(writer, renderer, shot_camera(shot, f), shot.times[f], background,
+                           options, colors));
     progress.tick();
   }
   progress.finish();

@@ -15,6 +15,7 @@
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/model/model_file.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "soft_cloud.hpp"
 #include "test_util.hpp"
@@ -91,7 +92,8 @@ TEST(RenderOutputsCli, AlphaWritesStraightRgbaThatCompositesToTheRender) {
   const cv::Mat rgba = cv::imread((dir / "rgba.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(rgba.type(), CV_8UC4);
   const Image rgb = media::read_image(dir / "rgb.png");
-  const Image lib = playback::render_loaded_rgba(f.model, f.scene.cameras[0], 1.0, near_001());
+  const Image lib =
+      playback::ModelRenderer(f.model).render_rgba(f.scene.cameras[0], 1.0, near_001());
   int empty = 0, partial = 0;
   for (int y = 0; y < rgba.rows; ++y)
     for (int x = 0; x < rgba.cols; ++x) {

@@ -1,13 +1,13 @@
-// render_loaded_rgba: alpha is the rasteriser's accumulated opacity and RGB the straight colour,
-// so compositing over any background gives the render over that background, through a training
-// camera's colour map too.
+// ModelRenderer::render_rgba: alpha is the rasteriser's accumulated opacity and RGB the straight
+// colour, so compositing over any background gives the render over that background, through a
+// training camera's colour map too.
 #include <cmath>
 
 #include <gtest/gtest.h>
 
 #include "retimegs/core/camera.hpp"
 #include "retimegs/model/slice.hpp"
-#include "retimegs/playback/render_model.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "soft_cloud.hpp"
 
@@ -33,13 +33,13 @@ Camera view(const std::string& name) {
 }
 
 TEST(RenderAlpha, CompositingTheStraightRgbaGivesTheRender) {
-  const LoadedModel model = cloud();
-  const model::Model& m = std::get<model::Model>(model);
+  const ModelRenderer renderer(cloud());
+  const model::Model& m = std::get<model::Model>(renderer.model());
   const float bg[3] = {0.9f, 0.4f, 0.1f};
   for (const char* name : {"cam00", "cam01"}) {  // with and without a colour map
     const Camera cam = view(name);
-    const Image rgba = render_loaded_rgba(model, cam, 1.0, {}, Colors::kCamera);
-    const Image over_bg = render_loaded(model, cam, 1.0, bg, {}, Colors::kCamera);
+    const Image rgba = renderer.render_rgba(cam, 1.0, {}, Colors::kCamera);
+    const Image over_bg = renderer.render(cam, 1.0, bg, {}, Colors::kCamera);
     ASSERT_EQ(rgba.channels, 4);
     // The alpha channel is the rasteriser's.
     const auto raster = render::rasterize_forward(

@@ -171,7 +171,7 @@ void expect_written(const fs::path& png, Image image) {
 void render_to(const fs::path& folder, const model::Model& model, const Shot& shot) {
   const float black[3] = {0, 0, 0};
   media::FrameWriter writer(folder, int(shot.times.size()), 24);
-  render_shot(model, shot, black, writer);
+  render_shot(ModelRenderer(model), shot, black, writer);
 }
 
 TEST(RenderShot, OneCameraUsesItsColoursAPathTheModels) {

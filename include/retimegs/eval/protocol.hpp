@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "retimegs/core/image.hpp"
+#include "retimegs/cuda/device.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/render/options.hpp"
 
@@ -127,10 +129,12 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
 Baseline parse_baseline(const std::string& name, const std::string& flag);
 
 // The held-out renderer of a model: camera `camera` of `scene` at time `time` on black, with that
-// camera's colours (playback::Colors::kCamera), every render with `options`. `scene` must outlive
-// the returned renderer; the model is owned by it.
+// camera's colours (playback::Colors::kCamera), every render with `options`, on `device`
+// (playback::ModelRenderer; the GPU's arrays are reused, so calls must not overlap). `scene` must
+// outlive the returned renderer; the model is owned by it.
 FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,
-                             const render::RenderOptions& options = {});
+                             const render::RenderOptions& options = {},
+                             cuda::Device device = cuda::Device::kCpu);
 
 // "odd", "all", or a comma-separated list; throws Error naming `flag` on bad input.
 std::vector<int> parse_frames(const std::string& text, int num_frames, const std::string& flag);

@@ -1,6 +1,7 @@
 #pragma once
-// One image of a model from a camera: a 4D model (.rgs) at any real time, or a static 3DGS
-// model. What `retimegs render`, `retimegs eval` and the tests draw a model with.
+// One image of a model from a camera on the CPU: a 4D model (.rgs) at any real time, or a static
+// 3DGS model; reading either from its file. playback::ModelRenderer (model_renderer.hpp) draws
+// many images of one model, on the CPU with these functions or on the GPU.
 #include <filesystem>
 #include <optional>
 #include <variant>
@@ -39,19 +40,6 @@ model::Model read_4d_model(const std::filesystem::path& path);
 // anything else a 4D model (read_4d_model). Throws Error naming the file on a bad model.
 using LoadedModel = std::variant<model::Model, Splats>;
 LoadedModel load_model(const std::filesystem::path& path);
-
-// render_model or render_splats, whichever `model` holds (static splats ignore t and colors).
-Image render_loaded(const LoadedModel& model, const Camera& camera, double t,
-                    const float* background, const render::RenderOptions& options = {},
-                    Colors colors = Colors::kModel);
-
-// render_loaded as straight (unassociated) RGBA, the alpha PNG defines: alpha is the accumulated
-// opacity 1 - T (T: the transmittance left behind the last Gaussian), RGB the colour of what the
-// pixel sees, its render over black divided by alpha (0 where alpha is 0), through the camera's
-// colour map as in render_loaded. Compositing it over a background b gives render_loaded's image
-// over b (over the map's image of b for a camera with a colour map).
-Image render_loaded_rgba(const LoadedModel& model, const Camera& camera, double t,
-                         const render::RenderOptions& options = {}, Colors colors = Colors::kModel);
 
 // The near plane of a command's model renders, in scene units: `near` (--near) when given, else
 // the scene's (io::scene_near_plane). Throws Error naming --near unless it is finite and > 0.

@@ -12,6 +12,7 @@
 #include "retimegs/io/camera_path_json.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/frame_writer.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/playback/output_size.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/playback/times.hpp"
@@ -62,11 +63,11 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
 Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double>& time,
                       const LoadedModel& model, const OutputSize& size);
 
-// Renders the frames of `shot` with shot_colors(shot) to `writer`, which is then finished; a
-// writer that writes alpha gets render_loaded_rgba, any other render_loaded over `background`
-// (3 values, RGB). Every frame renders with `options`; a progress bar is shown when there is more
-// than one frame.
-void render_shot(const LoadedModel& model, const Shot& shot, const float* background,
+// Renders the frames of `shot` with `renderer` and shot_colors(shot) to `writer`, which is then
+// finished; a writer that writes alpha gets ModelRenderer::render_rgba, any other
+// ModelRenderer::render over `background` (3 values, RGB). Every frame renders with `options`; a
+// progress bar is shown when there is more than one frame.
+void render_shot(const ModelRenderer& renderer, const Shot& shot, const float* background,
                  media::FrameWriter& writer, const render::RenderOptions& options = {});
 
 }  // namespace retimegs::playback

@@ -1,0 +1,33 @@
+// ModelRenderer on the GPU (built with the CUDA backend only; src/CMakeLists.txt).
+#include <variant>
+
+#include "model_renderer_gpu.hpp"
+#include "retimegs/model/static_splats.hpp"
+
+namespace retimegs::playback {
+
+ModelRenderer::Gpu::Gpu(const LoadedModel& model) {
+  if (const auto* m = std::get_if<model::Model>(&model)) primitives.upload(m->primitives);
+}
+
+Image ModelRenderer::Gpu::draw(const LoadedModel& model, const Camera& camera, double t,
+                               const float* background, const render::RenderOptions& options,
+                               UninitVector<float>* alpha) {
+  const cuda::DeviceGaussians* gaussians = &splats;
+  if (const auto* m = std::get_if<model::Model>(&model)) {
+    cuda::slice(primitives, m->config, m->grid, t, camera, {}, sliced);
+    gaussians = &sliced.gaussians;
+  } else {
+    splats.upload(model::splats_to_gaussians(std::get<Splats>(model), camera));
+  }
+  cuda::rasterize_forward(*gaussians, camera, background, options, out);
+  Image image(out.blend.width, out.blend.height, out.blend.channels);
+  out.blend.image.download(image.data.data());
+  if (alpha) {
+    alpha->resize(out.blend.alpha.size());
+    out.blend.alpha.download(alpha->data());
+  }
+  return image;
+}
+
+}  // namespace retimegs::playback
