@@ -53,8 +53,7 @@ Image band_image(int size, int camera, double frame, double shift) {
 }
 
 train::TrainingSet paper_scale_set(const Settings& s) {
-  train::TrainingSet set;
-  io::Scene& scene = set.scene;
+  io::Scene scene;
   scene.num_frames = s.frames;
   scene.fps = 30;
   scene.up = {0, -1, 0};
@@ -69,18 +68,9 @@ train::TrainingSet paper_scale_set(const Settings& s) {
         look_at({4 * std::sin(angle), -0.8, -4 * std::cos(angle)}, {0, 0, 0}, scene.up);
     scene.cameras.push_back(cam);
   }
-  const io::TrainingViews views = io::training_views(scene, io::FrameSelection::kEven);
-  set.cameras = views.cameras;
-  set.frames = views.frames;
-  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
-  set.scene_extent = views.extent;
-  set.near_plane = float(io::scene_near_plane(scene));
+  train::TrainingSet set =
+      train::unloaded_training_set(scene, io::training_views(scene, io::FrameSelection::kEven));
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
-  set.images.assign(nc, std::vector<PackedImage>(nf));
-  set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
-  set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.points.assign(nf, std::nullopt);
   constexpr double kShift = 3;  // pixels per scene frame
 #pragma omp parallel for collapse(2) schedule(dynamic)
   for (std::size_t c = 0; c < nc; ++c)

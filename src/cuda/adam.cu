@@ -2,6 +2,7 @@
 // stepped rows, each running train::adam_update with the step's constants.
 #include <cuda_runtime.h>
 
+#include "launch.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/adam.hpp"
 #include "retimegs/cuda/check.hpp"
@@ -10,12 +11,6 @@
 
 namespace retimegs::cuda {
 namespace {
-
-constexpr int kThreads = 256;
-
-int blocks_for(std::size_t values) {
-  return int((values + kThreads - 1) / kThreads);
-}
 
 // Value j · width + k of the stepped set is column k of row rows[j] (row j when rows is null).
 __global__ void __launch_bounds__(kThreads)

@@ -12,6 +12,7 @@
 #include <cub/device/device_scan.cuh>
 
 #include "blend.hpp"
+#include "launch.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/render/formulas.hpp"
@@ -20,12 +21,7 @@
 namespace retimegs::cuda {
 namespace {
 
-constexpr int kThreads = 256;  // per block of the per-Gaussian and per-intersection kernels
 constexpr unsigned kFullWarp = 0xffffffffu;
-
-unsigned blocks_for(std::size_t n) {
-  return unsigned((n + kThreads - 1) / kThreads);
-}
 
 // summary[]: whether some input failed check_gaussians, and the OR and AND of the depth bits of
 // the binned Gaussians (the sort's key bits in which they differ).
@@ -179,15 +175,6 @@ ProjectParams project_params(const DeviceGaussians& g, const Camera& camera,
           g.channels,
           render::tile_count(camera.width),
           render::tile_count(camera.height)};
-}
-
-// CUB's temporary storage for one call: asks for the size, grows `storage`, runs.
-template <typename F>
-void with_cub_storage(DeviceBuffer<std::uint8_t>& storage, const char* what, F&& run) {
-  std::size_t bytes = 0;
-  check(run(nullptr, bytes), what);
-  storage.resize(bytes);
-  check(run(storage.data(), bytes), what);
 }
 
 template <typename T>

@@ -1,17 +1,12 @@
 // Row gathers and copies of [rows, width] arrays (rows.hpp): one thread per value.
 #include <cuda_runtime.h>
 
+#include "launch.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "rows.hpp"
 
 namespace retimegs::cuda {
 namespace {
-
-constexpr int kThreads = 256;
-
-int blocks_for(std::size_t values) {
-  return int((values + kThreads - 1) / kThreads);
-}
 
 __global__ void __launch_bounds__(kThreads)
     gather_kernel(const float* in, float* out, int width, const std::int32_t* from,

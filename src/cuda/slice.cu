@@ -9,6 +9,7 @@
 
 #include <cub/device/device_scan.cuh>
 
+#include "launch.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/model/slice_formulas.hpp"
@@ -16,44 +17,11 @@
 namespace retimegs::cuda {
 namespace {
 
-constexpr int kThreads = 256;  // per block of every kernel here
-
 using model::GaussianArrays;
 using model::GaussianGradArrays;
 using model::PrimitiveArrays;
 using model::PrimitiveGradArrays;
 using Params = model::SliceParams<float>;
-
-unsigned blocks_for(std::size_t n) {
-  return unsigned((n + kThreads - 1) / kThreads);
-}
-
-PrimitiveArrays<float> arrays_of(const DevicePrimitives& p) {
-  return {p.mu.data(),    p.velocity.data(), p.log_scale.data(),         p.q0.data(),
-          p.q1.data(),    p.sh.data(),       p.opacity_logit.data(),     p.mu_tau.data(),
-          p.tau_l.data(), p.tau_r.data(),    p.temporal_log_scale.data()};
-}
-
-PrimitiveGradArrays<float> arrays_of(DevicePrimitiveGrads& g) {
-  return {g.v_mu.data(),
-          g.v_velocity.data(),
-          g.v_log_scale.data(),
-          g.v_q0.data(),
-          g.v_q1.data(),
-          g.v_sh.data(),
-          g.v_opacity_logit.data(),
-          g.v_mu_tau.data(),
-          g.v_temporal_log_scale.data()};
-}
-
-// CUB's temporary storage for one call: asks for the size, grows `storage`, runs.
-template <typename F>
-void with_cub_storage(DeviceBuffer<std::uint8_t>& storage, const char* what, F&& run) {
-  std::size_t bytes = 0;
-  check(run(nullptr, bytes), what);
-  storage.resize(bytes);
-  check(run(storage.data(), bytes), what);
-}
 
 // Throws Error unless the primitives' fields hold n rows each (DevicePrimitives::upload's check,
 // for primitives filled on the device).
@@ -176,7 +144,7 @@ void slice(const DevicePrimitives& primitives, const model::ModelConfig& config,
     fail("slice: the shaded colours hold {} values for {} primitives", shaded->rgb.size(), n);
   const std::size_t candidates = options.rows ? options.row_count : n;
   if (candidates > std::size_t(INT32_MAX) - 2) fail("slice: more than 2^31 candidate rows");
-  const PrimitiveArrays<float> p = arrays_of(primitives);
+  const PrimitiveArrays<float> p = model::primitive_arrays<float>(primitives);
 
   // Select, then the exclusive sum of the kept flags: each kept row's place in the batch, and in
   // its last entry the batch's size, read back with the first unordered row list entry.
@@ -255,8 +223,9 @@ void slice_backward(const DevicePrimitives& primitives, const model::ModelConfig
                                         v_gaussians.v_quats.data(), v_gaussians.v_opacities.data(),
                                         v_gaussians.v_features.data()};
   slice_backward_kernel<<<blocks_for(m), kThreads>>>(
-      s, arrays_of(primitives), int(m), sliced.primitive_from_gaussian.data(),
-      sliced.temporal.data(), vg, arrays_of(grads), shaded ? shaded->v_rgb.data() : nullptr);
+      s, model::primitive_arrays<float>(primitives), int(m), sliced.primitive_from_gaussian.data(),
+      sliced.temporal.data(), vg, model::gradient_arrays<float>(grads),
+      shaded ? shaded->v_rgb.data() : nullptr);
   check(cudaGetLastError(), "slice_backward launch");
 }
 
@@ -271,8 +240,8 @@ void shade(const DevicePrimitives& primitives, const model::ModelConfig& config,
   out.rgb.resize(3 * n);
   out.v_rgb.resize(3 * n);
   if (count == 0) return;
-  shade_kernel<<<blocks_for(count), kThreads>>>(s, arrays_of(primitives), rows, int(count),
-                                                out.rgb.data(), out.v_rgb.data());
+  shade_kernel<<<blocks_for(count), kThreads>>>(s, model::primitive_arrays<float>(primitives), rows,
+                                                int(count), out.rgb.data(), out.v_rgb.data());
   check(cudaGetLastError(), "shade launch");
 }
 
@@ -290,8 +259,9 @@ void shade_backward(const DevicePrimitives& primitives, const model::ModelConfig
     fail("shade_backward: the shaded colours hold {} gradient values for {} primitives",
          shaded.v_rgb.size(), n);
   if (count == 0) return;
-  shade_backward_kernel<<<blocks_for(count), kThreads>>>(s, arrays_of(primitives), rows, int(count),
-                                                         shaded.v_rgb.data(), arrays_of(grads));
+  shade_backward_kernel<<<blocks_for(count), kThreads>>>(
+      s, model::primitive_arrays<float>(primitives), rows, int(count), shaded.v_rgb.data(),
+      model::gradient_arrays<float>(grads));
   check(cudaGetLastError(), "shade_backward launch");
 }
 

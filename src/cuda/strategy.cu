@@ -1,14 +1,13 @@
 // The MCMC noise on the device (include/retimegs/cuda/strategy.hpp): one thread per active row.
 #include <cuda_runtime.h>
 
+#include "launch.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/cuda/strategy.hpp"
 #include "retimegs/train/noise_formulas.hpp"
 
 namespace retimegs::cuda {
 namespace {
-
-constexpr int kThreads = 256;
 
 __global__ void __launch_bounds__(kThreads)
     noise_kernel(const std::int32_t* rows, std::size_t count, double lr_means, std::uint64_t key,
@@ -24,9 +23,8 @@ __global__ void __launch_bounds__(kThreads)
 void inject_noise(DevicePrimitives& p, const std::int32_t* rows, std::size_t count, double lr_means,
                   std::uint64_t key) {
   if (count == 0) return;
-  noise_kernel<<<int((count + kThreads - 1) / kThreads), kThreads>>>(
-      rows, count, lr_means, key, p.opacity_logit.data(), p.q0.data(), p.log_scale.data(),
-      p.mu.data());
+  noise_kernel<<<blocks_for(count), kThreads>>>(rows, count, lr_means, key, p.opacity_logit.data(),
+                                                p.q0.data(), p.log_scale.data(), p.mu.data());
   check(cudaGetLastError(), "noise_kernel launch");
 }
 

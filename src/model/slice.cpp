@@ -31,26 +31,6 @@ int grid_index(const TimeGrid& grid, double t) {
   return int(i);
 }
 
-template <typename T>
-PrimitiveArrays<T> arrays_of(const PrimitivesT<T>& p) {
-  return {p.mu.data(),    p.velocity.data(), p.log_scale.data(),         p.q0.data(),
-          p.q1.data(),    p.sh.data(),       p.opacity_logit.data(),     p.mu_tau.data(),
-          p.tau_l.data(), p.tau_r.data(),    p.temporal_log_scale.data()};
-}
-
-template <typename T>
-PrimitiveGradArrays<T> arrays_of(PrimitiveGradsT<T>& g) {
-  return {g.v_mu.data(),
-          g.v_velocity.data(),
-          g.v_log_scale.data(),
-          g.v_q0.data(),
-          g.v_q1.data(),
-          g.v_sh.data(),
-          g.v_opacity_logit.data(),
-          g.v_mu_tau.data(),
-          g.v_temporal_log_scale.data()};
-}
-
 }  // namespace
 
 template <typename T>
@@ -114,7 +94,7 @@ void slice(const PrimitivesT<T>& primitives, const ModelConfig& config, const Ti
   const SliceParams<T> s =
       slice_params<T>(config, grid, t_in, camera, options.group, options.compensate,
                       options.flow_features, options.min_opacity);
-  const PrimitiveArrays<T> p = arrays_of(primitives);
+  const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
   const std::size_t n = primitives.size();
 
   // Select the rows in primitive order: each chunk of the candidates compacts its selected rows to
@@ -183,8 +163,8 @@ void slice_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
   SliceParams<T> s = slice_params<T>(config, grid, t_in, camera, Group::kAll, options.compensate,
                                      options.flow_features, options.min_opacity);
   s.channels = sliced.gaussians.channels;
-  const PrimitiveArrays<T> p = arrays_of(primitives);
-  const PrimitiveGradArrays<T> v_p = arrays_of(grads);
+  const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
+  const PrimitiveGradArrays<T> v_p = gradient_arrays<T>(grads);
   const GaussianGradArrays<T> vg = {v_gaussians.v_means.data(), v_gaussians.v_log_scales.data(),
                                     v_gaussians.v_quats.data(), v_gaussians.v_opacities.data(),
                                     v_gaussians.v_features.data()};
@@ -205,7 +185,7 @@ void shade(const PrimitivesT<T>& primitives, const ModelConfig& config, const Ti
            ShadedT<T>& out) {
   const SliceParams<T> s =
       slice_params<T>(config, grid, t_in, camera, Group::kAll, false, false, 0.0);
-  const PrimitiveArrays<T> p = arrays_of(primitives);
+  const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
   out.rgb.resize(3 * primitives.size());
   out.v_rgb.resize(3 * primitives.size());
   const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
@@ -223,8 +203,8 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                     PrimitiveGradsT<T>& grads) {
   const SliceParams<T> s =
       slice_params<T>(config, grid, t_in, camera, Group::kAll, false, false, 0.0);
-  const PrimitiveArrays<T> p = arrays_of(primitives);
-  const PrimitiveGradArrays<T> v_p = arrays_of(grads);
+  const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
+  const PrimitiveGradArrays<T> v_p = gradient_arrays<T>(grads);
   const std::ptrdiff_t count = std::ptrdiff_t(rows.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t k = 0; k < count; ++k) {

@@ -17,4 +17,21 @@ std::size_t TrainingSet::image_bytes() const {
   return n;
 }
 
+TrainingSet unloaded_training_set(const io::Scene& scene, const io::TrainingViews& views) {
+  TrainingSet set;
+  set.scene = scene;
+  set.cameras = views.cameras;
+  set.frames = views.frames;
+  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
+  set.scene_extent = views.extent;
+  set.near_plane = float(io::scene_near_plane(scene));
+  const std::size_t nc = set.cameras.size(), nf = set.frames.size();
+  set.images.assign(nc, std::vector<PackedImage>(nf));
+  set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
+  set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
+  set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
+  set.points.assign(nf, std::nullopt);
+  return set;
+}
+
 }  // namespace retimegs::train

@@ -14,22 +14,10 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
     fail("{}: training needs at least 2 training frames; the scene has {} frame(s)",
          scene.json_path().string(), scene.num_frames);
   if (views.cameras.empty()) fail("{}: no training cameras", scene.json_path().string());
-  TrainingSet set;
-  set.scene = scene;
-  set.cameras = views.cameras;
-  set.frames = views.frames;
-  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
+  TrainingSet set = unloaded_training_set(scene, views);
   if (window)
     set.clip_grid = model::TimeGrid{0.0, double(views.step), int(views.clip_frames.size())};
-  set.scene_extent = views.extent;
-  set.near_plane = float(io::scene_near_plane(scene));
-
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
-  set.images.assign(nc, std::vector<PackedImage>(nf));
-  set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
-  set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.points.assign(nf, std::nullopt);
   parallel_for(nc * nf, [&](std::size_t job) {
     const std::size_t c = job / nf, i = job % nf;
     const int cam = set.cameras[c], k = set.frames[i];

@@ -9,8 +9,8 @@
 // the ball's projection drawn as a disc of its colour, with a one-pixel soft edge. Each frame slot
 // has the ball's surface as a point cloud (the flow-aware initialisation's seeds); there are no
 // masks and no flows. The fields the loader derives from a scene (frames, grid, extent, near plane)
-// come from the same functions load_training_set calls (io::training_views,
-// io::scene_near_plane).
+// come from the function load_training_set calls, train::unloaded_training_set of the scene's
+// io::training_views.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -59,21 +59,9 @@ inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}
     scene.cameras.push_back(cam);
   }
 
-  const io::TrainingViews views = io::training_views(scene, io::FrameSelection::kAll);
-  train::TrainingSet set;
-  set.scene = scene;
-  set.cameras = views.cameras;
-  set.frames = views.frames;
-  set.grid = {double(views.frames[0]), double(views.step), int(views.frames.size())};
-  set.scene_extent = views.extent;
-  set.near_plane = float(io::scene_near_plane(scene));
-
+  train::TrainingSet set =
+      train::unloaded_training_set(scene, io::training_views(scene, io::FrameSelection::kAll));
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
-  set.images.assign(nc, std::vector<PackedImage>(nf));
-  set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
-  set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.backward.assign(nc, std::vector<std::optional<Flow>>(nf));
-  set.points.assign(nf, std::nullopt);
   for (std::size_t i = 0; i < nf; ++i) {
     const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i]);
     for (std::size_t c = 0; c < nc; ++c) {

@@ -41,6 +41,29 @@ struct PrimitiveGradArrays {
   T *v_mu, *v_velocity, *v_log_scale, *v_q0, *v_q1, *v_sh, *v_opacity_logit, *v_mu_tau,
       *v_temporal_log_scale;
 };
+
+// The field pointers of primitives and of their gradients, wherever the arrays live: P and G hold
+// PrimitivesT's / PrimitiveGradsT's fields as containers with data() (host vectors, or the CUDA
+// backend's device buffers).
+template <typename T, typename P>
+PrimitiveArrays<T> primitive_arrays(const P& p) {
+  return {p.mu.data(),    p.velocity.data(), p.log_scale.data(),         p.q0.data(),
+          p.q1.data(),    p.sh.data(),       p.opacity_logit.data(),     p.mu_tau.data(),
+          p.tau_l.data(), p.tau_r.data(),    p.temporal_log_scale.data()};
+}
+template <typename T, typename G>
+PrimitiveGradArrays<T> gradient_arrays(G& g) {
+  return {g.v_mu.data(),
+          g.v_velocity.data(),
+          g.v_log_scale.data(),
+          g.v_q0.data(),
+          g.v_q1.data(),
+          g.v_sh.data(),
+          g.v_opacity_logit.data(),
+          g.v_mu_tau.data(),
+          g.v_temporal_log_scale.data()};
+}
+
 // Pointers to the arrays of GaussiansT (the batch being written).
 template <typename T>
 struct GaussianArrays {

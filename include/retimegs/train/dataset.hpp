@@ -36,4 +36,9 @@ struct TrainingSet {
   std::size_t image_bytes() const;  // of the packed images
 };
 
+// The training set of `views` (io::training_views of `scene`) with nothing read yet: its cameras,
+// frames, time grid, extent and near plane, every per-view array sized and empty. A loader (or a
+// test, a benchmark) fills the images, masks, flows and points.
+TrainingSet unloaded_training_set(const io::Scene& scene, const io::TrainingViews& views);
+
 }  // namespace retimegs::train
