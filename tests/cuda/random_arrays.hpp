@@ -1,12 +1,14 @@
 #pragma once
-// Inputs and comparisons of the GPU tests: random arrays (never all zero), and the distance of two
-// floats in units in the last place.
+// Inputs and comparisons of the GPU tests: random arrays (never all zero) and row subsets, an
+// image's first channels, and the distance of two floats in units in the last place.
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
+
+#include "retimegs/core/image.hpp"
 
 namespace retimegs::test {
 
@@ -16,6 +18,25 @@ inline std::vector<float> random_floats(std::size_t n, float lo, float hi, std::
   std::uniform_real_distribution<float> u(lo, hi);
   std::vector<float> out(n);
   for (float& v : out) v = u(rng);
+  return out;
+}
+
+// An ascending random subset of [0, n), about `fraction` of it.
+inline std::vector<std::int32_t> random_rows(std::size_t n, double fraction, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::bernoulli_distribution take(fraction);
+  std::vector<std::int32_t> rows;
+  for (std::size_t r = 0; r < n; ++r)
+    if (take(rng)) rows.push_back(std::int32_t(r));
+  return rows;
+}
+
+// The first `channels` channels of an image.
+inline Image first_channels(const Image& image, int channels) {
+  Image out(image.width, image.height, channels);
+  for (std::size_t p = 0; p < image.pixels(); ++p)
+    for (int c = 0; c < channels; ++c)
+      out.data[p * channels + c] = image.data[p * image.channels + c];
   return out;
 }
 

@@ -61,16 +61,6 @@ Bounds bounds(const State& before, const State& after, std::size_t i, float scal
   return b;
 }
 
-// An ascending random subset of [0, n), about `fraction` of it.
-std::vector<std::int32_t> random_rows(std::size_t n, double fraction, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::bernoulli_distribution take(fraction);
-  std::vector<std::int32_t> rows;
-  for (std::size_t r = 0; r < n; ++r)
-    if (take(rng)) rows.push_back(std::int32_t(r));
-  return rows;
-}
-
 // Steps of a group whose moments hold state, over changing row sets (a sparse set, every row, an
 // empty set, a dense set) at changing rates. Each step starts both devices from the host's state.
 void check_steps(std::size_t n, int width, const std::vector<float>& column_scale,
@@ -87,7 +77,7 @@ void check_steps(std::size_t n, int width, const std::vector<float>& column_scal
   std::int64_t steps = adam.steps();
 
   const std::vector<std::vector<std::int32_t>> sets = {
-      random_rows(n, 0.3, seed + 3), {}, {}, random_rows(n, 0.9, seed + 4)};
+      test::random_rows(n, 0.3, seed + 3), {}, {}, test::random_rows(n, 0.9, seed + 4)};
   const bool every_row[] = {false, true, false, false};
   const double rates[] = {1.6e-4, 5e-3, 1e-3, 2.5e-2};
   double worst = 0;  // of |device − host| / bound
@@ -157,7 +147,7 @@ TEST(AdamCuda, ResetRowsZeroesOnlyThoseRows) {
   DeviceAdam adam(n, width);
   adam.m().upload(m);
   adam.v().upload(v);
-  const std::vector<std::int32_t> rows = random_rows(n, 0.2, 33);
+  const std::vector<std::int32_t> rows = test::random_rows(n, 0.2, 33);
   ASSERT_FALSE(rows.empty());
   DeviceBuffer<std::int32_t> d_rows;
   d_rows.upload(rows);

@@ -58,14 +58,6 @@ Image random_render(const Image& view, int channels, std::uint64_t seed) {
   return render;
 }
 
-Image first_channels(const Image& image, int channels) {
-  Image out(image.width, image.height, channels);
-  for (std::size_t p = 0; p < image.pixels(); ++p)
-    for (int c = 0; c < channels; ++c)
-      out.data[p * channels + c] = image.data[p * image.channels + c];
-  return out;
-}
-
 // train::image_loss on the host: the L1 part as its loop, the SSIM part core's own.
 double host_image_loss(const Image& rgb, const SsimTarget& target, double lambda, double weight,
                        Image& v_render) {
@@ -151,7 +143,7 @@ TEST(ImageLossCuda, MatchesTheCpuOnEverySizeAndLayout) {
       cpu_target.assign(view.image);
       Image cpu_v = v_start;
       const double cpu_loss =
-          host_image_loss(first_channels(render, 3), cpu_target, lambda, weight, cpu_v);
+          host_image_loss(test::first_channels(render, 3), cpu_target, lambda, weight, cpu_v);
       const DeviceImageLoss gpu = device_image_loss(view, render, lambda, weight, v_start);
 
       ASSERT_EQ(gpu.target_image, view.image.data) << "the device's unpacking";
@@ -195,7 +187,8 @@ TEST(ImageLossCuda, L1AloneIsTheCpusBitForBit) {
   SsimTarget cpu_target;
   cpu_target.assign(view.image);
   Image cpu_v = v_start;
-  const double cpu_loss = host_image_loss(first_channels(render, 3), cpu_target, 0.0, 1.3, cpu_v);
+  const double cpu_loss =
+      host_image_loss(test::first_channels(render, 3), cpu_target, 0.0, 1.3, cpu_v);
   const DeviceImageLoss gpu = device_image_loss(view, render, 0.0, 1.3, v_start);
   EXPECT_NEAR(gpu.loss, cpu_loss, 1e-12 * cpu_loss);
   for (std::size_t i = 0; i < cpu_v.data.size(); ++i)

@@ -28,15 +28,6 @@ namespace {
 
 constexpr unsigned char kNaN = 0xff;  // every float and double of all-ones bytes is a NaN
 
-std::vector<std::int32_t> random_rows(std::size_t n, double fraction, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::bernoulli_distribution take(fraction);
-  std::vector<std::int32_t> rows;
-  for (std::size_t r = 0; r < n; ++r)
-    if (take(rng)) rows.push_back(std::int32_t(r));
-  return rows;
-}
-
 // Two sums of the same `count` positive terms in different orders differ by at most
 // 2 (count − 1) ε of the sum; a term's exp may differ in its last bit: 4 (count + 4) ε, with
 // margin.
@@ -63,7 +54,7 @@ TEST(RegularizerCuda, ValueAndGradientMatchTheCpu) {
     p.resize(c.n);
     p.opacity_logit = test::random_floats(c.n, -6.0f, 6.0f, c.seed);
     p.log_scale = test::random_floats(3 * c.n, -6.0f, 1.0f, c.seed + 1);
-    std::vector<std::int32_t> rows = random_rows(c.n, c.fraction, c.seed + 2);
+    std::vector<std::int32_t> rows = test::random_rows(c.n, c.fraction, c.seed + 2);
     if (rows.empty()) rows = {0};
 
     // The value: the CPU's order (train::regularizer's runs) is one order among many.
@@ -150,14 +141,6 @@ double host_squared_error(const Image& rgb, const Image& target) {
   return sum;
 }
 
-Image first_channels(const Image& image, int channels) {
-  Image out(image.width, image.height, channels);
-  for (std::size_t p = 0; p < image.pixels(); ++p)
-    for (int c = 0; c < channels; ++c)
-      out.data[p * channels + c] = image.data[p * image.channels + c];
-  return out;
-}
-
 TEST(SquaredErrorCuda, MatchesTheCpuAndGivesItsPsnr) {
   RETIMEGS_REQUIRE_GPU();
   struct Case {
@@ -195,7 +178,7 @@ TEST(SquaredErrorCuda, MatchesTheCpuAndGivesItsPsnr) {
     EXPECT_NEAR(got[0], host, positive_sum_bound(host, count));
     EXPECT_EQ(got[1], got[0]);  // the same sum, from the prepared view or a plain array
     // The log's PSNR: core's own function on the host images, and its rule on the device's sum.
-    const double psnr_host = psnr(first_channels(render, 3), view);
+    const double psnr_host = psnr(test::first_channels(render, 3), view);
     // d psnr = 10 / ln 10 · (relative difference of the sums).
     EXPECT_NEAR(psnr_from_squared_error(got[0], count), psnr_host,
                 10 / std::log(10.0) * positive_sum_bound(host, count) / host + 1e-12);

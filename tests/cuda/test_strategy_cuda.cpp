@@ -26,16 +26,6 @@
 namespace retimegs::cuda {
 namespace {
 
-// An ascending random subset of [0, n), about `fraction` of it.
-std::vector<std::int32_t> random_rows(std::size_t n, double fraction, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::bernoulli_distribution take(fraction);
-  std::vector<std::int32_t> rows;
-  for (std::size_t r = 0; r < n; ++r)
-    if (take(rng)) rows.push_back(std::int32_t(r));
-  return rows;
-}
-
 // n primitives with every field random: opacities from faint (noise at full gate) to opaque
 // (gated off), scales from e^-5 to e^0, rotations of any (unnormalised) quaternion.
 model::Primitives random_primitives(std::size_t n, std::uint64_t seed) {
@@ -51,7 +41,7 @@ model::Primitives random_primitives(std::size_t n, std::uint64_t seed) {
 
 TEST(NoiseCuda, DrawsMatchTheHost) {
   RETIMEGS_REQUIRE_GPU();
-  const std::vector<std::int32_t> rows = random_rows(20000, 0.5, 3);
+  const std::vector<std::int32_t> rows = test::random_rows(20000, 0.5, 3);
   const std::uint64_t key = std::mt19937_64(17)();
   const test::NoiseDraws device = test::device_noise_draws(key, rows);
   ASSERT_EQ(device.uniforms.size(), 4 * rows.size());
@@ -80,7 +70,7 @@ TEST(NoiseCuda, InjectNoiseMatchesTheCpuRowByRow) {
   RETIMEGS_REQUIRE_GPU();
   const std::size_t n = 30011;
   const model::Primitives before = random_primitives(n, 5);
-  const std::vector<std::int32_t> rows = random_rows(n, 0.6, 6);
+  const std::vector<std::int32_t> rows = test::random_rows(n, 0.6, 6);
   const std::uint64_t key = std::mt19937_64(7)();
   const double lr_means = 1.6e-4 * 2.5;  // lr_means times a scene extent
 
