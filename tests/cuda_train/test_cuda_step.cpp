@@ -20,6 +20,7 @@
 
 #include "cuda/require_gpu.hpp"
 #include "cuda_train/tiny_scene.hpp"
+#include "retimegs/core/psnr.hpp"
 #include "retimegs/model/slice.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/cpu_step.hpp"
@@ -161,48 +162,55 @@ TEST(CudaStep, TwoRunsAgree) {
   }
 }
 
-// PSNR of a model's renders at every training view, on the CPU renderer.
-double training_view_psnr(const model::Model& m, const TrainingSet& set) {
-  double sum = 0;
-  int count = 0;
-  Image target;
-  for (std::size_t c = 0; c < set.cameras.size(); ++c)
-    for (std::size_t i = 0; i < set.frames.size(); ++i) {
-      const Camera& cam = set.scene.cameras[set.cameras[c]];
-      const model::TimeSlice s =
-          model::slice(m.primitives, m.config, m.grid, set.grid.at(int(i)), cam, {});
-      const float black[3] = {0, 0, 0};
-      render::RenderOptions options;
-      options.near_plane = set.near_plane;
+// Held-out PSNR: a model's renders (CPU renderer) halfway between consecutive training frames,
+// from every camera, against the ball drawn at that time, over all of them.
+double held_out_psnr(const model::Model& m, const TrainingSet& set) {
+  double squared_error = 0;
+  std::size_t count = 0;
+  render::RenderOptions options;
+  options.near_plane = set.near_plane;
+  const float black[3] = {0, 0, 0};
+  for (const int camera : set.cameras)
+    for (int i = 0; i + 1 < set.grid.count; ++i) {
+      const Camera& cam = set.scene.cameras[camera];
+      const double t = set.grid.at(i) + 0.5 * set.grid.step;
+      const model::TimeSlice s = model::slice(m.primitives, m.config, m.grid, t, cam, {});
       const Image image = render::rasterize_forward(s.gaussians, cam, black, options).blend.image;
-      unpack(set.images[c][i], target);
-      double se = 0;
+      const Image truth = test::tiny_ball_image(cam, t);
       for (std::size_t k = 0; k < image.data.size(); ++k)
-        se += double(image.data[k] - target.data[k]) * (image.data[k] - target.data[k]);
-      sum += 10 * std::log10(double(image.data.size()) / std::max(se, 1e-30));
-      ++count;
+        squared_error += double(image.data[k] - truth.data[k]) * (image.data[k] - truth.data[k]);
+      count += image.data.size();
     }
-  return sum / count;
+  return psnr_from_squared_error(squared_error, count);
 }
 
 // The whole recipe (triple rendering, flow, relocation, growth, stretching, SH schedule) for 2 000
-// steps on each device: the models score alike.
+// steps on each device: the models score alike on held-out times. One run's held-out PSNR moves
+// with its seed (CPU, seeds 0 to 3: 46.00, 46.49, 46.33, 46.06 dB), and the GPU's rounding moves
+// it as a seed does, so the mean over three seeds is compared.
 TEST(CudaStep, TrainsAsWellAsTheCpu) {
   RETIMEGS_REQUIRE_GPU();
   const TrainingSet set = flow_scene();
-  const TrainConfig config = tiny_config(2000);
-  Pair pair(set, config);
-  for (int s = 0; s < config.iters; ++s) {
-    pair.gpu->step();
-    pair.cpu.step();
+  constexpr int kSeeds = 3;
+  double g = 0, h = 0;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    TrainConfig config = tiny_config(2000);
+    config.seed = std::uint64_t(seed);
+    Pair pair(set, config);
+    for (int s = 0; s < config.iters; ++s) {
+      pair.gpu->step();
+      pair.cpu.step();
+    }
+    pair.gpu->finish();
+    pair.cpu.finish();
+    const double gs = held_out_psnr(pair.gpu->host_model(), set);
+    const double hs = held_out_psnr(pair.cpu.model(), set);
+    std::printf("seed %d: held-out PSNR after %d steps: cuda %.3f dB, cpu %.3f dB\n", seed,
+                config.iters, gs, hs);
+    g += gs / kSeeds, h += hs / kSeeds;
   }
-  pair.gpu->finish();
-  pair.cpu.finish();
-  const double g = training_view_psnr(pair.gpu->host_model(), set);
-  const double h = training_view_psnr(pair.cpu.model(), set);
-  std::printf("training-view PSNR after %d steps: cuda %.3f dB, cpu %.3f dB\n", config.iters, g, h);
-  EXPECT_GT(h, 25) << "the CPU run learns the scene";
-  EXPECT_NEAR(g, h, 0.3);
+  EXPECT_GT(h, 40) << "the CPU runs learn the scene";
+  EXPECT_NEAR(g, h, 0.3) << "mean held-out PSNR over " << kSeeds << " seeds";
 }
 
 // Relocation and growth run on a host copy at the CPU's iterations: the same counts added, and

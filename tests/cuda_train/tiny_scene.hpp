@@ -34,12 +34,28 @@ struct TinySceneOptions {
   int points_per_frame = 200;  // on the ball's surface (a Fibonacci sphere)
 };
 
-// The ball's centre at scene frame k.
-inline Eigen::Vector3d tiny_ball_centre(int frame) {
+// The ball's centre at scene time `frame` (any real time: held-out in-between images too).
+inline Eigen::Vector3d tiny_ball_centre(double frame) {
   return {-0.1 + 0.1 * frame, 0, 0};
 }
 constexpr double kTinyBallRadius = 0.5;
 constexpr float kTinyBallColour[3] = {0.9f, 0.5f, 0.2f};
+
+// What `cam` sees at scene time `frame`: the ball as a disc of its colour with a one-pixel soft
+// edge, on black.
+inline Image tiny_ball_image(const Camera& cam, double frame) {
+  const Eigen::Vector3d x_cam = cam.world_to_cam(tiny_ball_centre(frame));
+  const Eigen::Vector2d uv = cam.project_cam(x_cam);
+  const double radius = cam.fx * kTinyBallRadius / x_cam.z();  // pixels
+  Image image(cam.width, cam.height, 3);
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const double d = (Eigen::Vector2d(x + 0.5, y + 0.5) - uv).norm();
+      const float cover = float(std::clamp(radius + 0.5 - d, 0.0, 1.0));
+      for (int a = 0; a < 3; ++a) image.at(y, x, a) = cover * kTinyBallColour[a];
+    }
+  return image;
+}
 
 inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}) {
   io::Scene scene;
@@ -64,20 +80,9 @@ inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
   for (std::size_t i = 0; i < nf; ++i) {
     const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i]);
-    for (std::size_t c = 0; c < nc; ++c) {
-      const Camera& cam = scene.cameras[set.cameras[c]];
-      const Eigen::Vector3d x_cam = cam.world_to_cam(centre);
-      const Eigen::Vector2d uv = cam.project_cam(x_cam);
-      const double radius = cam.fx * kTinyBallRadius / x_cam.z();  // pixels
-      Image image(cam.width, cam.height, 3);
-      for (int y = 0; y < cam.height; ++y)
-        for (int x = 0; x < cam.width; ++x) {
-          const double d = (Eigen::Vector2d(x + 0.5, y + 0.5) - uv).norm();
-          const float cover = float(std::clamp(radius + 0.5 - d, 0.0, 1.0));
-          for (int a = 0; a < 3; ++a) image.at(y, x, a) = cover * kTinyBallColour[a];
-        }
-      set.images[c][i] = pack(image, fmt::format("tiny scene camera {} frame {}", c, i));
-    }
+    for (std::size_t c = 0; c < nc; ++c)
+      set.images[c][i] = pack(tiny_ball_image(scene.cameras[set.cameras[c]], set.frames[i]),
+                              fmt::format("tiny scene camera {} frame {}", c, i));
     io::PointCloud cloud;
     const int n = options.points_per_frame;
     for (int k = 0; k < n; ++k) {  // Fibonacci sphere: evenly spread, deterministic
