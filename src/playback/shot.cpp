@@ -72,9 +72,9 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 
 namespace {
 // One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
-Image frame_for(const media::FrameWriter& writer, const ModelRenderer& renderer, const Camera& camera,
-                double t, const float* background, const render::RenderOptions& options,
-                Colors colors) {
+Image frame_for(const media::FrameWriter& writer, const ModelRenderer& renderer,
+                const Camera& camera, double t, const float* background,
+                const render::RenderOptions& options, Colors colors) {
   if (writer.alpha()) return renderer.render_rgba(camera, t, options, colors);
   return renderer.render(camera, t, background, options, colors);
 }
