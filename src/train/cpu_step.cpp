@@ -99,14 +99,10 @@ StepStats CpuStep::step() {
 }
 
 StepStats CpuStep::step_view(int c, int i) {
-  state_.check_view(c, i);
   Stopwatch step_clock;
-  const int it = ++state_.iteration;
-  StepStats stats;
-  stats.iteration = it;
+  StepStats stats = state_.begin_step(c, i);
+  const int it = stats.iteration;
   model::Primitives& p = state_.model.primitives;
-  state_.model.config.sh_degree = sh_degree(config_, it);
-  stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
 
   // Renders, losses and their gradient.
   const model::Representation representation = state_.model.config.representation;

@@ -217,14 +217,10 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
 }
 
 StepStats CudaStep::step_view(int c, int i) {
-  state_.check_view(c, i);
   Stopwatch step_clock;
-  const int it = ++state_.iteration;
-  StepStats stats;
-  stats.iteration = it;
+  StepStats stats = state_.begin_step(c, i);
+  const int it = stats.iteration;
   model::Model& m = state_.model;
-  m.config.sh_degree = sh_degree(config_, it);
-  stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
 
   const model::Representation representation = m.config.representation;
   const double w_flow = flow_weight(config_, representation, it);

@@ -9,6 +9,7 @@
 #include "retimegs/train/checkpoint.hpp"
 #include "retimegs/train/initialize.hpp"
 #include "retimegs/train/relocation.hpp"
+#include "retimegs/train/schedule.hpp"
 
 namespace retimegs::train {
 namespace fs = std::filesystem;
@@ -127,10 +128,15 @@ std::pair<int, int> StepState::draw_view() {
   return {c, i};
 }
 
-void StepState::check_view(int c, int i) const {
+StepStats StepState::begin_step(int c, int i) {
   if (c < 0 || c >= int(set_.cameras.size()) || i < 0 || i >= int(set_.frames.size()))
     fail("training step: no view (camera {}, frame {}) among {} cameras x {} frames", c, i,
          set_.cameras.size(), set_.frames.size());
+  StepStats stats;
+  stats.iteration = ++iteration;
+  model.config.sh_degree = sh_degree(config_, iteration);
+  stats.camera = set_.cameras[c], stats.frame = set_.frames[i];
+  return stats;
 }
 
 void StepState::save_checkpoint(const fs::path& dir) const {

@@ -18,6 +18,7 @@
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
+#include "retimegs/train/step.hpp"
 
 namespace retimegs::train {
 
@@ -40,8 +41,10 @@ class StepState {
 
   // A view (camera slot, frame slot) drawn uniformly from the generator.
   std::pair<int, int> draw_view();
-  // Throws Error unless (c, i) is a view of the training set.
-  void check_view(int c, int i) const;
+  // The start of a step on view (camera slot c, frame slot i): throws Error unless it is a view of
+  // the training set, advances the iteration, sets the schedule's SH degree; returns the step's
+  // stats with its iteration and view filled in.
+  StepStats begin_step(int c, int i);
 
   void save_checkpoint(const std::filesystem::path& dir) const;
   void load_checkpoint(const std::filesystem::path& dir);
