@@ -3,7 +3,10 @@
 # time windows of ITERS iterations each (`retimegs slurm`'s run_local.sh: prepare, train --window,
 # merge), and as one run over the whole clip with their total, WINDOWS x ITERS iterations. Both
 # score the odd (held-out) frames; each window model alone scores its own odd frames too, so that
-# what the merge costs shows apart from what the windows cost. Writes bench/results/windows.md.
+# what the merge costs shows apart from what the windows cost. Both also measure temporal
+# stability (eval --stability): the largest change of the static world between consecutive frames
+# of an 8x slow motion at the merged model's seams, and at the other training frames. Writes
+# bench/results/windows.md.
 #
 #   bash bench/windows.sh        # ITERS="750 3000" WINDOWS=4 FRAMES=33 CAMERAS=6 SIZE=128x96 CAP=60000
 set -euo pipefail
@@ -27,6 +30,11 @@ metric() {  # metric FILE KEY [whole]: the masked (or whole-image) mean of metri
   python3 -c "import json,sys; d=json.load(open(sys.argv[1])); k=sys.argv[2]; \
 v=d['whole'][k] if len(sys.argv) > 3 else d[k]; print('%.2f' % v if k == 'psnr' else '%.4f' % v)" "$@"
 }
+# stability FILE KEY: a figure of eval --stability (8-bit levels), – where there is none.
+stability() {
+  python3 -c "import json,sys; v=json.load(open(sys.argv[1]))['stability'][sys.argv[2]]; \
+print('–' if v is None else '%.2f' % v)" "$@"
+}
 # odd_frames A B: the held-out frames between training frames A and B, comma-separated.
 odd_frames() { seq -s, $(($1 + 1)) 2 $(($2 - 1)); }
 
@@ -40,7 +48,7 @@ for iters in $iters_list; do
       --threads "$threads" --force
     echo $(($(date +%s) - start)) > "$one/train_seconds"
     "$bin" eval --model "$one/run/model.rgs" --scene "$scene" --out "$one/metrics.json" \
-      --threads "$threads"
+      --stability --threads "$threads"
   fi
   split="$work/windows_${windows}x$iters"
   if [ ! -f "$split/metrics.json" ]; then
@@ -50,7 +58,7 @@ for iters in $iters_list; do
     SLURM_CPUS_PER_TASK=$threads "$split/run/slurm/run_local.sh"
     echo $(($(date +%s) - start)) > "$split/train_seconds"
     "$bin" eval --model "$split/run/model.rgs" --scene "$scene" --out "$split/metrics.json" \
-      --threads "$threads"
+      --stability --threads "$threads"
     # Each window alone on its own held-out frames, and the merged model on the same frames.
     for dir in "$split"/run/windows/*/; do
       k=$(basename "$dir")
@@ -70,14 +78,16 @@ for iters in $iters_list; do
     alone+=("$(metric "$f" psnr)")
     merged+=("$(metric "$split/merged_$k.json" psnr)")
   done
-  rows+=("$(printf '| %s | one run, %s iterations | %s / %s | %s / %s | %s | |' "$total" "$total" \
-    "$(metric "$one/metrics.json" psnr)" "$(metric "$one/metrics.json" psnr whole)" \
+  rows+=("$(printf '| %s | one run, %s iterations | %s / %s | %s / %s | %s / %s | %s | |' "$total" \
+    "$total" "$(metric "$one/metrics.json" psnr)" "$(metric "$one/metrics.json" psnr whole)" \
     "$(metric "$one/metrics.json" ssim)" "$(metric "$one/metrics.json" ssim whole)" \
-    "$(cat "$one/train_seconds")")")
-  rows+=("$(printf '| %s | %s windows x %s, merged | %s / %s | %s / %s | %s | %s → %s |' "$total" \
-    "$windows" "$iters" "$(metric "$split/metrics.json" psnr)" \
+    "$(stability "$one/metrics.json" max_at_seams)" \
+    "$(stability "$one/metrics.json" max_at_training_frames)" "$(cat "$one/train_seconds")")")
+  rows+=("$(printf '| %s | %s windows x %s, merged | %s / %s | %s / %s | %s / %s | %s | %s → %s |' \
+    "$total" "$windows" "$iters" "$(metric "$split/metrics.json" psnr)" \
     "$(metric "$split/metrics.json" psnr whole)" "$(metric "$split/metrics.json" ssim)" \
-    "$(metric "$split/metrics.json" ssim whole)" "$(cat "$split/train_seconds")" \
+    "$(metric "$split/metrics.json" ssim whole)" "$(stability "$split/metrics.json" max_at_seams)" \
+    "$(stability "$split/metrics.json" max_at_training_frames)" "$(cat "$split/train_seconds")" \
     "$(
       IFS=' '
       echo "${alone[*]}"
@@ -92,9 +102,12 @@ done
   echo "Synthetic \`default\` clip, $frames frames, $cameras cameras at $size, cap $cap per run;"
   echo "PSNR and SSIM inside the masks / on the whole image. The last column: each window model"
   echo "alone on its own held-out frames → the merged model on the same frames (masked PSNR)."
+  echo "Static change: the largest mean change of the static pixels between consecutive frames of"
+  echo "the 8x slow motion (8-bit levels, the largest over cameras), at the seams / at the other"
+  echo "training frames (a run in one piece has no seam)."
   echo
-  echo "| total iterations | run | PSNR | SSIM | train time (s) | per window: alone → merged |"
-  echo "|---|---|---|---|---|---|"
+  echo "| total iterations | run | PSNR | SSIM | static change | train time (s) | per window: alone → merged |"
+  echo "|---|---|---|---|---|---|---|"
   printf '%s\n' "${rows[@]}"
 } > "$table"
 cat "$table"

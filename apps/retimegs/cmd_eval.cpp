@@ -107,7 +107,10 @@ void add_eval_command(CLI::App& app) {
       renderer = eval::baseline_renderer(scene, train_frames,
                                          eval::parse_baseline(args->baseline, "--baseline"));
     } else {
-      renderer = eval::model_renderer(scene, playback::load_model(args->model),
+      playback::LoadedModel loaded = playback::load_model(args->model);
+      if (const auto* m = std::get_if<model::Model>(&loaded))
+        for (const int seam : m->seams) options.seams.push_back(m->grid.at(seam));
+      renderer = eval::model_renderer(scene, std::move(loaded),
                                       playback::near_render_options(near_plane), device);
     }
     spdlog::info("evaluating {} views{} on {}", options.cameras.size() * options.frames.size(),
@@ -117,20 +120,23 @@ void add_eval_command(CLI::App& app) {
     if (args->baseline.empty()) result.near = near_plane;
     eval::write_json(result, args->out);
     if (!result.note.empty()) spdlog::info("{}", result.note);
-    const auto lpips_text = [](const std::optional<double>& v) {
-      return v ? fmt::format("{:.4f}", *v) : std::string("null");
+    // A value with `digits` decimals, or null.
+    const auto text = [](const std::optional<double>& v, int digits) {
+      return v ? fmt::format("{:.{}f}", *v, digits) : std::string("null");
     };
     spdlog::info("psnr {:.3f}  ssim {:.4f}  lpips {}  ({} views{}) -> {}", result.psnr, result.ssim,
-                 lpips_text(result.lpips), result.per_view.size(), result.masked ? ", masked" : "",
+                 text(result.lpips, 4), result.per_view.size(), result.masked ? ", masked" : "",
                  args->out);
     if (result.masked)
       spdlog::info("whole image: psnr {:.3f}  ssim {:.4f}  lpips {}", result.whole.psnr,
-                   result.whole.ssim, lpips_text(result.whole.lpips));
-    if (result.stability)
-      spdlog::info(
-          "stability: largest change {} levels (mean over cameras {})",
-          result.stability->max ? fmt::format("{:.3f}", *result.stability->max) : "null",
-          result.stability->mean ? fmt::format("{:.3f}", *result.stability->mean) : "null");
+                   result.whole.ssim, text(result.whole.lpips, 4));
+    if (const auto& s = result.stability) {
+      spdlog::info("stability: largest change {} levels (mean over cameras {})", text(s->max, 3),
+                   text(s->mean, 3));
+      if (!s->seams.empty())
+        spdlog::info("stability at the {} seams: {} levels; at the other training frames: {}",
+                     s->seams.size(), text(s->max_at_seams, 3), text(s->max_at_training_frames, 3));
+    }
   });
 }
 

@@ -89,7 +89,7 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
   if (lpips) result.whole.lpips = *whole_sum.lpips / n;
   if (!options.stability_frames.empty())
     result.stability = temporal_stability(scene, render, options.cameras, options.stability_frames,
-                                          /*steps=*/8, options.progress);
+                                          options.seams, /*steps=*/8, options.progress);
   return result;
 }
 
@@ -113,12 +113,17 @@ json stability_json(const Stability& s) {
          {"max_change", optional_json(c.max_change)},
          {"max_between", c.max_between ? json::array({c.max_between->first, c.max_between->second})
                                        : json(nullptr)},
+         {"at_seams", optional_json(c.at_seams)},
+         {"at_training_frames", optional_json(c.at_training_frames)},
          {"static_fraction", c.static_fraction},
          {"masked", c.masked},
          {"swept", c.swept}});
   return {{"steps", s.steps},
           {"max", optional_json(s.max)},
           {"mean", optional_json(s.mean)},
+          {"seams", s.seams},
+          {"max_at_seams", optional_json(s.max_at_seams)},
+          {"max_at_training_frames", optional_json(s.max_at_training_frames)},
           {"per_camera", cameras}};
 }
 

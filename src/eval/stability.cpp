@@ -95,19 +95,46 @@ StaticPixels static_pixels(const io::Scene& scene, int camera) {
 
 Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render,
                              const std::vector<int>& cameras, std::vector<int> train_frames,
-                             int steps, bool progress) {
+                             const std::vector<double>& seams, int steps, bool progress) {
   std::sort(train_frames.begin(), train_frames.end());
   if (train_frames.size() < 2) fail("stability: needs at least two training frames");
   if (steps < 1) fail("stability: steps must be positive, got {}", steps);
+  // Where each render lies: at a seam, at another training frame, or between training frames.
+  enum class At { kBetween, kTrainingFrame, kSeam };
+  const auto is_seam = [&](double t) {
+    return std::any_of(seams.begin(), seams.end(),
+                       [t](double s) { return std::abs(s - t) < 1e-9; });
+  };
+  for (const double s : seams)
+    if (!std::binary_search(train_frames.begin(), train_frames.end(), int(std::lround(s))) ||
+        std::abs(s - std::lround(s)) > 1e-9)
+      fail("stability: seam {} is not one of the training frames {}..{}", s, train_frames.front(),
+           train_frames.back());
   std::vector<double> times;
-  for (std::size_t i = 0; i + 1 < train_frames.size(); ++i)
-    for (int k = 0; k < steps; ++k)
+  std::vector<At> at;
+  const auto add_frame = [&](int frame) {
+    times.push_back(frame);
+    at.push_back(is_seam(frame) ? At::kSeam : At::kTrainingFrame);
+  };
+  for (std::size_t i = 0; i + 1 < train_frames.size(); ++i) {
+    add_frame(train_frames[i]);
+    for (int k = 1; k < steps; ++k) {
       times.push_back(train_frames[i] +
                       double(k) * (train_frames[i + 1] - train_frames[i]) / steps);
-  times.push_back(train_frames.back());
+      at.push_back(At::kBetween);
+    }
+  }
+  add_frame(train_frames.back());
+  const auto touches = [&](std::size_t j, At where) {
+    return at[j - 1] == where || at[j] == where;
+  };
+  const auto raise = [](std::optional<double>& largest, double value) {
+    largest = std::max(largest.value_or(value), value);
+  };
 
   Stability result;
   result.steps = steps;
+  result.seams = seams;
   Progress bar("stability", cameras.size() * (times.size() - 1), progress);
   double sum = 0;
   int counted = 0;
@@ -134,11 +161,15 @@ Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render
         }
         change *= 255.0 / (double(count) * channels);
         if (change > largest) largest = change, s.max_between = {times[j - 1], times[j]};
+        if (touches(j, At::kSeam)) raise(s.at_seams, change);
+        if (touches(j, At::kTrainingFrame)) raise(s.at_training_frames, change);
         previous = std::move(current);
         bar.tick();
       }
       s.max_change = largest;
       result.max = std::max(result.max.value_or(0), largest);
+      if (s.at_seams) raise(result.max_at_seams, *s.at_seams);
+      if (s.at_training_frames) raise(result.max_at_training_frames, *s.at_training_frames);
       sum += largest, ++counted;
     }
     result.per_camera.push_back(s);

@@ -98,6 +98,12 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       color.c[c] = float(entry.first[3 + c] / entry.second);
     }
   }
+  // Seams: each window's own (a merged model merged again) and where consecutive windows meet.
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const Model& m = windows[order[k]];
+    if (k > 0) merged.seams.push_back(window_of(m).first);
+    merged.seams.insert(merged.seams.end(), m.seams.begin(), m.seams.end());
+  }
   const TimeWindow span{window_of(first).first, window_of(windows[order.back()]).last};
   if (span.first > 0 || span.last < grid.count - 1) merged.window = span;
   return merged;

@@ -70,12 +70,13 @@ std::map<std::string, CameraColor> camera_colors_from(const json& header, const 
   return colors;
 }
 
-// The index of training time t in `grid`; throws Error naming `file` when t is not one.
-int grid_index(const TimeGrid& grid, double t, const std::string& file) {
+// The index of training time t in `grid`; throws Error naming `file` and `what` t is when t is not
+// one.
+int grid_index(const TimeGrid& grid, double t, const std::string& file, std::string_view what) {
   const double i = std::round((t - grid.first) / grid.step);
   if (!std::isfinite(t) || !(i >= 0 && i < grid.count) ||
       std::abs(grid.at(int(i)) - t) > 1e-6 * grid.step)
-    fail("{}: window end {} is not a training frame of the model's time grid", file, t);
+    fail("{}: {} {} is not a training frame of the model's time grid", file, what, t);
   return int(i);
 }
 
@@ -134,6 +135,16 @@ void write_model(const fs::path& path, const Model& model) {
       fail("{}: window {}..{} is not a run of the {} training frames", path.string(), w->first,
            w->last, model.grid.count);
     header["window"] = {{"first", model.grid.at(w->first)}, {"last", model.grid.at(w->last)}};
+  }
+  if (!model.seams.empty()) {
+    json seams = json::array();
+    for (const int s : model.seams) {
+      if (!(s > 0 && s < model.grid.count - 1))
+        fail("{}: seam {} is not an interior training frame of the {}", path.string(), s,
+             model.grid.count);
+      seams.push_back(model.grid.at(s));
+    }
+    header["seams"] = seams;
   }
   for (const auto& [camera, color] : model.camera_colors) {
     for (int k = 0; k < 3; ++k)
@@ -220,10 +231,19 @@ Model read_model(const fs::path& path) {
     model.camera_colors = camera_colors_from(header, file);
     if (header.contains("window")) {
       const json& w = header.at("window");
-      model.window = TimeWindow{grid_index(model.grid, w.at("first").get<double>(), file),
-                                grid_index(model.grid, w.at("last").get<double>(), file)};
+      model.window =
+          TimeWindow{grid_index(model.grid, w.at("first").get<double>(), file, "window end"),
+                     grid_index(model.grid, w.at("last").get<double>(), file, "window end")};
       if (!(model.window->first < model.window->last))
         fail("{}: window {} ends before it starts", file, w.dump());
+    }
+    for (const json& t : header.value("seams", json::array())) {
+      const int seam = grid_index(model.grid, t.get<double>(), file, "seam");
+      if (seam == 0 || seam == model.grid.count - 1 ||
+          (!model.seams.empty() && seam <= model.seams.back()))
+        fail("{}: seams {} are not ascending interior training times", file,
+             header.at("seams").dump());
+      model.seams.push_back(seam);
     }
   } catch (const json::exception& e) {
     fail("{}: malformed model header: {}", file, e.what());

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
 #include <gtest/gtest.h>
 #include <opencv2/videoio.hpp>
 
@@ -219,6 +221,28 @@ TEST(ModelCli, FolderOutputsWithATrailingSlash) {
   for (const auto& e : fs::directory_iterator(dir.path()))
     entries += !e.path().filename().string().starts_with(".");
   EXPECT_EQ(entries, 6u) << "scene, model.rgs and the four outputs, no temporary left";
+}
+
+// `eval --stability` of a merged model reports the change at its seams apart, from the seams the
+// model file records.
+TEST(ModelCli, EvalStabilityReportsAMergedModelsSeams) {
+  test::TempDir dir;
+  Fixture f(dir.path());
+  for (int c = 0; c < int(f.scene.cameras.size()); ++c)
+    for (int k = 0; k < f.scene.num_frames; ++k) {
+      const Camera& cam = f.scene.cameras[c];
+      media::write_png(f.scene.image_path(c, k), Image(cam.width, cam.height, 3, 0.5f));
+    }
+  f.model.seams = {2};  // training time 4
+  model::write_model(f.model_path, f.model);
+  const fs::path out = dir / "metrics.json";
+  run("eval --model " + f.model_path.string() + " --scene " + f.scene.root.string() +
+      " --frames 1,3 --stability --out " + out.string());
+  const auto j = nlohmann::json::parse(test::read_text(out))["stability"];
+  EXPECT_EQ(j["seams"], nlohmann::json::array({4.0}));
+  ASSERT_TRUE(j["max_at_seams"].is_number()) << j.dump();
+  ASSERT_TRUE(j["max_at_training_frames"].is_number()) << j.dump();
+  EXPECT_GT(j["max_at_seams"].get<double>(), 0.0);
 }
 
 }  // namespace

@@ -137,8 +137,8 @@ FrameRenderer pulsing_renderer(double pulse) {
 TEST(Stability, MeasuresThePulseAtTrainingFramesOnStaticPixels) {
   test::TempDir dir;
   const io::Scene scene = square_scene(dir / "s");
-  const Stability s =
-      temporal_stability(scene, pulsing_renderer(3.0), {0, 1}, {4, 0, 2}, 8, /*progress=*/false);
+  const Stability s = temporal_stability(scene, pulsing_renderer(3.0), {0, 1}, {4, 0, 2}, {}, 8,
+                                         /*progress=*/false);
   EXPECT_EQ(s.steps, 8);
   ASSERT_EQ(s.per_camera.size(), 2u);
   for (const CameraStability& c : s.per_camera) {
@@ -153,9 +153,37 @@ TEST(Stability, MeasuresThePulseAtTrainingFramesOnStaticPixels) {
   EXPECT_NEAR(*s.max, 3.0, 1e-3);
   EXPECT_NEAR(*s.mean, 3.0, 1e-3);
   const Stability steady =
-      temporal_stability(scene, pulsing_renderer(0.0), {0}, {0, 2, 4}, 8, /*progress=*/false);
+      temporal_stability(scene, pulsing_renderer(0.0), {0}, {0, 2, 4}, {}, 8, /*progress=*/false);
   EXPECT_NEAR(*steady.max, 0.0, 1e-9);
-  EXPECT_THROW(temporal_stability(scene, pulsing_renderer(0.0), {0}, {2}, 8, false), Error);
+  EXPECT_THROW(temporal_stability(scene, pulsing_renderer(0.0), {0}, {2}, {}, 8, false), Error);
+}
+
+// A merged model's seams are reported apart: a jump at the seam (time 2) against a smaller pulse
+// at the other training frames (0 and 4).
+TEST(Stability, SeamsAreReportedApartFromTheOtherTrainingFrames) {
+  test::TempDir dir;
+  const io::Scene scene = square_scene(dir / "s");
+  const FrameRenderer pulse = pulsing_renderer(1.0);
+  const FrameRenderer render = [&pulse](int c, double t) {
+    Image image = pulse(c, t);
+    if (t == 2.0)
+      for (float& v : image.data) v += 4.0f / 255.0f;
+    return image;
+  };
+  const Stability s = temporal_stability(scene, render, {0}, {0, 2, 4}, {2.0}, 8, false);
+  ASSERT_EQ(s.per_camera.size(), 1u);
+  const CameraStability& c = s.per_camera[0];
+  ASSERT_TRUE(c.at_seams && c.at_training_frames);
+  EXPECT_NEAR(*c.at_seams, 5.0, 1e-3);
+  EXPECT_NEAR(*c.at_training_frames, 1.0, 1e-3);
+  EXPECT_NEAR(*s.max_at_seams, 5.0, 1e-3);
+  EXPECT_NEAR(*s.max_at_training_frames, 1.0, 1e-3);
+  EXPECT_EQ(s.seams, std::vector<double>{2.0});
+  // Without seams every training frame counts as one, and a seam must be a training frame.
+  const Stability plain = temporal_stability(scene, render, {0}, {0, 2, 4}, {}, 8, false);
+  EXPECT_FALSE(plain.per_camera[0].at_seams);
+  EXPECT_NEAR(*plain.per_camera[0].at_training_frames, 5.0, 1e-3);
+  EXPECT_THROW(temporal_stability(scene, render, {0}, {0, 2, 4}, {3.0}, 8, false), Error);
 }
 
 TEST(Stability, ReportedInTheEvalJson) {

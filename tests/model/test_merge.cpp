@@ -145,6 +145,30 @@ TEST(Merge, WindowIsStoredInTheModelFile) {
   fs::remove_all(dir);
 }
 
+TEST(Merge, RecordsItsSeamsAndStoresThem) {
+  const Fixture f = fixture();
+  EXPECT_TRUE(f.left.seams.empty());
+  // Given in either order, the windows meet at training frame 4 (t = 8).
+  const Model m = merge_models({f.right, f.left}, {"b", "a"});
+  EXPECT_EQ(m.seams, (std::vector<int>{4}));
+  const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_seams";
+  fs::create_directories(dir);
+  write_model(dir / "merged.rgs", m);
+  EXPECT_EQ(read_model(dir / "merged.rgs").seams, m.seams);
+  // A merged model merged again keeps its seams beside the new one.
+  Model left = f.left, right = f.right;
+  left.window = TimeWindow{0, 2};
+  left.seams = {1};
+  right.window = TimeWindow{2, 8};
+  right.seams = {4, 6};
+  EXPECT_EQ(merge_models({left, right}, {"a", "b"}).seams, (std::vector<int>{1, 2, 4, 6}));
+  // A seam at the clip's end is no seam: refused when written.
+  Model bad = m;
+  bad.seams = {8};
+  EXPECT_THROW(write_model(dir / "bad.rgs", bad), Error);
+  fs::remove_all(dir);
+}
+
 TEST(Merge, PartialMergeKeepsItsOuterEndsOpen) {
   // The same two windows as part of a longer clip (to t = 20): merged, they cover 0..16 only.
   Fixture f = fixture();

@@ -159,6 +159,13 @@ TEST(ModelFile, EditedHeadersAreRefusedNamingTheValue) {
       {"offset_past_end", [](auto& h) { h["fields"][0]["offset"] = 1u << 30; },
        "unexpected layout"},
       {"header_array", [](auto& h) { h = nlohmann::json::array(); }, "not a JSON object"},
+      {"seam_off_grid", [](auto& h) { h["seams"] = {3.0}; }, "seam 3 is not a training frame"},
+      {"seam_at_end", [](auto& h) { h["seams"] = {16.0}; }, "interior"},
+      {"seams_descending",
+       [](auto& h) {
+         h["seams"] = {8.0, 4.0};
+       },
+       "ascending"},
   };
   for (const Case& c : cases) {
     const fs::path path = dir / (std::string(c.name) + ".rgs");

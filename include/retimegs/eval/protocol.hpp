@@ -31,6 +31,8 @@ struct EvalOptions {
   std::optional<std::filesystem::path> save_renders;   // DIR/<camera>/<frame:05d>.png
   // Non-empty: also measure temporal_stability() of `cameras` through these training frames.
   std::vector<int> stability_frames;
+  // A merged model's seams (model::Model::seams) as times: stability reports them apart.
+  std::vector<double> seams;
   bool progress = true;
 };
 
@@ -55,6 +57,10 @@ struct CameraStability {
   std::optional<double> max_change;  // none when the camera has no static pixel
   // The consecutive times between which it changed the most (the first such pair).
   std::optional<std::pair<double, double>> max_between;
+  // The largest change over the steps that begin or end at a seam, and at a training frame that is
+  // no seam: where a merged model's windows hand over, against where one window's intervals meet.
+  // None when there is no such frame (or no static pixel).
+  std::optional<double> at_seams, at_training_frames;
   double static_fraction = 0;  // of the image's pixels
   bool masked = false;         // static pixels from masks (else from pixel values)
   bool swept = false;          // ... and the masks' paths along the scene's flows
@@ -64,6 +70,8 @@ struct Stability {
   int steps = 0;  // renders per training interval
   std::vector<CameraStability> per_camera;
   std::optional<double> max, mean;  // over the cameras that have static pixels
+  std::vector<double> seams;
+  std::optional<double> max_at_seams, max_at_training_frames;  // over the cameras
 };
 
 struct EvalResult {
@@ -85,7 +93,8 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
 
 // The JSON of docs/method.md, evaluation: {"psnr", "ssim", "lpips" (or null), "masked", "whole":
 // {"psnr", "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")},
-// and "stability": {"steps", "max", "mean", "per_camera": [{"camera", "max_change",
+// and "stability": {"steps", "max", "mean", "seams", "max_at_seams", "max_at_training_frames",
+// "per_camera": [{"camera", "max_change", "max_between", "at_seams", "at_training_frames",
 // "static_fraction", "masked", "swept"}]} when measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.
@@ -112,9 +121,11 @@ int stability_dilation_radius(int width, int height);
 // pair (a, b) of `train_frames` (sorted), then the last training frame, and take the largest mean
 // absolute change (over the static pixels and channels, x 255) between consecutive renders. The
 // ground truth would score 0; a model whose static world pulses at the training frames does not.
+// `seams` (times, each a training frame) are reported apart from the other training frames.
 Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render,
                              const std::vector<int>& cameras, std::vector<int> train_frames,
-                             int steps = 8, bool progress = true);
+                             const std::vector<double>& seams = {}, int steps = 8,
+                             bool progress = true);
 
 // In-betweening baselines over the training frames `train_frames` (sorted), at any time between
 // them: crossfade blends the two neighbouring training frames by time, nearest copies the closer

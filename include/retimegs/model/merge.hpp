@@ -9,6 +9,7 @@
 // (model/window.hpp), so the two sides meet at σ_τ = 0.5 each, as adjacent intervals do inside a
 // window. Each training camera's colour map is the mean of the windows' maps weighted by their
 // number of training intervals (each window fixed its own gauge, the average camera of its frames).
+// The merged model records its seams (Model::seams), where eval --stability looks for jumps.
 #include <string>
 #include <vector>
 
