@@ -67,6 +67,16 @@ std::string last_error_line(const fs::path& log) {
   return last_error.empty() ? (last.empty() ? "(no output)" : last) : last_error;
 }
 
+// What a COLMAP failure means, in a user's words, from its error line; empty when the line says
+// nothing known. Its bundle adjuster's check fails (glog "Check failed: bundle_adjuster.Solve")
+// when the images of a frame share too few matched features to solve for the points.
+std::string failure_reason(const std::string& line) {
+  if (line.find("bundle_adjuster") != std::string::npos)
+    return ": its bundle adjustment could not solve, which happens when the cameras share too few "
+           "matched features at this frame (too little texture, overlap or resolution)";
+  return {};
+}
+
 // Runs `exe step args...` headless (QT_QPA_PLATFORM=offscreen), stdout and stderr into
 // logs/<step>.log; throws Error with the log's error line when it fails.
 void run_colmap(const fs::path& exe, const std::string& step, const std::vector<std::string>& args,
@@ -99,10 +109,12 @@ void run_colmap(const fs::path& exe, const std::string& step, const std::vector<
   while (::waitpid(pid, &status, 0) < 0)
     if (errno != EINTR) fail("colmap {}: waitpid failed: {}", step, std::strerror(errno));
   if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
-  const std::string how = WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
-                                            : fmt::format("signal {}", WTERMSIG(status));
-  fail("colmap {} failed ({}): {} (log: {})", step, how,
-       verbose ? std::string("see stderr") : last_error_line(log), log.string());
+  const std::string how = WIFEXITED(status)
+                              ? fmt::format("exit status {}", WEXITSTATUS(status))
+                              : fmt::format("crashed with signal {}", WTERMSIG(status));
+  const std::string line = verbose ? std::string("see stderr") : last_error_line(log);
+  fail("colmap {} failed ({}){}: {} (log: {})", step, how, failure_reason(line), line,
+       log.string());
 }
 
 std::string number(double v) {
@@ -123,7 +135,7 @@ bool colmap_available(const ColmapOptions& options) {
 }
 
 io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const fs::path& work_dir,
-                                       const ColmapOptions& options) {
+                                       const fs::path& log_dir, const ColmapOptions& options) {
   const fs::path exe = find_colmap(options);
   if (frame < 0 || frame >= scene.num_frames)
     fail("--points colmap: frame {} is outside the scene's frames 0:{}", frame,
@@ -135,11 +147,10 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
 
   // Fresh work folder (only what this function writes is removed).
   fs::create_directories(work_dir);
-  for (const char* name : {"images", "known", "sparse", "logs", "database.db", "lists"})
+  for (const char* name : {"images", "known", "sparse", "database.db", "lists"})
     fs::remove_all(work_dir / name);
   const fs::path images = work_dir / "images", known = work_dir / "known",
-                 sparse = work_dir / "sparse", logs = work_dir / "logs",
-                 database = work_dir / "database.db";
+                 sparse = work_dir / "sparse", &logs = log_dir, database = work_dir / "database.db";
   fs::create_directories(images);
   fs::create_directories(known);
   fs::create_directories(sparse);

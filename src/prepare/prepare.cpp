@@ -29,15 +29,29 @@ struct FlowJob {
   bool write_forward = false, write_backward = false;
 };
 
-// COLMAP's points of frame k, triangulated in a temporary folder that is removed once they are
-// read. A failure keeps the folder: its error names the log in it.
+// COLMAP's points of frame k, triangulated in a temporary folder that is removed afterwards,
+// failed or not; its logs stay in the scene (SCENE/logs/colmap/<frame:05d>/), where a failure's
+// message points, with the other point sources to try.
 io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions& options) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
-  io::PointCloud points = triangulate_with_colmap(scene, k, work, options);
-  std::error_code ignored;
-  fs::remove_all(work, ignored);
-  return points;
+  const fs::path logs = scene.root / "logs" / "colmap" / fmt::format("{:05d}", k);
+  struct RemovedOnExit {
+    fs::path path;
+    ~RemovedOnExit() {
+      std::error_code ignored;
+      fs::remove_all(path, ignored);
+    }
+  } removed{work};
+  try {
+    return triangulate_with_colmap(scene, k, work, logs, options);
+  } catch (const Error& e) {
+    fail(
+        "{}. Other point sources: --points hull (needs a mask for every training view), "
+        "--points ply DIR (your own clouds), --points random (no geometry: fog where the images "
+        "have little texture)",
+        e.what());
+  }
 }
 
 // Appends b to a. When either has colours the result has them, grey where a source had none.

@@ -41,7 +41,8 @@ TEST(ColmapTriangulate, PointsLieOnTheSyntheticSurfaces) {
   ColmapOptions options;
   options.threads = 2;
   const auto start = std::chrono::steady_clock::now();
-  const io::PointCloud points = triangulate_with_colmap(scene, 0, dir / "work", options);
+  const io::PointCloud points =
+      triangulate_with_colmap(scene, 0, dir / "work", dir / "logs", options);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("colmap triangulation: %zu points in %.1f s\n", points.size(), seconds);
@@ -87,8 +88,9 @@ TEST(ColmapTriangulate, ClearErrorWhenColmapIsMissing) {
   scene.num_frames = 1;
   ColmapOptions options;
   options.executable = "retimegs-no-such-colmap";
-  test::expect_error([&] { triangulate_with_colmap(scene, 0, dir / "work", options); },
-                     {"COLMAP not found", "install the Debian package colmap"});
+  test::expect_error(
+      [&] { triangulate_with_colmap(scene, 0, dir / "work", dir / "logs", options); },
+      {"COLMAP not found", "install the Debian package colmap"});
 }
 
 // A failing command reports its step and its last error line.
@@ -111,10 +113,11 @@ TEST(ColmapTriangulate, FailingCommandShowsItsErrorLine) {
   ColmapOptions options;
   options.executable = fake.string();
   test::expect_error(
-      [&] { triangulate_with_colmap(scene, 0, dir / "work", options); },
+      [&] { triangulate_with_colmap(scene, 0, dir / "work", dir / "logs", options); },
       {"colmap feature_extractor failed", "exit status 3", "no disk in drive feature_extractor"});
-  test::expect_error([&] { triangulate_with_colmap(scene, 5, dir / "work", options); },
-                     {"frame 5", "0:1"});
+  test::expect_error(
+      [&] { triangulate_with_colmap(scene, 5, dir / "work", dir / "logs", options); },
+      {"frame 5", "0:1"});
 }
 
 }  // namespace

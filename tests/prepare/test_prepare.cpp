@@ -1,5 +1,7 @@
 // `prepare_scene`: exactly the flow pairs training reads, estimated close to the synthetic
 // scene's exact flows, resumable, imports validated before anything is written.
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -256,6 +258,37 @@ TEST(Prepare, SeveralPointSourcesAreConcatenated) {
     EXPECT_EQ(cloud.size(), both.points_written[i].second);
     EXPECT_EQ(cloud.rgb.size(), cloud.xyz.size());
   }
+}
+
+// A COLMAP that crashes in its bundle adjustment (as COLMAP 3.8 aborts on a frame with too few
+// matched features): one error that says so in words, names the log that stays in the scene, and
+// the other point sources to try; COLMAP's temporary folder is gone, no points are written.
+TEST(Prepare, ColmapFailureIsExplainedWithItsLogAndTheOtherSources) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact", 3);
+  const fs::path fake = dir / "fake-colmap";
+  test::write_text(fake,
+                   "#!/bin/sh\n"
+                   "[ \"$1\" = point_triangulator ] || exit 0\n"
+                   "echo 'F1126 12:00:00.000 sfm.cc:473] Check failed: "
+                   "bundle_adjuster.Solve(&reconstruction) ' >&2\n"
+                   "echo '*** Check failure stack trace: ***' >&2\n"
+                   "kill -6 $$\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  PrepareOptions o = quiet();
+  o.colmap.executable = fake.string();
+  o.points = {PointsSource::kColmap};
+  const fs::path log = scene.root / "logs" / "colmap" / "00000" / "point_triangulator.log";
+  test::expect_error([&] { prepare_scene(scene, o); },
+                     {"colmap point_triangulator failed (crashed with signal 6): its bundle adjustment", "too few matched features",
+                      log.string(), "--points hull", "--points random"});
+  EXPECT_TRUE(fs::is_regular_file(log));
+  EXPECT_TRUE(files_under(scene.root / "points").empty());
+  for (const auto& e : fs::directory_iterator(fs::temp_directory_path()))
+    EXPECT_NE(e.path().filename().string().rfind(
+                  "retimegs-colmap-" + std::to_string(::getpid()) + "-", 0),
+              0u)
+        << e.path();
 }
 
 }  // namespace
