@@ -183,10 +183,17 @@ void write_masks(const io::Scene& scene, const std::vector<int>& train_frames,
     report.masks_written += written, foreground += share;
     progress.tick();
   });
+  if (report.masks_written > 0)
+    write_text_file(estimated_masks_marker(scene),
+                    "{\"written_by\": \"retimegs prepare --masks\", \"approximate\": true}\n");
   report.mask_coverage = report.masks_written ? foreground / double(report.masks_written) : 0.0;
 }
 
 }  // namespace
+
+fs::path estimated_masks_marker(const io::Scene& scene) {
+  return scene.root / "masks" / "estimated.json";
+}
 
 std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
                                          std::string& note) {
@@ -237,8 +244,10 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
 
   std::vector<PointsSource> sources = options.points;
   if (sources.empty() && !point_frames.empty())
-    // Masks made by --masks miss what moves little over the clip: no hull from them unless asked.
-    sources = default_points(!options.masks && has_every_mask(scene, cameras, frames),
+    // Masks made by --masks, now or earlier, miss what moves little over the clip: no hull from
+    // them unless asked.
+    sources = default_points(!options.masks && !fs::exists(estimated_masks_marker(scene)) &&
+                                 has_every_mask(scene, cameras, frames),
                              colmap_available(options.colmap), report.points_note);
 
   // Check every input before writing anything.

@@ -168,6 +168,18 @@ TEST(PrepareMasks, WritesMasksForEveryFrameAndThePointsUseThem) {
   const PrepareReport again = prepare_scene(scene, options);
   EXPECT_EQ(again.masks_written, 0u);
   EXPECT_EQ(again.masks_kept, 27u);
+
+  // A plain prepare afterwards keeps the default of a scene without masks: what --masks wrote is
+  // marked approximate, so the default does not depend on what an earlier run wrote.
+  EXPECT_TRUE(fs::is_regular_file(estimated_masks_marker(scene)));
+  fs::remove_all(scene.root / "points");
+  options.masks.reset();
+  EXPECT_EQ(prepare_scene(scene, options).points_source, "random");
+  // Masks brought with the scene (no marker) are the capture's own: the hull uses them.
+  fs::remove_all(scene.root / "masks");
+  fs::copy(dir / "truth", scene.root / "masks", fs::copy_options::recursive);
+  fs::remove_all(scene.root / "points");
+  EXPECT_EQ(prepare_scene(scene, options).points_source, "hull,random");
 }
 
 }  // namespace
