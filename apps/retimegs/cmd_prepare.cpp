@@ -52,9 +52,8 @@ void add_prepare_command(CLI::App& app) {
                   "per-frame points: hull (visual hull of the masks), colmap (COLMAP "
                   "triangulation with the known poses), random (last resort), ply DIR (import "
                   "DIR/<frame:05d>.ply); a comma list concatenates them. Default: hull,colmap "
-                  "when every training view has a mask not written by --masks, else colmap; random "
-                  "stands in for "
-                  "colmap when COLMAP is not installed")
+                  "when every training view has a mask not written by --masks, else colmap; "
+                  "random stands in for colmap when COLMAP is not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
   CLI::Option* window =
