@@ -124,6 +124,16 @@ CLI::Validator input_file(const std::string& what) {
       "FILE");
 }
 
+CLI::Validator whole_number() {
+  return CLI::Validator(
+      [](std::string& text) {
+        if (!text.empty() && text.find_first_not_of("0123456789") == std::string::npos)
+          return std::string();
+        return fmt::format("must be a whole number >= 0, got '{}'", text);
+      },
+      "UINT");
+}
+
 std::vector<InputPath> scene_inputs(const std::string& root) {
   if (root.empty()) return {};
   const std::filesystem::path r = root;

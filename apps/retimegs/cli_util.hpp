@@ -47,6 +47,10 @@ namespace retimegs::app {
 // (core/input_file.hpp) before anything opens it.
 CLI::Validator input_file(const std::string& what);
 
+// A CLI11 check for an unsigned option (--seed): digits only, since CLI11 would wrap -1 into
+// 2^64 - 1.
+CLI::Validator whole_number();
+
 // The parts of scene folder `root` a command reads, for check_output_overlap: scene.json and the
 // images, masks, flow and points trees (an output may go into the scene folder beside them).
 std::vector<InputPath> scene_inputs(const std::string& root);

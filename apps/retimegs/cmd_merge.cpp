@@ -34,6 +34,7 @@ void add_merge_command(CLI::App& app) {
     std::vector<InputPath> inputs;
     for (const std::string& path : args->models) inputs.push_back({path, "model"});
     check_output_overlap(args->out, "--out", inputs);
+    model::check_model_file_name(args->out, "--out");
     check_output_free(args->out, args->force);
     std::vector<model::Model> windows;
     for (const std::string& path : args->models) windows.push_back(model::read_model(path));

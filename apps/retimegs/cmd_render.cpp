@@ -12,6 +12,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/cuda/device.hpp"
 #include "retimegs/io/camera_path_json.hpp"
@@ -121,8 +122,7 @@ void add_render_command(CLI::App& app) {
       fail("render: give --camera, --path or --camera-path");
     if (!args->size.empty()) request.size = playback::parse_output_size(args->size);
     request.size.scale = args->scale;
-    if (args->fps && !(std::isfinite(*args->fps) && *args->fps > 0))
-      fail("--fps: must be a finite number > 0, got {}", *args->fps);
+    if (args->fps) check_fps(*args->fps, "--fps");
     std::optional<io::CameraPathFile> path_file;  // read before the model: fail fast
     if (!args->camera_path.empty()) path_file = io::read_camera_path_json(args->camera_path);
 

@@ -51,7 +51,7 @@ void add_slurm_command(CLI::App& app) {
   cmd->add_option("--config", args->config, "training config file of each window")
       ->check(input_file("a config"));
   cmd->add_option("--cap", args->cap, "primitive budget of each window");
-  cmd->add_option("--seed", args->seed, "random seed of each window");
+  cmd->add_option("--seed", args->seed, "random seed of each window")->check(whole_number());
   cmd->add_option("--sbatch-arg", args->sbatch_args,
                   "an sbatch option for both jobs, repeatable: --sbatch-arg=--partition=gpu "
                   "--sbatch-arg=--time=4:00:00");

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
@@ -56,7 +57,8 @@ void add_synth_command(CLI::App& app) {
   cmd->add_option("--size", args->size, "image size WIDTHxHEIGHT")->capture_default_str();
   cmd->add_option("--seed", args->options.seed,
                   "seed of object phases, colours, textures and camera jitter")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_number());
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->options.force, "replace an existing output folder");

@@ -51,7 +51,7 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--baseline", args->baseline, "stgs: the SpacetimeGaussians representation")
       ->check(CLI::IsMember({"stgs"}));
   cmd->add_option("--cap", args->cap, "primitive budget (MCMC cap)");
-  cmd->add_option("--seed", args->seed, "random seed")->default_str("0");
+  cmd->add_option("--seed", args->seed, "random seed")->default_str("0")->check(whole_number());
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_option("--window", args->window,

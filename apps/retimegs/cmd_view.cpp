@@ -33,7 +33,15 @@ void add_view_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--host", args->host,
                   "address to listen on (0.0.0.0 shows the model to the network)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](std::string& host) {
+            return host.empty() ? std::string(
+                                      "must name an address (127.0.0.1, or 0.0.0.0 for "
+                                      "the network)")
+                                : std::string();
+          },
+          "ADDRESS"));
   cmd->callback([args] {
     // The model is read and packed before the port is bound: a bad model is refused at once.
     const view::Packed packed = view::pack_for_web(args->model, args->scene, args->near);

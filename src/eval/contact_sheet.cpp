@@ -10,6 +10,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
 
@@ -80,8 +81,9 @@ Image flow_to_color(const Flow& flow, float max_magnitude) {
 }
 
 Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
-  if (options.tile_width < 8)
-    fail("contact sheet: tile width must be >= 8, got {}", options.tile_width);
+  if (options.tile_width < kMinOutputSide || options.tile_width > kMaxImageSide)
+    fail("--tile-width: {} must lie in [{}, {}] pixels", options.tile_width, kMinOutputSide,
+         kMaxImageSide);
   std::vector<int> cameras = options.cameras, frames = options.frames;
   if (cameras.empty()) {
     const int n = int(scene.cameras.size()), rows = std::min(n, 4);

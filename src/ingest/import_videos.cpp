@@ -14,6 +14,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
@@ -114,8 +115,7 @@ std::pair<double, std::string> choose_fps(const fs::path& source,
     any = true;
   }
   if (fps) {
-    if (!(*fps > 0) || !std::isfinite(*fps))
-      fail("--fps: must be a finite number > 0, got {}", *fps);
+    check_fps(*fps, "--fps");
     if (!any) return {*fps, "--fps"};
     return {*fps, lo == hi ? fmt::format("--fps; the videos say {:.6g}", lo)
                            : fmt::format("--fps; the videos say {:.6g} to {:.6g}", lo, hi)};

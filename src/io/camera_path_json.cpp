@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/io/json_file.hpp"
 
 namespace retimegs::io {
@@ -34,8 +35,9 @@ const json& required(const json& object, const char* key, const std::string& fil
 
 int image_size(const json& root, const char* key, const std::string& file) {
   const double x = finite_number(required(root, key, file, "the top level"), file, key);
-  if (!(x >= 1) || x != std::floor(x) || x > 1 << 16)
-    fail("{}: {} must be a positive integer (at most 65536), got {}", file, key, x);
+  if (!(x >= 1) || x != std::floor(x))
+    fail("{}: {} must be a positive integer, got {}", file, key, x);
+  check_image_side(x, fmt::format("{}: {}", file, key));
   return int(x);
 }
 
@@ -86,16 +88,19 @@ CameraPathFile read_camera_path_json(const fs::path& path) {
   const json& entries = required(root, "camera_path", file, "the top level");
   if (!entries.is_array() || entries.empty())
     fail("{}: camera_path must be a non-empty array (one camera per output frame)", file);
+  check_frame_count(long(entries.size()), fmt::format("{}: camera_path", file));
 
   CameraPathFile out;
   out.source = path;
   if (root.contains("fps")) {
     out.fps = finite_number(root["fps"], file, "fps");
-    if (!(out.fps > 0)) fail("{}: fps must be positive, got {}", file, out.fps);
+    check_fps(out.fps, fmt::format("{}: fps", file));
   } else if (root.contains("seconds")) {
     const double seconds = finite_number(root["seconds"], file, "seconds");
     if (!(seconds > 0)) fail("{}: seconds must be positive, got {}", file, seconds);
     out.fps = double(entries.size()) / seconds;
+    check_fps(out.fps,
+              fmt::format("{}: {} frames in {} seconds: fps", file, entries.size(), seconds));
   } else {
     fail("{}: has neither 'fps' nor 'seconds' (the output frame rate)", file);
   }
@@ -108,6 +113,8 @@ CameraPathFile read_camera_path_json(const fs::path& path) {
     const Eigen::Matrix4d c2w =
         matrix(required(e, "camera_to_world", file, where), file, c2w_field);
     check_rigid(c2w, fmt::format("{}: {}", file, c2w_field));
+    for (int r = 0; r < 3; ++r)  // the camera centre
+      check_coordinate(c2w(r, 3), fmt::format("{}: {}[{}][3]", file, c2w_field, r));
     const double fov = finite_number(required(e, "fov", file, where), file, where + ".fov");
     if (!(fov > 0 && fov < 180))
       fail("{}: {}.fov must be in (0, 180) degrees (vertical field of view), got {}", file, where,

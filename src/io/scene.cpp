@@ -10,7 +10,9 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/json_file.hpp"
 
@@ -59,6 +61,8 @@ class Fields {
     return path.empty() ? key : path + "." + key;
   }
   const std::string& file() const { return file_; }
+  // "<file>: '<path>'", a field as the core/limits.hpp checks name it.
+  std::string field(const std::string& path) const { return fmt::format("{}: '{}'", file_, path); }
 
  private:
   std::string file_;
@@ -69,9 +73,13 @@ Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
   cam.name = f.string(f.require(j, "name", path), path + ".name");
   check_camera_name(cam.name, fmt::format("{}: '{}.name'", f.file(), path));
   cam.width = f.positive_int(f.require(j, "width", path), path + ".width");
+  check_image_side(cam.width, f.field(path + ".width"));
   cam.height = f.positive_int(f.require(j, "height", path), path + ".height");
+  check_image_side(cam.height, f.field(path + ".height"));
   cam.fx = f.positive(f.require(j, "fx", path), path + ".fx");
+  check_focal(cam.fx, cam.width, f.field(path + ".fx"));
   cam.fy = f.positive(f.require(j, "fy", path), path + ".fy");
+  check_focal(cam.fy, cam.height, f.field(path + ".fy"));
   cam.cx = f.number(f.require(j, "cx", path), path + ".cx");
   cam.cy = f.number(f.require(j, "cy", path), path + ".cy");
   const std::string mpath = path + ".world_to_camera";
@@ -84,6 +92,9 @@ Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
       cam.world_to_camera(r, c) = f.number(m[r][c], fmt::format("{}[{}][{}]", mpath, r, c));
   }
   check_rigid(cam.world_to_camera, fmt::format("{}: '{}'", f.file(), mpath));
+  // Rigid: the translation's length is the camera centre's distance from the origin.
+  for (int r = 0; r < 3; ++r)
+    check_coordinate(cam.world_to_camera(r, 3), f.field(fmt::format("{}[{}][3]", mpath, r)));
   if (j.contains("split")) {
     const std::string split = f.string(j["split"], path + ".split");
     if (split == "train")
@@ -122,7 +133,7 @@ void check_camera_name(const std::string& name, const std::string& where) {
     fail(
         "{}: camera name '{}' cannot be a folder name (one path component of at most {} bytes, "
         "no '/', '\\', control characters, '.' or '..')",
-        where, name, kMaxName);
+        where, escape_control_chars(name), kMaxName);  // a NUL would end what() there
 }
 
 namespace {
@@ -160,7 +171,9 @@ Scene read_scene_json(const fs::path& root) {
     fail("{}: unsupported scene version {} (this build reads version {})", file.string(), version,
          kVersion);
   scene.num_frames = f.positive_int(f.require(j, "num_frames", ""), "num_frames");
+  check_frame_count(scene.num_frames, f.field("num_frames"));
   scene.fps = f.positive(f.require(j, "fps", ""), "fps");
+  check_fps(scene.fps, f.field("fps"));
   if (j.contains("up")) {
     const json& up = j["up"];
     if (!up.is_array() || up.size() != 3)

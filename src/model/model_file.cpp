@@ -12,6 +12,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/fnv1a.hpp"
 #include "retimegs/core/input_file.hpp"
 
 namespace retimegs::model {
@@ -25,15 +26,6 @@ static_assert(std::endian::native == std::endian::little, "the .rgs writer assum
 constexpr char kMagic[8] = {'R', 'E', 'T', 'I', 'M', 'E', 'G', 'S'};
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kPrefix = sizeof kMagic + 2 * sizeof(std::uint32_t);
-
-std::uint64_t fnv1a64(const char* data, std::size_t size) {
-  std::uint64_t hash = 0xcbf29ce484222325ull;  // FNV offset basis
-  for (std::size_t i = 0; i < size; ++i) {
-    hash ^= static_cast<unsigned char>(data[i]);
-    hash *= 0x100000001b3ull;  // FNV prime
-  }
-  return hash;
-}
 
 template <typename U>
 void put(std::string& out, U value) {
@@ -98,7 +90,13 @@ void check_times(const Model& model, const std::vector<double>& times, std::stri
           what, t, first, last);
 }
 
+void check_model_file_name(const fs::path& path, const std::string& what) {
+  if (path.extension() != ".rgs")
+    fail("{} {}: a model file's name must end in .rgs", what, path.string());
+}
+
 void write_model(const fs::path& path, const Model& model) {
+  check_model_file_name(path, "model");
   check_primitives(model.primitives, path.string());
   const std::size_t n = model.primitives.size();
   json fields = json::array();

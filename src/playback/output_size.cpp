@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 
 namespace retimegs::playback {
 
@@ -16,10 +17,10 @@ OutputSize parse_output_size(const std::string& text) {
     size.width = std::stoi(m[1].str());
     size.height = std::stoi(m[2].str());
   }
-  if (size.width < 1 || size.height < 1 || size.width > kMaxOutputSide ||
-      size.height > kMaxOutputSide)
-    fail("--size: expected WxH with W and H whole numbers from 1 to {} (1920x1080), got '{}'",
-         kMaxOutputSide, text);
+  if (size.width < kMinOutputSide || size.height < kMinOutputSide || size.width > kMaxImageSide ||
+      size.height > kMaxImageSide)
+    fail("--size: expected WxH with W and H whole numbers from {} to {} (1920x1080), got '{}'",
+         kMinOutputSide, kMaxImageSide, text);
   return size;
 }
 
@@ -39,10 +40,9 @@ Camera at_output_size(const Camera& camera, const OutputSize& size) {
   if (size.scale) {
     const double s = *size.scale;
     if (!std::isfinite(s) || !(s > 0)) fail("--scale: must be a finite number > 0, got {}", s);
-    const double sw = std::max(1.0, std::round(s * w)), sh = std::max(1.0, std::round(s * h));
-    if (sw > kMaxOutputSide || sh > kMaxOutputSide)
-      fail("--scale: {} makes camera '{}' ({}x{}) {}x{}, over {} pixels a side", s, camera.name, w,
-           h, sw, sh, kMaxOutputSide);
+    const double sw = std::round(s * w), sh = std::round(s * h);
+    check_output_size(sw, sh,
+                      fmt::format("--scale: {} makes camera '{}' ({}x{})", s, camera.name, w, h));
     return resized(camera, int(sw), int(sh));
   }
   return camera;

@@ -8,6 +8,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/ply.hpp"
@@ -25,7 +26,6 @@ using synth::World;
 
 namespace {
 
-constexpr int kMinImageSide = 8;  // smaller images cannot show the objects at all
 // Cameras on a ring 4.5 m from the scene centre: with a 55 degree horizontal field of view the
 // objects (within 1.9 m of the centre) stay in every view and fill a good part of it.
 constexpr double kRingRadius = 4.5;
@@ -49,11 +49,9 @@ constexpr long kFarGroundPoints = 3000;
 constexpr long kSkyPoints = 3000;
 
 // Upper bounds, checked before anything is allocated: a typo such as --size 100000x100000 would
-// otherwise end in an allocation failure naming nothing. A side as large as a render's
-// (playback/output_size.hpp); cameras and frames far beyond any capture.
-constexpr int kMaxImageSide = 16384;
+// otherwise end in an allocation failure naming nothing. Images and frames as core/limits.hpp
+// bounds them; cameras far beyond any capture.
 constexpr int kMaxCameras = 1000;
-constexpr int kMaxFrames = 100000;
 
 // The preset is checked by synth::build_world.
 void validate(const SynthOptions& o) {
@@ -61,12 +59,9 @@ void validate(const SynthOptions& o) {
     fail("--cameras: must lie in [1, {}], got {}", kMaxCameras, o.cameras);
   if (o.frames < 2 || o.frames > kMaxFrames)
     fail("--frames: must lie in [2, {}], got {}", kMaxFrames, o.frames);
-  if (o.width < kMinImageSide || o.height < kMinImageSide || o.width > kMaxImageSide ||
-      o.height > kMaxImageSide)
-    fail("--size: width and height must lie in [{}, {}], got {}x{}", kMinImageSide, kMaxImageSide,
-         o.width, o.height);
+  check_output_size(o.width, o.height, "--size");
   if (o.supersample < 1) fail("supersample: must be >= 1, got {}", o.supersample);
-  if (!(o.fps > 0) || !std::isfinite(o.fps)) fail("fps: must be > 0, got {}", o.fps);
+  check_fps(o.fps, "fps");
 }
 
 std::vector<Camera> make_cameras(const SynthOptions& o, const World& world) {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/model/sh.hpp"
 
 namespace retimegs::train {
@@ -27,11 +28,18 @@ using nlohmann::json;
 constexpr double kMaxInteger = 1e9;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-constexpr Range kCount{1, kMaxInteger};      // iterations, periods (divisors), the cap
-constexpr Range kMilestone{0, kMaxInteger};  // an iteration
-constexpr Range kNonNegative{0, kInf};       // learning rates, regularisers, thresholds
-constexpr Range kPositive{0, kInf, true};
-constexpr Range kFactor{0, 1, true};  // a decay's final factor
+constexpr Range kCount{1, kMaxInteger};       // iterations, periods (divisors), the cap
+constexpr Range kMilestone{0, kMaxInteger};   // an iteration
+constexpr Range kCountOrAll{0, kMaxInteger};  // a count, 0 meaning no limit
+constexpr Range kNonNegative{0, kInf};        // thresholds
+// Adam moves a parameter by about its rate per step: a rate above 1 (a scene extent per step for
+// the means, a factor e for the scales) cannot converge and is a typo (1e308 fails with NaNs).
+constexpr Range kRate{0, 1};
+// Loss weights: the image loss is at most 1 per pixel; a weight beyond 100 leaves it no say.
+constexpr double kMaxWeight = 100;
+constexpr Range kWeight{0, kMaxWeight};
+constexpr Range kPositiveWeight{0, kMaxWeight, true};  // the flow weight decays log-linearly
+constexpr Range kFactor{0, 1, true};                   // a decay's final factor
 constexpr Range kOpacity{0, 1, false, true};
 
 // The tables of docs/formats.md, by heading.
@@ -59,6 +67,8 @@ constexpr ConfigKey kKeys[] = {
      "scale the milestones by iters / 20 000 (at least 1)"},
     {"checkpoint_every", &TrainConfig::checkpoint_every, kCount, kRun,
      "iterations between checkpoints (not scaled)"},
+    {"checkpoint_keep", &TrainConfig::checkpoint_keep, kCountOrAll, kRun,
+     "checkpoints kept: writing one removes all but the latest this many; 0 keeps all"},
 
     {"sh_degree_every", &TrainConfig::sh_degree_every, kCount, kSchedule,
      "scaled; the active SH degree is min(max_sh_degree, iteration / this)"},
@@ -80,40 +90,38 @@ constexpr ConfigKey kKeys[] = {
     {"stretch_every", &TrainConfig::stretch_every, kCount, kSchedule,
      "scaled; dynamic stretching period (also its first iteration); never at the last iteration"},
 
-    {"lr_means", &TrainConfig::lr_means, kNonNegative, kRates, "`mu`, × E"},
+    {"lr_means", &TrainConfig::lr_means, kRate, kRates, "`mu`, × E"},
     {"lr_means_final", &TrainConfig::lr_means_final, kFactor, kRates,
      "factor the `mu` and `velocity` rates decay to (exponentially) over the run"},
     // The means' rate: a faster one helps scenes with large, exact motion but hurts captures with
     // noisy flow and small motion (bench/velocity_lr.sh; README, Results).
-    {"lr_velocity", &TrainConfig::lr_velocity, kNonNegative, kRates,
-     "`velocity` (v1, v2, v3), × E ÷ Δt"},
-    {"lr_scales", &TrainConfig::lr_scales, kNonNegative, kRates, "`log_scale`"},
-    {"lr_quats", &TrainConfig::lr_quats, kNonNegative, kRates, "`q0`"},
-    {"lr_quat_rate", &TrainConfig::lr_quat_rate, kNonNegative, kRates,
-     "`q1` (rotation rate), ÷ Δt"},
-    {"lr_opacities", &TrainConfig::lr_opacities, kNonNegative, kRates, "`opacity_logit`"},
-    {"lr_sh0", &TrainConfig::lr_sh0, kNonNegative, kRates, "SH DC coefficients"},
-    {"lr_sh_rest_factor", &TrainConfig::lr_sh_rest_factor, kNonNegative, kRates,
+    {"lr_velocity", &TrainConfig::lr_velocity, kRate, kRates, "`velocity` (v1, v2, v3), × E ÷ Δt"},
+    {"lr_scales", &TrainConfig::lr_scales, kRate, kRates, "`log_scale`"},
+    {"lr_quats", &TrainConfig::lr_quats, kRate, kRates, "`q0`"},
+    {"lr_quat_rate", &TrainConfig::lr_quat_rate, kRate, kRates, "`q1` (rotation rate), ÷ Δt"},
+    {"lr_opacities", &TrainConfig::lr_opacities, kRate, kRates, "`opacity_logit`"},
+    {"lr_sh0", &TrainConfig::lr_sh0, kRate, kRates, "SH DC coefficients"},
+    {"lr_sh_rest_factor", &TrainConfig::lr_sh_rest_factor, kRate, kRates,
      "factor of `lr_sh0` for the higher SH bands"},
-    {"lr_temporal_center", &TrainConfig::lr_temporal_center, kNonNegative, kRates,
+    {"lr_temporal_center", &TrainConfig::lr_temporal_center, kRate, kRates,
      "STGS only: temporal centre μ_τ"},
-    {"lr_temporal_scale", &TrainConfig::lr_temporal_scale, kNonNegative, kRates,
+    {"lr_temporal_scale", &TrainConfig::lr_temporal_scale, kRate, kRates,
      "STGS only: log temporal scale"},
-    {"lr_camera_color", &TrainConfig::lr_camera_color, kNonNegative, kRates,
+    {"lr_camera_color", &TrainConfig::lr_camera_color, kRate, kRates,
      "per-camera colour maps m and c"},
 
     {"ssim_lambda", &TrainConfig::ssim_lambda, Range{0, 1}, kLosses,
      "image loss (1 − λ)·L1 + λ·(1 − SSIM)"},
-    // The flow weight decays log-linearly between the two: both must be positive.
-    {"flow_weight_start", &TrainConfig::flow_weight_start, kPositive, kLosses,
+    {"flow_weight_start", &TrainConfig::flow_weight_start, kPositiveWeight, kLosses,
      "flow-loss weight at iteration 0 …"},
-    {"flow_weight_end", &TrainConfig::flow_weight_end, kPositive, kLosses,
+    {"flow_weight_end", &TrainConfig::flow_weight_end, kPositiveWeight, kLosses,
      "… falling log-linearly to this at `flow_decay_until`"},
-    {"opacity_reg", &TrainConfig::opacity_reg, kNonNegative, kLosses,
+    {"opacity_reg", &TrainConfig::opacity_reg, kWeight, kLosses,
      "weight of the mean opacity regulariser"},
-    {"scale_reg", &TrainConfig::scale_reg, kNonNegative, kLosses,
+    {"scale_reg", &TrainConfig::scale_reg, kWeight, kLosses,
      "weight of the mean scale regulariser"},
-    {"gamma", &TrainConfig::gamma, kPositive, kLosses,
+    // An edge wider than the clip makes every primitive's opacity follow the edge alone.
+    {"gamma", &TrainConfig::gamma, Range{0, 1, true}, kLosses,
      "sharpness of the temporal-opacity edges, in normalised clip time (stored in the model)"},
 
     {"cap", &TrainConfig::cap, kCount, kDensity,
@@ -217,13 +225,16 @@ TrainConfig set_keys(const json& keys, TrainConfig config, const std::string& wh
   for (const auto& [name, value] : keys.items()) {
     if (name != "ablate") {
       found.emplace_back(find_key(name, false), &value);
-      if (!found.back().first) fail("{}: unknown config key '{}'", what, name);
+      // Escaped: a NUL in the key would end what() there.
+      if (!found.back().first)
+        fail("{}: unknown config key '{}'", what, escape_control_chars(name));
       continue;
     }
     if (!value.is_object()) fail("{}: 'ablate' must be an object, got {}", what, value.dump());
     for (const auto& [ablation, flag] : value.items()) {
       found.emplace_back(find_key(ablation, true), &flag);
-      if (!found.back().first) fail("{}: unknown ablation '{}'", what, ablation);
+      if (!found.back().first)
+        fail("{}: unknown ablation '{}'", what, escape_control_chars(ablation));
     }
   }
   for (const auto& [key, value] : found) set_key(*key, *value, config, what);

@@ -1,6 +1,8 @@
 #include "retimegs/train_run/run.hpp"
 
+#include <algorithm>
 #include <fstream>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
@@ -43,16 +45,17 @@ void remove_stale_temporaries(const fs::path& dir) {
   }
 }
 
-// The newest RUN/checkpoints/iter_NNNNNN, or empty.
-fs::path latest_checkpoint(const fs::path& checkpoints) {
-  fs::path latest;
+// The folders RUN/checkpoints/iter_NNNNNN, oldest first.
+std::vector<fs::path> checkpoint_folders(const fs::path& checkpoints) {
+  std::vector<fs::path> found;
   std::error_code ec;
   if (fs::is_directory(checkpoints, ec))
     for (const auto& e : fs::directory_iterator(checkpoints))
-      if (e.is_directory() && e.path().filename().string().rfind("iter_", 0) == 0 &&
-          (latest.empty() || e.path().filename() > latest.filename()))
-        latest = e.path();
-  return latest;
+      if (e.is_directory() && e.path().filename().string().rfind("iter_", 0) == 0)
+        found.push_back(e.path());
+  std::sort(found.begin(), found.end(),
+            [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
+  return found;
 }
 
 // Keeps the lines of log.jsonl up to `iteration`: a run resumed from a checkpoint writes the
@@ -99,7 +102,8 @@ class RunFolder {
     if (run.resume && fs::exists(out_ / "config.json")) {
       config = config_from_json(read_text_file(out_ / "config.json", "run config"), TrainConfig{},
                                 (out_ / "config.json").string());
-      latest = latest_checkpoint(checkpoints());
+      if (const auto found = checkpoint_folders(checkpoints()); !found.empty())
+        latest = found.back();
       if (run.iters) {
         config.iters = *run.iters;  // continue to the new total
         check_config(config, "--iters");
@@ -124,6 +128,19 @@ class RunFolder {
     return checkpoints() / fmt::format("iter_{:06d}", iteration);
   }
   fs::path file(const char* name) const { return out_ / name; }
+
+  // Writes the step's checkpoint at its iteration, then removes all but the latest
+  // config.checkpoint_keep (0: none).
+  void save_checkpoint(const TrainingStep& step) const {
+    step.save_checkpoint(checkpoint(step.iteration()));
+    const std::vector<fs::path> all = checkpoint_folders(checkpoints());
+    const std::size_t keep = std::size_t(config.checkpoint_keep);
+    for (std::size_t i = 0; keep > 0 && i + keep < all.size(); ++i) {
+      std::error_code ec;
+      fs::remove_all(all[i], ec);
+      if (ec) fail("{}: cannot remove an old checkpoint: {}", all[i].string(), ec.message());
+    }
+  }
 
   TrainConfig config;
   fs::path latest;  // the checkpoint to resume from, or empty
@@ -267,7 +284,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
         throw Interrupted(signal, fmt::format("interrupted by {} before the first step; resume "
                                               "with --resume (it starts afresh)",
                                               signal_name(signal)));
-      if (!fs::exists(folder.checkpoint(it))) step.save_checkpoint(folder.checkpoint(it));
+      if (!fs::exists(folder.checkpoint(it))) folder.save_checkpoint(step);
       throw Interrupted(signal,
                         fmt::format("interrupted at step {}; checkpoint written to {}; resume with "
                                     "--resume",
@@ -282,7 +299,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
     // there.
     if (s.iteration % config.checkpoint_every == 0 || s.iteration == config.iters) {
       log.flush();
-      step.save_checkpoint(folder.checkpoint(s.iteration));
+      folder.save_checkpoint(step);
     }
   }
   progress.finish();

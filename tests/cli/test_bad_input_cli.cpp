@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "cli_run.hpp"
 #include "test_util.hpp"
@@ -239,6 +240,75 @@ TEST_F(BadInputCli, IssueFindingsExitTwoInOneLineAndLeaveNothing) {
       // Run folders: a bad input leaves no run folder.
       {"train --scene {D}/nowhere --out {D}/new_run", {"{D}/nowhere"}},
       {train + " --ablate bogus", {"bogus"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
+// A copy D/NAME of the scene whose scene.json has `value` at JSON pointer `pointer`.
+void scene_with(const fs::path& d, const std::string& name, const std::string& pointer,
+                const nlohmann::json& value) {
+  fs::copy(d / "scene", d / name, fs::copy_options::recursive);
+  nlohmann::json scene = nlohmann::json::parse(test::read_text(d / name / "scene.json"));
+  scene[nlohmann::json::json_pointer(pointer)] = value;
+  write(d / name / "scene.json", scene.dump());
+}
+
+// Issue 44's findings of limits and messages: absurd but finite values, one limit per quantity
+// (core/limits.hpp) checked where a reader first sees it, and the key or option named.
+TEST_F(BadInputCli, Issue44LimitsAndMessagesExitTwoInOneLineAndLeaveNothing) {
+  const std::string train = "train" + kScene + " --out {D}/new_run --iters 3";
+  const std::string render = "render" + kModel + kScene + " --camera cam00";
+  const std::vector<Case> cases = {
+      // Absurd rates and weights: refused at config load, no run folder left.
+      {train + " --config {D}/l1.json",
+       {"{D}/l1.json", "'lr_means' = 1e+308", "[0, 1]"},
+       [](const fs::path& d) { write(d / "l1.json", R"({"lr_means":1e308})"); }},
+      {train + " --config {D}/l2.json",
+       {"'opacity_reg' = 1e+300"},
+       [](const fs::path& d) { write(d / "l2.json", R"({"opacity_reg":1e300})"); }},
+      // Image sizes: a 400-byte camera path of 65536x65536 frames, a 100000x100000 camera.
+      {"render" + kModel + kScene + " --camera-path {D}/big_path.json --out {D}/bp/",
+       {"{D}/big_path.json", "render_width = 65536", "16384"},
+       [](const fs::path& d) {
+         write(d / "big_path.json",
+               R"({"camera_type":"perspective","render_width":65536,"render_height":65536,)"
+               R"("fps":24,"camera_path":[{"camera_to_world":[1,0,0,0,0,1,0,0,0,0,1,5,0,0,0,1],)"
+               R"("fov":60}]})");
+       }},
+      {"sheet --scene {D}/big_scene --out {D}/sheet.png",
+       {"'cameras[0].width' = 100000", "16384"},
+       [](const fs::path& d) { scene_with(d, "big_scene", "/cameras/0/width", 100000); }},
+      {"sheet" + kScene + " --tile-width 1000000 --out {D}/sheet.png",
+       {"--tile-width", "1000000", "16384"}},
+      // Focal lengths, translations and frame rates.
+      {"train --scene {D}/fx_scene --out {D}/new_run --iters 3",
+       {"'cameras[1].fx' = 1e+308"},
+       [](const fs::path& d) { scene_with(d, "fx_scene", "/cameras/1/fx", 1e308); }},
+      {"train --scene {D}/far_scene --out {D}/new_run --iters 3",
+       {"'cameras[0].world_to_camera[0][3]' = 1e+308"},
+       [](const fs::path& d) {
+         scene_with(d, "far_scene", "/cameras/0/world_to_camera/0/3", 1e308);
+       }},
+      {render + " --times 0:2:1 --fps 1e-300 --out {D}/t.mp4", {"--fps = 1e-300"}},
+      // Scales giving an image too small to show anything.
+      {render + " --time 1 --scale 1e-9 --out {D}/t.png", {"--scale", "0x0", "[8, 16384]"}},
+      // Values CLI11 would wrap, outputs of the wrong kind, an empty address.
+      {train + " --seed -1", {"--seed", "-1"}},
+      {"synth --preset minimal --seed -1 --out {D}/s", {"--seed", "-1"}},
+      {"merge --out {D}/x.png {D}/model.rgs", {"--out {D}/x.png", ".rgs"}},
+      {"view" + kModel + " --host ''", {"--host", "address"}},
+      // A NUL in a quoted name is escaped, not where the message ends.
+      {train + " --config {D}/l3.json",
+       {"unknown config key 'lr_\\x00means'"},
+       [](const fs::path& d) { write(d / "l3.json", R"({"lr_\u0000means":1})"); }},
+      {"sheet --scene {D}/nul_scene --out {D}/sheet.png",
+       {"camera name 'cam\\x0000'", "cannot be a folder name"},
+       [](const fs::path& d) {
+         scene_with(d, "nul_scene", "/cameras/0/name",
+                    std::string("cam\0"
+                                "00",
+                                6));
+       }},
   };
   run_cases(root_->path(), cases);
 }

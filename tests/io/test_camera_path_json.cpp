@@ -150,6 +150,12 @@ TEST(CameraPathJson, MalformedValuesNameTheFileAndTheField) {
        },
        {"'fps'", "'seconds'"}},
       {"negative fps", [](json& j) { j["fps"] = -1; }, {"fps", "-1"}},
+      // Limits of core/limits.hpp: a 400-byte file must not ask for 16 GB of pixels.
+      {"65536 wide", [](json& j) { j["render_width"] = 65536; }, {"render_width", "16384"}},
+      {"a frame in 1e300 s", [](json& j) { j["fps"] = 1e-300; }, {"fps = 1e-300", "[0.01667"}},
+      {"a camera 1e308 away",
+       [&](json& j) { entry(j)["camera_to_world"][3] = 1e308; },
+       {"camera_path[1].camera_to_world[0][3] = 1e+308", "beyond"}},
       {"zero seconds",
        [](json& j) {
          j.erase("fps");

@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -192,6 +193,32 @@ TEST(Scene, NonFiniteAndInvalidNumbers) {
     write_json(file, j);
     EXPECT_NO_THROW(read_scene(dir / "s"));
   }
+}
+
+// Finite but absurd values (core/limits.hpp), refused where scene.json is read, naming the key:
+// unchecked, a 100000x100000 camera ends in std::bad_alloc and fx = 1e308 in NaNs.
+TEST(Scene, ValuesBeyondTheirLimitsNameTheKey) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  const json good = read_json(dir / "s" / "scene.json");
+  const fs::path file = dir / "s" / "scene.json";
+  const auto refused = [&](const std::function<void(json&)>& edit,
+                           std::initializer_list<std::string> parts) {
+    json j = good;
+    edit(j);
+    write_json(file, j);
+    expect_scene_error(dir / "s", parts);
+  };
+  refused([](json& j) { j["cameras"][0]["width"] = 100000; },
+          {"'cameras[0].width' = 100000", "16384"});
+  refused([](json& j) { j["cameras"][1]["height"] = 16385; }, {"'cameras[1].height' = 16385"});
+  refused([](json& j) { j["cameras"][0]["fx"] = 1e308; }, {"'cameras[0].fx' = 1e+308"});
+  refused([](json& j) { j["cameras"][0]["fy"] = 1e-300; }, {"'cameras[0].fy' = 1e-300"});
+  refused([](json& j) { j["cameras"][1]["world_to_camera"][2][3] = 1e308; },
+          {"'cameras[1].world_to_camera[2][3]' = 1e+308", "beyond"});
+  refused([](json& j) { j["fps"] = 1e-300; }, {"'fps' = 1e-300"});
+  refused([](json& j) { j["fps"] = 1e9; }, {"'fps' = 1000000000"});
+  refused([](json& j) { j["num_frames"] = 200000; }, {"'num_frames' = 200000", "100000"});
 }
 
 TEST(Scene, NonRigidMatrix) {

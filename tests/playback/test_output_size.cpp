@@ -25,7 +25,8 @@ TEST(OutputSize, ParsesWidthByHeight) {
   EXPECT_EQ(size.width, 1920);
   EXPECT_EQ(size.height, 1080);
   EXPECT_FALSE(size.scale);
-  for (const char* bad : {"1920", "0x10", "10x", "x10", "-4x3", "4.5x3", "4X3", "20000x100", ""})
+  for (const char* bad :
+       {"1920", "0x10", "10x", "x10", "-4x3", "4.5x3", "4X3", "20000x100", "7x8", ""})
     expect_error([&] { parse_output_size(bad); }, {"--size", std::string("'") + bad + "'"});
 }
 
@@ -52,10 +53,12 @@ TEST(OutputSize, ScaleMultipliesBothSides) {
   EXPECT_EQ(half.width, 320);
   EXPECT_EQ(half.height, 180);
   EXPECT_DOUBLE_EQ(half.fy, hd.fy / 2);
-  EXPECT_EQ(at_output_size(hd, {0, 0, 1e-6}).width, 1);
   for (const double bad : {0.0, -1.0, std::nan(""), double(INFINITY)})
     expect_error([&] { at_output_size(hd, {0, 0, bad}); }, {"--scale"});
   expect_error([&] { at_output_size(hd, {0, 0, 100.0}); }, {"--scale", "64000x36000", "16384"});
+  // An image too small to show anything (a 1x1 PNG at 1e-9).
+  expect_error([&] { at_output_size(hd, {0, 0, 1e-9}); }, {"--scale", "0x0", "[8, 16384]"});
+  expect_error([&] { at_output_size(hd, {0, 0, 0.02}); }, {"--scale", "13x7", "[8, 16384]"});
 }
 
 }  // namespace

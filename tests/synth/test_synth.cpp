@@ -284,17 +284,17 @@ TEST(Synth, BadOptionsNameTheOption) {
   expect_error(o, "--frames: must lie in [2, 100000], got 1");
   o = good;
   o.width = 7;
-  expect_error(o, "--size: width and height must lie in [8, 16384], got 7x16");
+  expect_error(o, "--size 7x16: each side must lie in [8, 16384] pixels");
   // Checked before anything is allocated (100000x100000 ended in std::bad_alloc).
   o = good;
   o.width = o.height = 100000;
-  expect_error(o, "got 100000x100000");
+  expect_error(o, "--size 100000x100000");
   o = good;
   o.cameras = 1000000;
   expect_error(o, "--cameras: must lie in [1, 1000], got 1000000");
   o = good;
   o.height = 4;
-  expect_error(o, "got 16x4");
+  expect_error(o, "--size 16x4");
   o = good;
   o.supersample = 0;
   expect_error(o, "supersample: must be >= 1, got 0");

@@ -131,6 +131,7 @@ constexpr const char* kDefaultJson = R"json({
   },
   "cap": 200000,
   "checkpoint_every": 1000,
+  "checkpoint_keep": 2,
   "final_prune_opacity": 0.03,
   "flow_decay_until": 12000,
   "flow_weight_end": 1e-06,

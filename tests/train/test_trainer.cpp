@@ -17,6 +17,7 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/playback/render_model.hpp"
+#include "retimegs/train/checkpoint.hpp"
 #include "retimegs/train/cpu_step.hpp"
 #include "retimegs/train/relocation.hpp"
 #include "retimegs/train_run/load_training_set.hpp"
@@ -232,6 +233,7 @@ TEST(Trainer, ResumeEqualsUninterruptedAndSeedsAreDeterministic) {
   run.config.iters = 40;
   run.config.cap = 1500;
   run.config.checkpoint_every = 15;
+  run.config.checkpoint_keep = 0;  // all, to resume from the first
   run.progress = false;
   // Milestones scaled to 40 iterations: relocation every 1 step after 1, stretching every 6.
   run.out = dir / "full";
@@ -370,6 +372,7 @@ TEST(Trainer, ResumeFromAStateLackingAKeyNamesTheFileAndTheKey) {
   for (std::string line; std::getline(in, line);)
     if (line.find("\"iteration\"") == std::string::npos) text += line + "\n";
   test::write_text(state, text);
+  write_checkpoint_manifest(state.parent_path(), 1);            // as a writer of such a state would
   fs::remove_all(dir / "run" / "checkpoints" / "iter_000002");  // the last step's
   run.resume = true;
   const std::string message = test::message_of([&] { train(scene, run); });

@@ -52,6 +52,11 @@ const CameraColor* find_camera_color(const Model& model, const std::string& came
 // points only, and beyond the range the last ones fly apart.
 void check_times(const Model& model, const std::vector<double>& times, std::string_view what);
 
+// Model files end in .rgs: a model written under another name (merge --out x.png) is a slip that
+// leaves a model where an image is expected. Throws Error "<what> <path>: ..." otherwise.
+void check_model_file_name(const std::filesystem::path& path, const std::string& what);
+
+// Writes `path` atomically (check_model_file_name first).
 void write_model(const std::filesystem::path& path, const Model& model);
 
 // Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,

@@ -9,23 +9,20 @@
 
 namespace retimegs::playback {
 
-// Pixels per side: a 16K frame. More is a typo (a render holds ~40 bytes per pixel).
-constexpr int kMaxOutputSide = 16384;
-
 struct OutputSize {
   int width = 0, height = 0;    // --size; 0: not given
   std::optional<double> scale;  // --scale
 };
 
 // "WxH" (1920x1080) -> {W, H}; throws Error naming --size unless both are integers in
-// [1, kMaxOutputSide].
+// [kMinOutputSide, kMaxImageSide] (core/limits.hpp).
 OutputSize parse_output_size(const std::string& text);
 
 // `camera` at the output size (neither given: unchanged). --size W x H must keep the camera's
 // aspect ratio up to rounding to whole pixels: H = round(W * camera.height / camera.width) or
 // W = round(H * camera.width / camera.height). --scale S gives round(S * width) x
-// round(S * height), each side at least 1; S finite and > 0. Throws Error naming the option and
-// the camera otherwise, or when a side would exceed kMaxOutputSide.
+// round(S * height); S finite and > 0. Throws Error naming the option and the camera otherwise,
+// or when a side would lie outside [kMinOutputSide, kMaxImageSide].
 Camera at_output_size(const Camera& camera, const OutputSize& size);
 
 }  // namespace retimegs::playback

@@ -1,7 +1,9 @@
 #pragma once
 // A training checkpoint folder, the same for every device: model.rgs (with the camera colours),
-// state.json (iteration, generator, active SH degree, each optimiser's step count) and
-// adam/<name>_{m,v}.npy, each optimiser's moments as [rows, width] float32.
+// state.json (iteration, generator, active SH degree, each optimiser's step count),
+// adam/<name>_{m,v}.npy, each optimiser's moments as [rows, width] float32, and manifest.json,
+// written last: the iteration and each other file's size and FNV-1a 64 hash, which ties the files
+// to one step (a file copied from another checkpoint, truncated or missing is refused).
 #include <filesystem>
 #include <random>
 #include <string>
@@ -25,12 +27,20 @@ constexpr const char* kCameraColorAdam = "camera_color";
 void write_checkpoint(const std::filesystem::path& dir, const model::Model& model, int iteration,
                       const std::mt19937_64& rng, const NamedAdams& optimizers);
 
+// Writes dir/manifest.json for the files now under `dir` (write_checkpoint's last file).
+void write_checkpoint_manifest(const std::filesystem::path& dir, int iteration);
+// The iteration of dir/manifest.json once every file it lists is there with its size and hash and
+// no other file is; throws Error naming the checkpoint and the file otherwise, and when the
+// manifest is missing (a checkpoint of an older retimegs: it cannot be verified).
+int verify_checkpoint_manifest(const std::filesystem::path& dir);
+
 // A checkpoint read back: the model (its config.sh_degree that of the state), the iteration and
 // the generator; the optimisers are read on demand into Adams of the expected shape.
 class Checkpoint {
  public:
-  // Throws Error naming the file and the key on a missing or malformed part, and when the
-  // checkpoint's time grid is not `grid` (resuming with another --window or --train-frames).
+  // Verifies the manifest first; throws Error naming the file and the key on a missing or
+  // malformed part, and when the checkpoint's time grid is not `grid` (resuming with another
+  // --window or --train-frames).
   Checkpoint(const std::filesystem::path& dir, const model::TimeGrid& grid);
 
   model::Model model;

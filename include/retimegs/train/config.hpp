@@ -77,6 +77,7 @@ struct TrainConfig {
   double stretch_distance = 0.01, stretch_color = 0.1, stretch_speed = 0.002;
 
   int checkpoint_every = 1000;
+  int checkpoint_keep = 2;  // each is ~3x the model: the latest two, one to fall back on
 
   // Milestone `iteration` (given for 20 000 iterations) in this run's units.
   int scaled(int iteration) const;
