@@ -2,17 +2,18 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs::model {
 namespace fs = std::filesystem;
@@ -26,11 +27,25 @@ constexpr char kMagic[8] = {'R', 'E', 'T', 'I', 'M', 'E', 'G', 'S'};
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kPrefix = sizeof kMagic + 2 * sizeof(std::uint32_t);
 
-std::uint64_t fnv1a64(const char* data, std::size_t size) {
-  std::uint64_t hash = 0xcbf29ce484222325ull;  // FNV offset basis
+constexpr std::uint64_t kFnvBasis = 0xcbf29ce484222325ull;  // FNV-1a 64 offset basis
+
+// FNV-1a 64 of `size` bytes, continuing from `hash`.
+std::uint64_t fnv1a64(const char* data, std::size_t size, std::uint64_t hash = kFnvBasis) {
   for (std::size_t i = 0; i < size; ++i) {
     hash ^= static_cast<unsigned char>(data[i]);
     hash *= 0x100000001b3ull;  // FNV prime
+  }
+  return hash;
+}
+
+// fnv1a64 of a file being read, polling for Ctrl-C between blocks (write_model does not poll: a
+// train stopped by a signal still writes its checkpoint).
+std::uint64_t fnv1a64_interruptible(const char* data, std::size_t size) {
+  std::uint64_t hash = kFnvBasis;
+  const std::size_t block = 64 * kItemsPerInterruptPoll;
+  for (std::size_t at = 0; at < size; at += block) {
+    throw_if_interrupted();
+    hash = fnv1a64(data + at, std::min(block, size - at), hash);
   }
   return hash;
 }
@@ -97,7 +112,7 @@ void check_times(const Model& model, const std::vector<double>& times, std::stri
           what, t, first, last);
 }
 
-void write_model(const fs::path& path, const Model& model) {
+void write_model(const fs::path& path, const Model& model, bool replace) {
   check_primitives(model.primitives, path.string());
   const std::size_t n = model.primitives.size();
   json fields = json::array();
@@ -151,12 +166,13 @@ void write_model(const fs::path& path, const Model& model) {
     bytes.append(reinterpret_cast<const char*>(f.values->data()), f.values->size() * sizeof(float));
   put(bytes, fnv1a64(bytes.data(), bytes.size()));
 
-  AtomicFile out(path);
+  AtomicFile out(path, replace);
   {
+    errno = 0;
     std::ofstream o(out.temp_path(), std::ios::binary);
     o.write(bytes.data(), std::streamsize(bytes.size()));
     o.close();  // the last bytes reach the disk here: a full disk shows only now
-    if (!o) fail("{}: write failed (disk full?)", path.string());
+    check_written(o, path);
   }
   out.commit();
 }
@@ -164,9 +180,7 @@ void write_model(const fs::path& path, const Model& model) {
 Model read_model(const fs::path& path) {
   const std::string file = path.string();
   check_input_file(path, "a model");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("{}: cannot open model file", file);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string bytes = read_text_file(path, "model file");
   if (bytes.size() < kPrefix + sizeof(std::uint64_t) || std::memcmp(bytes.data(), kMagic, 8) != 0)
     fail("{}: not a retimegs model (.rgs) file", file);
   std::uint32_t version = 0, header_size = 0;
@@ -243,7 +257,7 @@ Model read_model(const fs::path& path) {
         file, n, data_size, data_size / row_bytes, row_bytes);
   std::uint64_t stored = 0;
   std::memcpy(&stored, bytes.data() + bytes.size() - sizeof stored, sizeof stored);
-  if (stored != fnv1a64(bytes.data(), bytes.size() - sizeof stored))
+  if (stored != fnv1a64_interruptible(bytes.data(), bytes.size() - sizeof stored))
     fail("{}: checksum mismatch: the model file is corrupted", file);
   model.primitives.resize(n);
 

@@ -48,7 +48,8 @@ const CameraColor* find_camera_color(const Model& model, const std::string& came
 // points only, and beyond the range the last ones fly apart.
 void check_times(const Model& model, const std::vector<double>& times, std::string_view what);
 
-void write_model(const std::filesystem::path& path, const Model& model);
+// Atomic; an existing `path` is replaced only with `replace` (core/atomic_file.hpp).
+void write_model(const std::filesystem::path& path, const Model& model, bool replace = true);
 
 // Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,
 // truncated data, checksum mismatch, non-finite values, an unknown field, a malformed camera
