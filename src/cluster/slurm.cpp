@@ -41,17 +41,10 @@ std::string sbatch_lines(const std::vector<std::string>& args, const std::string
 }
 
 // The `--output=` value for the logs folder `logs` and file name pattern `name` (its %A, %a, %j
-// are Slurm's). A `%` of the folder is written `%%` so that Slurm keeps it; a line break cannot be
-// written in an #SBATCH line and a backslash turns Slurm's patterns off, so both are refused.
+// are Slurm's). A `%` of the folder is written `%%` so that Slurm keeps it.
 std::string sbatch_output(const fs::path& logs, const std::string& name) {
-  const std::string folder = logs.string();
-  if (folder.find_first_of("\r\n\\") != std::string::npos)
-    fail(
-        "--out {}: Slurm cannot write its logs under a path holding a line break or a backslash; "
-        "choose another run folder",
-        folder);
   std::string escaped;
-  for (const char c : folder) escaped += c == '%' ? std::string("%%") : std::string(1, c);
+  for (const char c : logs.string()) escaped += c == '%' ? std::string("%%") : std::string(1, c);
   return shell_quote("--output=" + escaped + "/" + name);
 }
 
@@ -137,6 +130,13 @@ SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
   s.train = dir / "train.sbatch";
   s.merge = dir / "merge.sbatch";
   s.local = dir / "run_local.sh";
+  // A line break cannot be written in an #SBATCH line and a backslash turns Slurm's --output
+  // patterns off: Slurm cannot keep its logs under such a run folder.
+  if (run.string().find_first_of("\r\n\\") != std::string::npos)
+    fail(
+        "--out {}: Slurm cannot write its logs under a path holding a line break or a backslash; "
+        "choose another run folder",
+        run.string());
   const std::string train_sbatch = sbatch_lines(job.sbatch_args, "--sbatch-arg"),
                     merge_sbatch = sbatch_lines(job.merge_sbatch_args, "--merge-sbatch-arg"),
                     train_output = sbatch_output(dir / "logs", "train_%A_%a.out"),
