@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The Slurm test (ctest: slurm_cluster): starts a throw-away single-node Slurm cluster on loopback
 # (its own munge key, slurm.conf and state folders in a temporary folder; slurmctld + slurmd),
-# submits a 3-window run of a small synthetic scene with `retimegs slurm --submit`, waits for the
-# merge job with a bounded timeout and checks the merged model. Everything it started is stopped
+# submits a 3-window run of a small synthetic scene with `retimegs slurm --submit` into a run folder
+# whose name holds shell and Slurm syntax (quotes, `$(...)`, `;`, `#`, `%`, spaces), waits for the
+# merge job with a bounded timeout and checks the merged model, the logs' names, and that no part
+# of the name ran as a command. Everything it started is stopped
 # and its folder removed whatever the outcome. Exits 77 (skipped) with the reason when the
 # daemons cannot start (no slurm-wlm / munge, or a machine that refuses them).
 #   scripts/test_slurm.sh RETIMEGS_BINARY [TIMEOUT_SECONDS]
@@ -21,6 +23,8 @@ done
 [ "$(id -u)" -eq 0 ] || skip "the throw-away cluster runs its daemons as root; run as root"
 
 tmp=$(mktemp -d /tmp/retimegs-slurm.XXXXXX)
+# The run folder: every character here is syntax to a shell or to sbatch's #SBATCH reader.
+run="$tmp/run it's \"\$(touch PWNED1)\";touch PWNED2 #50%j"
 pids=()
 cleanup() {
   for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null; done
@@ -34,7 +38,7 @@ trap cleanup EXIT
 trap 'exit 1' INT TERM
 
 show_logs() {
-  for f in "$tmp"/*.log "$tmp"/run/slurm/logs/*; do
+  for f in "$tmp"/*.log "$run"/slurm/logs/*; do
     [ -f "$f" ] && { echo "---- $f"; tail -n 40 "$f"; }
   done
 }
@@ -110,7 +114,7 @@ if [ -z "${SLURM_TEST_SCENE:-}" ]; then
     >"$tmp/synth.log" 2>&1 || fail "synth"
 fi
 start=$(date +%s.%N)
-"$binary" slurm --scene "$scene" --out "$tmp/run" --windows "$windows" \
+"$binary" slurm --scene "$scene" --out "$run" --windows "$windows" \
   --iters "${SLURM_TEST_ITERS:-150}" --cap "${SLURM_TEST_CAP:-5000}" \
   --sbatch-arg=--cpus-per-task="${SLURM_TEST_CPUS:-1}" --sbatch-arg=--partition=test --submit \
   >"$tmp/submit.log" 2>&1 ||
@@ -131,13 +135,17 @@ while squeue -h -j "$train_job,$merge_job" 2>/dev/null | grep -q .; do
   sleep 1
 done
 
-model="$tmp/run/model.rgs"
+model="$run/model.rgs"
 [ -f "$model" ] || fail "the merge job wrote no $model"
 end=$(stat -c %.9Y "$model")  # when the merged model appeared
 for k in $(seq 0 $((windows - 1))); do
-  [ -f "$tmp/run/windows/$k/model.rgs" ] || fail "window $k wrote no model"
-  [ -f "$tmp/run/slurm/logs/train_${train_job}_$k.out" ] || fail "window $k left no log"
+  [ -f "$run/windows/$k/model.rgs" ] || fail "window $k wrote no model"
+  [ -f "$run/slurm/logs/train_${train_job}_$k.out" ] || fail "window $k left no log"
 done
+[ -f "$run/slurm/logs/merge_${merge_job}.out" ] || fail "the merge left no log"
+# A command would run in the job's working folder (the submitting one) or the daemons'.
+pwned=$( (find "$tmp" -name 'PWNED*'; find "$PWD" / /tmp -maxdepth 1 -name 'PWNED*') 2>/dev/null)
+[ -z "$pwned" ] || fail "a part of the run folder's name ran as a command: $pwned"
 # The merged model covers the whole clip: eval scores it on the held-out odd frames (about 20 dB
 # after 150 iterations per window; a model that lost a window scores far less).
 "$binary" eval --scene "$scene" --model "$model" --out "$tmp/metrics.json" >"$tmp/eval.log" 2>&1 ||
@@ -146,13 +154,13 @@ psnr=$(sed -n 's/.*\] psnr \([0-9.]*\) .*/\1/p' "$tmp/eval.log" | head -n 1)  # 
 awk -v p="$psnr" 'BEGIN { exit !(p > 18) }' || fail "merged model's held-out PSNR is '$psnr'"
 # Scheduler overhead: submit to merged model, minus the span in which windows trained (first
 # task's start to last task's end, as window.sh logs them).
-span=$(cat "$tmp"/run/slurm/logs/train_*.out | awk '$4 == "start" {if (!s || $5 < s) s = $5}
+span=$(cat "$run"/slurm/logs/train_*.out | awk '$4 == "start" {if (!s || $5 < s) s = $5}
   $4 == "end" {if ($5 > e) e = $5} END {printf "%.3f %.3f", s, e}')
 read -r first_start last_end <<<"$span"
 awk -v a="$start" -v b="$end" -v s="$first_start" -v e="$last_end" -v p="$psnr" 'BEGIN {
   printf "merged model: held-out PSNR %s dB; submit to merged model %.1f s, windows training %.1f s, scheduler overhead %.1f s (submit to first task %.1f s, last task to merged model %.1f s)\n",
     p, b - a, e - s, (b - a) - (e - s), s - a, b - e }'
 if [ -n "${SLURM_TEST_KEEP:-}" ]; then
-  cp "$tmp/metrics.json" "$tmp/run/metrics.json" && mv "$tmp/run" "$SLURM_TEST_KEEP"
+  cp "$tmp/metrics.json" "$run/metrics.json" && mv "$run" "$SLURM_TEST_KEEP"
 fi
 echo "PASSED"

@@ -97,6 +97,7 @@ void add_eval_command(CLI::App& app) {
       options.lpips_weights = fs::path(RETIMEGS_DEFAULT_LPIPS_WEIGHTS);
     }
     if (!args->save.empty()) options.save_renders = fs::path(args->save);
+    options.replace_renders = args->force;
     const std::vector<int> train_frames =
         io::training_views(scene, io::parse_frame_selection(args->train_frames, "--train-frames"))
             .frames;
@@ -118,7 +119,7 @@ void add_eval_command(CLI::App& app) {
                  args->baseline.empty() ? cuda::describe(device) : "cpu (a baseline)");
     eval::EvalResult result = eval::evaluate_views(scene, renderer, options);
     if (args->baseline.empty()) result.near = near_plane;
-    eval::write_json(result, args->out);
+    eval::write_json(result, args->out, /*replace=*/args->force);
     if (!result.note.empty()) spdlog::info("{}", result.note);
     // A value with `digits` decimals, or null.
     const auto text = [](const std::optional<double>& v, int digits) {

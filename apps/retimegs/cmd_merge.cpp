@@ -39,7 +39,7 @@ void add_merge_command(CLI::App& app) {
     std::vector<model::Model> windows;
     for (const std::string& path : args->models) windows.push_back(model::read_model(path));
     const model::Model merged = model::merge_models(windows, args->models);
-    model::write_model(args->out, merged);
+    model::write_model(args->out, merged, /*replace=*/args->force);
     const model::TimeWindow span =
         merged.window.value_or(model::TimeWindow{0, merged.grid.count - 1});
     spdlog::info("merged {} window{} into {}: {} primitives, frames {}..{}", windows.size(),

@@ -49,7 +49,7 @@ void add_sheet_command(CLI::App& app) {
     if (!args->renders.empty())
       for (const auto& dir : split_list(args->renders, "--renders")) options.renders.push_back(dir);
     if (!args->frames.empty()) options.frames = parse_int_list(args->frames, "--frames");
-    media::write_png(args->out, eval::contact_sheet(scene, options));
+    media::write_png(args->out, eval::contact_sheet(scene, options), 8, /*replace=*/args->force);
     spdlog::info("contact sheet: {}", args->out);
   });
 }

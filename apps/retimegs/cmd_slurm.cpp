@@ -1,6 +1,6 @@
 // retimegs slurm --scene S --out RUN --windows N [--train-frames even|all] [--iters N]
 //                [--preset P] [--config FILE] [--cap N] [--seed S] [--sbatch-arg ARG ...]
-//                [--submit] [--force]
+//                [--merge-sbatch-arg ARG ...] [--submit] [--force]
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -27,7 +27,7 @@ void add_slurm_command(CLI::App& app) {
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
-    std::vector<std::string> sbatch_args;
+    std::vector<std::string> sbatch_args, merge_sbatch_args;
     bool submit = false, force = false;
   };
   auto args = std::make_shared<Args>();
@@ -53,8 +53,11 @@ void add_slurm_command(CLI::App& app) {
   cmd->add_option("--cap", args->cap, "primitive budget of each window");
   cmd->add_option("--seed", args->seed, "random seed of each window")->check(whole_number());
   cmd->add_option("--sbatch-arg", args->sbatch_args,
-                  "an sbatch option for both jobs, repeatable: --sbatch-arg=--partition=gpu "
-                  "--sbatch-arg=--time=4:00:00");
+                  "an sbatch option for the window jobs (train.sbatch), repeatable: "
+                  "--sbatch-arg=--partition=gpu --sbatch-arg=--gres=gpu:1");
+  cmd->add_option("--merge-sbatch-arg", args->merge_sbatch_args,
+                  "an sbatch option for the merge job alone (a short CPU job), repeatable: "
+                  "--merge-sbatch-arg=--partition=cpu --merge-sbatch-arg=--time=0:30:00");
   cmd->add_flag("--submit", args->submit,
                 "submit both jobs with sbatch (merge with --dependency=afterok) and print their "
                 "ids");
@@ -86,6 +89,7 @@ void add_slurm_command(CLI::App& app) {
     job.windows = args->windows;
     job.train_frames = args->frames;
     job.sbatch_args = args->sbatch_args;
+    job.merge_sbatch_args = args->merge_sbatch_args;
     if (!args->preset.empty())
       job.train_args.insert(job.train_args.end(), {"--preset", args->preset});
     if (!args->config.empty())

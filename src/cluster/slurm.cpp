@@ -27,10 +27,25 @@ std::string join_quoted(const std::vector<std::string>& words) {
   return out;
 }
 
-std::string sbatch_lines(const std::vector<std::string>& args) {
+// `#SBATCH` lines are read by sbatch, not by a shell, but its reader takes the same quoting as
+// shell_quote writes (single quotes, a backslash escaping one character outside them, `#` outside
+// quotes starting a comment); a line break ends the line, so an option holding one is refused.
+std::string sbatch_lines(const std::vector<std::string>& args, const std::string& flag) {
   std::string out;
-  for (const std::string& a : args) out += "#SBATCH " + a + "\n";
+  for (const std::string& a : args) {
+    if (a.empty() || a[0] != '-' || a.find_first_of("\r\n") != std::string::npos)
+      fail("{} '{}': give one sbatch option, e.g. {}=--partition=gpu", flag, a, flag);
+    out += "#SBATCH " + shell_quote(a) + "\n";
+  }
   return out;
+}
+
+// The `--output=` value for the logs folder `logs` and file name pattern `name` (its %A, %a, %j
+// are Slurm's). A `%` of the folder is written `%%` so that Slurm keeps it.
+std::string sbatch_output(const fs::path& logs, const std::string& name) {
+  std::string escaped;
+  for (const char c : logs.string()) escaped += c == '%' ? std::string("%%") : std::string(1, c);
+  return shell_quote("--output=" + escaped + "/" + name);
 }
 
 // A script that is there already is left alone when it is the same, refused when it differs
@@ -83,8 +98,11 @@ std::string shell_quote(const std::string& text) {
   if (!text.empty() && text.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                                               "0123456789_-+=./:,@%") == std::string::npos)
     return text;
+  // A quote or backslash is written outside the quotes, escaped: "'\''" and "'\\'". A shell
+  // keeps a backslash inside single quotes as it is, Slurm's #SBATCH reader would not.
   std::string out = "'";
-  for (const char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  for (const char c : text)
+    out += c == '\'' || c == '\\' ? std::string("'\\") + c + "'" : std::string(1, c);
   return out + "'";
 }
 
@@ -101,9 +119,6 @@ std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_fram
 }
 
 SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
-  for (const std::string& a : job.sbatch_args)
-    if (a.empty() || a[0] != '-' || a.find_first_of("\r\n") != std::string::npos)
-      fail("--sbatch-arg '{}': give one sbatch option, e.g. --sbatch-arg=--partition=gpu", a);
   const fs::path binary = fs::absolute(job.binary), scene_dir = fs::absolute(job.scene);
   const fs::path run = fs::absolute(job.run), dir = run / "slurm";
   SlurmScripts s;
@@ -115,6 +130,17 @@ SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
   s.train = dir / "train.sbatch";
   s.merge = dir / "merge.sbatch";
   s.local = dir / "run_local.sh";
+  // A line break cannot be written in an #SBATCH line and a backslash turns Slurm's --output
+  // patterns off: Slurm cannot keep its logs under such a run folder.
+  if (run.string().find_first_of("\r\n\\") != std::string::npos)
+    fail(
+        "--out {}: Slurm cannot write its logs under a path holding a line break or a backslash; "
+        "choose another run folder",
+        run.string());
+  const std::string train_sbatch = sbatch_lines(job.sbatch_args, "--sbatch-arg"),
+                    merge_sbatch = sbatch_lines(job.merge_sbatch_args, "--merge-sbatch-arg"),
+                    train_output = sbatch_output(dir / "logs", "train_%A_%a.out"),
+                    merge_output = sbatch_output(dir / "logs", "merge_%j.out");
   fs::create_directories(dir / "logs");
 
   std::string windows, models;
@@ -131,6 +157,7 @@ SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
       fmt::format(R"SH(#!/bin/bash
 # Window K of {run}: prepare its frames (files the scene has are kept), then train it, resuming
 # from its latest checkpoint when a run is there. A finished window is left as it is.
+# No array is expanded empty: bash before 4.4 calls that unbound under `set -u`.
 set -euo pipefail
 windows=({windows})
 k=${{1:?usage: window.sh K}}
@@ -140,10 +167,10 @@ if [ -e "$out/model.rgs" ]; then echo "window $k ($window): done"; exit 0; fi
 threads=${{SLURM_CPUS_PER_TASK:-0}}
 echo "window $k ($window): start $(date +%s.%N)"
 {bin} prepare --scene {scene} --train-frames {frames} --window "$window" --threads "$threads"
-resume=()
-if [ -e "$out/config.json" ]; then resume=(--resume); fi
+resume=
+if [ -e "$out/config.json" ]; then resume=--resume; fi
 {bin} train --scene {scene} --out "$out" --train-frames {frames} --window "$window" \
-  --threads "$threads" --device auto{train_args} "${{resume[@]}}"
+  --threads "$threads" --device auto{train_args} $resume
 echo "window $k ($window): end $(date +%s.%N)"
 )SH",
                   fmt::arg("run", quoted(run)), fmt::arg("windows", windows.substr(1)),
@@ -152,28 +179,25 @@ echo "window $k ($window): end $(date +%s.%N)"
       job.force);
   const std::string merge_command =
       fmt::format("{} merge --force --out {}{}", bin, quoted(run / "model.rgs"), models);
-  write_script(
-      s.train,
-      fmt::format(R"SH(#!/bin/bash
+  write_script(s.train,
+               fmt::format(R"SH(#!/bin/bash
 #SBATCH --job-name=retimegs-train
 #SBATCH --array=0-{last}
-#SBATCH --output={logs}/train_%A_%a.out
+#SBATCH {output}
 {sbatch}set -euo pipefail
 exec {window} "$SLURM_ARRAY_TASK_ID"
 )SH",
-                  fmt::arg("last", s.windows.size() - 1), fmt::arg("logs", (dir / "logs").string()),
-                  fmt::arg("sbatch", sbatch_lines(job.sbatch_args)),
-                  fmt::arg("window", quoted(s.window))),
-      job.force);
+                           fmt::arg("last", s.windows.size() - 1), fmt::arg("output", train_output),
+                           fmt::arg("sbatch", train_sbatch), fmt::arg("window", quoted(s.window))),
+               job.force);
   write_script(s.merge,
                fmt::format(R"SH(#!/bin/bash
 #SBATCH --job-name=retimegs-merge
-#SBATCH --output={logs}/merge_%j.out
+#SBATCH {output}
 {sbatch}set -euo pipefail
 {merge}
 )SH",
-                           fmt::arg("logs", (dir / "logs").string()),
-                           fmt::arg("sbatch", sbatch_lines(job.sbatch_args)),
+                           fmt::arg("output", merge_output), fmt::arg("sbatch", merge_sbatch),
                            fmt::arg("merge", merge_command)),
                job.force);
   write_script(s.local,

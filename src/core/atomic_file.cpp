@@ -1,5 +1,7 @@
 #include "retimegs/core/atomic_file.hpp"
 
+#include <fcntl.h>  // renameat2
+#include <stdio.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,11 +15,41 @@ namespace retimegs {
 namespace fs = std::filesystem;
 
 namespace {
+// The temporary sibling ".<stem>.tmp<pid><ext>" of an output; shown_path undoes it.
 fs::path temp_sibling(const fs::path& final_path) {
   fs::path name = final_path.filename();
   // Keep the extension last so that writers choosing a codec by extension (OpenCV) still work.
   const std::string stem = name.stem().string(), ext = name.extension().string();
   return final_path.parent_path() / fmt::format(".{}.tmp{}{}", stem, ::getpid(), ext);
+}
+
+bool exists_or_link(const fs::path& path) {
+  std::error_code ec;
+  return fs::exists(fs::symlink_status(path, ec));
+}
+
+// Moves the finished `from` to `to`. With `replace` whatever is at `to` is replaced; without, an
+// entry there (a file, a folder, a link, even a dangling one) is left alone and false returned:
+// of two writers of one output, the one that finishes second is refused instead of silently
+// replacing the first one's output.
+bool move_into_place(const fs::path& from, const fs::path& to, bool replace) {
+  if (::renameat2(AT_FDCWD, from.c_str(), AT_FDCWD, to.c_str(), replace ? 0 : RENAME_NOREPLACE) ==
+      0)
+    return true;
+  if (!replace && errno == EEXIST) return false;
+  if (!replace && (errno == EINVAL || errno == ENOSYS)) {
+    // A file system without RENAME_NOREPLACE (some network ones): checked, then renamed.
+    if (exists_or_link(to)) return false;
+    if (::rename(from.c_str(), to.c_str()) == 0) return true;
+  }
+  fail("{}: cannot move the finished output into place: {}", to.string(), std::strerror(errno));
+}
+
+[[noreturn]] void fail_taken(const fs::path& path) {
+  fail(
+      "{}: output already exists: another writer created it while this one ran (nothing was "
+      "replaced; pass --force to replace it)",
+      path.string());
 }
 
 void ensure_parent(const fs::path& path) {
@@ -34,11 +66,24 @@ fs::path output_path(fs::path path) {
   return path;
 }
 
+std::string shown_path(const fs::path& path) {
+  const std::string marker = fmt::format(".tmp{}", ::getpid());
+  fs::path shown;
+  for (const fs::path& part : path) {
+    const std::string name = part.string();
+    const std::size_t at = name.find(marker);
+    const bool temporary = name.size() > 1 && name[0] == '.' && at != std::string::npos && at > 1;
+    shown /= temporary ? name.substr(1, at - 1) + name.substr(at + marker.size()) : name;
+  }
+  return shown.string();
+}
+
 void check_output_free(const fs::path& path, bool force) {
+  // A link counts as an output whatever it points to: a dangling one or a loop too.
+  if (!exists_or_link(path)) return;
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
-  if (!fs::exists(status)) return;
-  if (!fs::is_regular_file(status) && !fs::is_directory(status))
+  if (fs::exists(status) && !fs::is_regular_file(status) && !fs::is_directory(status))
     fail("{}: is a device, FIFO or socket, not a place to write an output", path.string());
   if (!force) fail("{}: output already exists (pass --force to replace it)", path.string());
 }
@@ -79,8 +124,8 @@ void check_output_overlap(const fs::path& output, const std::string& flag,
   }
 }
 
-AtomicFile::AtomicFile(fs::path final_path)
-    : final_(output_path(std::move(final_path))), temp_(temp_sibling(final_)) {
+AtomicFile::AtomicFile(fs::path final_path, bool replace)
+    : final_(output_path(std::move(final_path))), temp_(temp_sibling(final_)), replace_(replace) {
   ensure_parent(final_);
 }
 
@@ -92,21 +137,24 @@ AtomicFile::~AtomicFile() {
 }
 
 void AtomicFile::commit() {
-  std::error_code ec;
-  fs::rename(temp_, final_, ec);
-  if (ec) fail("{}: cannot move finished file into place: {}", final_.string(), ec.message());
+  if (!move_into_place(temp_, final_, replace_)) fail_taken(final_);
   committed_ = true;
 }
 
-void write_text_file(const fs::path& path, std::string_view text) {
-  AtomicFile file(path);
+void check_written(const std::ostream& out, const fs::path& path) {
+  if (!out)
+    fail("{}: write failed: {}", shown_path(path),
+         errno ? std::strerror(errno) : "the stream failed without a system error");
+}
+
+void write_text_file(const fs::path& path, std::string_view text, bool replace) {
+  AtomicFile file(path, replace);
   {
-    std::ofstream out(file.temp_path());
     errno = 0;
+    std::ofstream out(file.temp_path(), std::ios::binary);
     out.write(text.data(), std::streamsize(text.size()));
     out.close();  // the last bytes reach the disk here: a full disk shows only now
-    if (!out)
-      fail("{}: write failed: {}", path.string(), errno ? std::strerror(errno) : "unknown error");
+    check_written(out, path);
   }
   file.commit();
 }
@@ -118,7 +166,7 @@ AtomicDirectory::AtomicDirectory(fs::path final_path, bool replace)
   std::error_code ec;
   fs::remove_all(temp_, ec);
   fs::create_directories(temp_, ec);
-  if (ec) fail("{}: cannot create directory: {}", temp_.string(), ec.message());
+  if (ec) fail("{}: cannot create directory: {}", final_.string(), ec.message());
 }
 
 AtomicDirectory::~AtomicDirectory() {
@@ -130,10 +178,11 @@ AtomicDirectory::~AtomicDirectory() {
 
 void AtomicDirectory::commit() {
   std::error_code ec;
-  if (replace_ && fs::exists(final_)) fs::remove_all(final_, ec);
-  if (ec) fail("{}: cannot remove the old output: {}", final_.string(), ec.message());
-  fs::rename(temp_, final_, ec);
-  if (ec) fail("{}: cannot move finished output into place: {}", final_.string(), ec.message());
+  if (replace_ && exists_or_link(final_)) {
+    fs::remove_all(final_, ec);  // a link is removed, not what it points to
+    if (ec) fail("{}: cannot remove the old output: {}", final_.string(), ec.message());
+  }
+  if (!move_into_place(temp_, final_, /*replace=*/false)) fail_taken(final_);
   committed_ = true;
 }
 

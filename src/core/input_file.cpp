@@ -1,9 +1,9 @@
 #include "retimegs/core/input_file.hpp"
 
 #include <fstream>
-#include <sstream>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs {
 namespace fs = std::filesystem;
@@ -46,10 +46,16 @@ std::string read_text_file(const fs::path& path, const std::string& what) {
   check_input_file(path, what);
   std::ifstream in(path, std::ios::binary);
   if (!in) fail("{}: cannot open {}", path.string(), what);
-  std::stringstream text;
-  text << in.rdbuf();
+  // In blocks of 1 MiB, polling for Ctrl-C between them: a model file can be gigabytes.
+  std::string text, block(std::size_t(1) << 20, '\0');
+  std::error_code ec;
+  if (const auto size = fs::file_size(path, ec); !ec) text.reserve(size);
+  while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0) {
+    text.append(block.data(), std::size_t(in.gcount()));
+    throw_if_interrupted();
+  }
   if (in.bad()) fail("{}: cannot read {}", path.string(), what);
-  return text.str();
+  return text;
 }
 
 }  // namespace retimegs

@@ -37,6 +37,10 @@ void install_interrupt_handlers() {
   action.sa_flags = SA_RESTART;  // blocking reads and writes resume; the loops poll the flag
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+  // A write past the file-size limit (ulimit -f) then fails with EFBIG, as one on a full disk
+  // fails with ENOSPC, through the writers' error path (one line naming the output, temporaries
+  // removed) instead of SIGXFSZ's default action, which kills the process without a word.
+  std::signal(SIGXFSZ, SIG_IGN);
 }
 
 int interrupt_signal() {

@@ -33,7 +33,7 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
     result.note = "lpips: no weights given (--lpips-weights DIR), reported as null";
 
   std::optional<AtomicDirectory> renders;
-  if (options.save_renders) renders.emplace(*options.save_renders, /*replace=*/true);
+  if (options.save_renders) renders.emplace(*options.save_renders, options.replace_renders);
   struct Job {
     int camera, frame;
   };
@@ -152,8 +152,8 @@ std::string to_json(const EvalResult& r) {
   return j.dump(2);
 }
 
-void write_json(const EvalResult& result, const fs::path& path) {
-  write_text_file(path, to_json(result) + "\n");
+void write_json(const EvalResult& result, const fs::path& path, bool replace) {
+  write_text_file(path, to_json(result) + "\n", replace);
 }
 
 namespace {

@@ -364,12 +364,7 @@ ColmapModel read_colmap_model(const fs::path& dir) {
 void write_colmap_model_txt(const ColmapModel& model, const fs::path& dir) {
   fs::create_directories(dir);
   auto write = [&](const std::string& name, const std::string& text) {
-    AtomicFile file(dir / name);
-    std::ofstream out(file.temp_path(), std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) fail("{}: cannot write", (dir / name).string());
-    file.commit();
+    write_text_file(dir / name, text);
   };
   std::string cams =
       "# Camera list with one line of data per camera:\n"
@@ -402,12 +397,7 @@ void write_colmap_model_txt(const ColmapModel& model, const fs::path& dir) {
 void write_colmap_model_bin(const ColmapModel& model, const fs::path& dir) {
   fs::create_directories(dir);
   auto write = [&](const std::string& name, const std::string& bytes) {
-    AtomicFile file(dir / name);
-    std::ofstream out(file.temp_path(), std::ios::binary);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.close();
-    if (!out) fail("{}: cannot write", (dir / name).string());
-    file.commit();
+    write_text_file(dir / name, bytes);
   };
   auto put = [](std::string& s, auto v) { s.append(reinterpret_cast<const char*>(&v), sizeof v); };
   std::string cams, images, points;

@@ -1,5 +1,6 @@
 #include "retimegs/io/flow_io.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -80,13 +81,14 @@ void write_flo(const fs::path& path, const Flow& flow) {
   }
   AtomicFile file(path);  // the temporary name keeps the .flo extension
   {
+    errno = 0;
     std::ofstream out(file.temp_path(), std::ios::binary);
     const std::int32_t header[2] = {w, h};
     out.write(reinterpret_cast<const char*>(&kFloTag), 4);
     out.write(reinterpret_cast<const char*>(header), 8);
     out.write(reinterpret_cast<const char*>(uv.data()), std::streamsize(uv.size() * sizeof(float)));
     out.close();
-    if (!out) fail("{}: cannot write .flo", name);
+    check_written(out, path);
   }
   file.commit();
 }

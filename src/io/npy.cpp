@@ -1,6 +1,7 @@
 #include "retimegs/io/npy.hpp"
 
 #include <bit>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -169,12 +170,13 @@ void write_npy(const fs::path& path, const std::vector<std::size_t>& shape,
   const std::uint16_t header_len = std::uint16_t(header.size());
 
   AtomicFile file(path);
+  errno = 0;
   std::ofstream out(file.temp_path(), std::ios::binary);
   out.write(kMagic, 6).write("\x01\x00", 2);
   out.write(reinterpret_cast<const char*>(&header_len), 2) << header;
   out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * 4));
   out.close();
-  if (!out) fail("{}: cannot write .npy file", path.string());
+  check_written(out, path);
   file.commit();
 }
 

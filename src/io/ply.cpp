@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -12,6 +13,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs::io {
 namespace fs = std::filesystem;
@@ -336,7 +338,7 @@ PlyTable read_ply(const fs::path& path) {
   return read_vertex_table(path).table;
 }
 
-void write_ply(const fs::path& path, const PlyTable& table) {
+void write_ply(const fs::path& path, const PlyTable& table, bool replace) {
   const std::string name = path.string();
   if (table.names.size() != table.columns.size())
     fail("{}: PLY table has {} names but {} columns", name, table.names.size(),
@@ -356,11 +358,13 @@ void write_ply(const fs::path& path, const PlyTable& table) {
   }
   header += "end_header\n";
 
-  AtomicFile file(path);
+  AtomicFile file(path, replace);
+  errno = 0;
   std::ofstream out(file.temp_path(), std::ios::binary);
   out << header;
   std::vector<char> row;
   for (std::size_t i = 0; i < table.count; ++i) {
+    throw_if_interrupted_every(i);  // Ctrl-C: `file` removes the unfinished temporary
     row.clear();
     for (std::size_t c = 0; c < table.columns.size(); ++c) {
       const float v = table.columns[c][i];
@@ -374,7 +378,7 @@ void write_ply(const fs::path& path, const PlyTable& table) {
     out.write(row.data(), std::streamsize(row.size()));
   }
   out.close();
-  if (!out) fail("{}: cannot write PLY file", name);
+  check_written(out, path);
   file.commit();
 }
 

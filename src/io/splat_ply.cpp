@@ -76,7 +76,7 @@ Splats read_splat_ply(const std::filesystem::path& path) {
   return s;
 }
 
-void write_splat_ply(const std::filesystem::path& path, const Splats& s) {
+void write_splat_ply(const std::filesystem::path& path, const Splats& s, bool replace) {
   const std::size_t n = s.size();
   const int k = s.sh_coeffs();
   PlyTable table;
@@ -97,7 +97,7 @@ void write_splat_ply(const std::filesystem::path& path, const Splats& s) {
   table.add("opacity", s.opacity_logits);
   for (int a = 0; a < 3; ++a) table.add(fmt::format("scale_{}", a), strided(s.log_scales, 3, a));
   for (int r = 0; r < 4; ++r) table.add(fmt::format("rot_{}", r), strided(s.quats, 4, r));
-  write_ply(path, table);
+  write_ply(path, table, replace);
 }
 
 }  // namespace retimegs::io

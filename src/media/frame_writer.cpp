@@ -71,7 +71,7 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
       fail("{}: a video is 8-bit; {} bits per channel (--bit-depth) need a .png or a folder",
            out_.string(), options.bit_depth);
     kind_ = Kind::kVideo;
-    file_ = std::make_unique<AtomicFile>(out_);
+    file_ = std::make_unique<AtomicFile>(out_, /*replace=*/options.force);
     // The encoder reports any failure to create or start its file as "cannot open": try both
     // first (a block of the size of a container header), so that a read-only folder or a full
     // disk is named as such. The encoder then writes over this file.
@@ -105,7 +105,7 @@ void FrameWriter::write(const Image& image) {
          image.height, image.channels, channels);
   switch (kind_) {
     case Kind::kPng:
-      write_png(out_, image, options_.bit_depth);
+      write_png(out_, image, options_.bit_depth, /*replace=*/options_.force);
       break;
     case Kind::kFolder:
       write_png(folder_->temp_path() / fmt::format("{:05d}.png", written_), image,
@@ -151,7 +151,6 @@ void FrameWriter::finish() {
     video_->writer.release();
     if (!fs::exists(file_->temp_path()) || fs::file_size(file_->temp_path()) == 0)
       fail("{}: the video encoder wrote nothing", out_.string());
-    if (fs::exists(out_)) fs::remove(out_);
     file_->commit();
   } else if (kind_ == Kind::kFolder) {
     if (!options_.times.empty())

@@ -366,7 +366,7 @@ ImageSize read_image_size(const fs::path& path) {
   return {m.cols, m.rows};
 }
 
-void write_png(const fs::path& path, const Image& image, int bits) {
+void write_png(const fs::path& path, const Image& image, int bits, bool replace) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char ch) { return char(std::tolower(ch)); });
@@ -395,8 +395,8 @@ void write_png(const fs::path& path, const Image& image, int bits) {
     fail("{}: cannot encode PNG: {}", path.string(), e.err);
   }
   if (!ok) fail("{}: cannot encode PNG", path.string());
-  write_text_file(path,
-                  std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  write_text_file(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                  replace);
 }
 
 void quiet_opencv_log() {

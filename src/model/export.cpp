@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/model/trajectory.hpp"
@@ -17,6 +18,7 @@ Splats export_splats(const Model& model, double t, double min_opacity) {
   Splats s;
   s.sh_degree = config.sh_degree;
   for (std::size_t i = 0; i < p.size(); ++i) {
+    throw_if_interrupted_every(i);
     // In double: the exported logit is log(σ σ_τ / (1 - σ σ_τ)) of the float model's exact values.
     const double opacity =
         sigmoid<double>(p.opacity_logit[i]) * temporal_opacity(p, i, config, model.grid, t);

@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs::model {
 
@@ -75,7 +76,10 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   std::size_t row = 0;
   for (const std::size_t k : order) {
     const Primitives& p = windows[k].primitives;
-    for (std::size_t i = 0; i < p.size(); ++i) merged.primitives.copy_row(row++, p, i);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      throw_if_interrupted_every(i);
+      merged.primitives.copy_row(row++, p, i);
+    }
   }
   // Colour maps: per camera, the interval-weighted mean over the windows that learned one.
   std::map<std::string, std::pair<std::array<double, 6>, double>> sums;  // m, c; total weight

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 
 #include <nlohmann/json.hpp>
 
@@ -14,6 +14,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/fnv1a.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/interrupt.hpp"
 
 namespace retimegs::model {
 namespace fs = std::filesystem;
@@ -26,6 +27,18 @@ static_assert(std::endian::native == std::endian::little, "the .rgs writer assum
 constexpr char kMagic[8] = {'R', 'E', 'T', 'I', 'M', 'E', 'G', 'S'};
 constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kPrefix = sizeof kMagic + 2 * sizeof(std::uint32_t);
+
+// fnv1a64 of a file being read, polling for Ctrl-C between blocks (write_model does not poll: a
+// train stopped by a signal still writes its checkpoint).
+std::uint64_t fnv1a64_interruptible(const char* data, std::size_t size) {
+  std::uint64_t hash = kFnv1a64Basis;
+  const std::size_t block = 64 * kItemsPerInterruptPoll;
+  for (std::size_t at = 0; at < size; at += block) {
+    throw_if_interrupted();
+    hash = fnv1a64(data + at, std::min(block, size - at), hash);
+  }
+  return hash;
+}
 
 template <typename U>
 void put(std::string& out, U value) {
@@ -95,7 +108,7 @@ void check_model_file_name(const fs::path& path, const std::string& what) {
     fail("{} {}: a model file's name must end in .rgs", what, path.string());
 }
 
-void write_model(const fs::path& path, const Model& model) {
+void write_model(const fs::path& path, const Model& model, bool replace) {
   check_model_file_name(path, "model");
   check_primitives(model.primitives, path.string());
   const std::size_t n = model.primitives.size();
@@ -160,12 +173,13 @@ void write_model(const fs::path& path, const Model& model) {
     bytes.append(reinterpret_cast<const char*>(f.values->data()), f.values->size() * sizeof(float));
   put(bytes, fnv1a64(bytes.data(), bytes.size()));
 
-  AtomicFile out(path);
+  AtomicFile out(path, replace);
   {
+    errno = 0;
     std::ofstream o(out.temp_path(), std::ios::binary);
     o.write(bytes.data(), std::streamsize(bytes.size()));
     o.close();  // the last bytes reach the disk here: a full disk shows only now
-    if (!o) fail("{}: write failed (disk full?)", path.string());
+    check_written(o, path);
   }
   out.commit();
 }
@@ -173,9 +187,7 @@ void write_model(const fs::path& path, const Model& model) {
 Model read_model(const fs::path& path) {
   const std::string file = path.string();
   check_input_file(path, "a model");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("{}: cannot open model file", file);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string bytes = read_text_file(path, "model file");
   if (bytes.size() < kPrefix + sizeof(std::uint64_t) || std::memcmp(bytes.data(), kMagic, 8) != 0)
     fail("{}: not a retimegs model (.rgs) file", file);
   std::uint32_t version = 0, header_size = 0;
@@ -261,7 +273,7 @@ Model read_model(const fs::path& path) {
         file, n, data_size, data_size / row_bytes, row_bytes);
   std::uint64_t stored = 0;
   std::memcpy(&stored, bytes.data() + bytes.size() - sizeof stored, sizeof stored);
-  if (stored != fnv1a64(bytes.data(), bytes.size() - sizeof stored))
+  if (stored != fnv1a64_interruptible(bytes.data(), bytes.size() - sizeof stored))
     fail("{}: checksum mismatch: the model file is corrupted", file);
   model.primitives.resize(n);
 

@@ -18,7 +18,7 @@ std::size_t export_time(const model::Model& model, double t, const std::filesyst
   check_output_free(out, force);
   model::check_times(model, {t}, "export");
   const Splats splats = model::export_splats(model, t);
-  io::write_splat_ply(out, splats);
+  io::write_splat_ply(out, splats, /*replace=*/force);
   return splats.size();
 }
 

@@ -210,7 +210,7 @@ class TrainingLog {
 
   void flush() {
     out_.flush();
-    if (!out_) fail("{}: write failed (disk full?)", path_.string());
+    check_written(out_, path_);
   }
 
  private:

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/interrupt.hpp"
 #include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/sh.hpp"
 #include "retimegs/playback/render_model.hpp"
@@ -62,6 +63,7 @@ void add_texture(Packed& packed, const std::string& name, bool half, int texels_
   std::uint8_t* out = packed.data.data() + t.offset;
   float rgba[4];
   for (std::size_t i = 0; i < count; ++i) {
+    throw_if_interrupted_every(i);
     for (int k = 0; k < texels_per_primitive; ++k) {
       std::fill_n(rgba, 4, 0.0f);
       texel(i, k, rgba);

@@ -1,6 +1,7 @@
 #include "retimegs/view/web.hpp"
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <fstream>
 #include <thread>
@@ -27,12 +28,14 @@ void write_web(const std::filesystem::path& out, const std::vector<WebFile>& fil
   check_output_free(out, force);
   AtomicDirectory dir(out, force);
   for (const WebFile& f : files) {
+    throw_if_interrupted();  // Ctrl-C: `dir` removes the unfinished folder
     const std::filesystem::path path = dir.temp_path() / f.path;
     std::filesystem::create_directories(path.parent_path());
+    errno = 0;
     std::ofstream stream(path, std::ios::binary);
     stream.write(f.content.data(), std::streamsize(f.content.size()));
     stream.close();
-    if (!stream) fail("{}: cannot write {}", out.string(), f.path);
+    check_written(stream, path);
   }
   dir.commit();
 }

@@ -50,6 +50,14 @@ inline bool is_single_error_line(const std::string& err) {
          err.find('\n') == err.size() - 1;
 }
 
+// The last line of `err`, without its line break.
+inline std::string last_line(const std::string& err) {
+  const std::size_t end = err.find_last_not_of('\n');
+  if (end == std::string::npos) return {};
+  const std::size_t start = err.rfind('\n', end);
+  return err.substr(start == std::string::npos ? 0 : start + 1, end - start);
+}
+
 // A retimegs process started in the background: stdout to /dev/null, stderr to `err_file`.
 class CliProcess {
  public:

@@ -1,9 +1,9 @@
 // Writes that fail: on a full disk every writer fails in one line naming its file, with exit 2 and
 // no (0-byte) output left, and `train` stops before its first step; a video into a read-only folder
-// names the folder's problem, not the encoder. A file-size limit (ulimit -f, with SIGXFSZ ignored:
-// writes fail with EFBIG) stands for a full disk on any machine; the real full and read-only file
-// systems are small tmpfs mounts, which need root and the right to mount, and are skipped
-// without them.
+// names the folder's problem, not the encoder. A file-size limit (ulimit -f; the app ignores
+// SIGXFSZ, so writes fail with EFBIG) stands for a full disk on any machine; the real full and
+// read-only file systems are small tmpfs mounts, which need root and the right to mount, and are
+// skipped without them.
 #include <sys/mount.h>
 #include <unistd.h>
 
@@ -107,27 +107,51 @@ TEST_F(DiskFullCli, AFileSizeLimitFailsEveryWriterInOneLineAndLeavesNothing) {
   auto r = test::run_cli_timed("train" + scene + " --out " + (dir_ / "run").string() +
                                " --iters 2 --cap 300 --threads 2");
   ASSERT_EQ(r.status, 0) << r.err;
-  const std::string model = " --model " + (dir_ / "run" / "model.rgs").string();
+  const fs::path model_file = dir_ / "run" / "model.rgs";
+  const std::string model = " --model " + model_file.string();
+  // A run stopped before its model: its checkpoint at step 2 is there, the model is not.
+  const fs::path stopped = dir_ / "stopped";
+  fs::copy(dir_ / "run", stopped, fs::copy_options::recursive);
+  fs::remove(stopped / "model.rgs");
+  fs::remove(stopped / ".lock");
+  const auto stopped_before = test::snapshot(stopped);
   const fs::path f = dir_ / "limited";
   fs::create_directories(f);
-  // 512 bytes: less than any of these outputs, more than the error line on stderr.
-  const std::string limit = "trap '' XFSZ; ulimit -f 1; ";
+  // 512 bytes: less than any of these outputs, more than the error line on stderr. SIGXFSZ is
+  // left as the shell has it: the app itself must ignore it (its default kills without a word).
+  const std::string limit = "ulimit -f 1; ";
   const std::vector<std::pair<std::string, fs::path>> cases = {
       {"eval" + model + scene + " --frames 1 --out " + (f / "m.json").string(), f / "m.json"},
+      {"eval" + model + scene + " --frames 1 --out " + (dir_ / "m.json").string() +
+           " --save-renders " + (f / "renders").string(),
+       f / "renders"},
       {"render" + model + scene + " --camera cam00 --time 1 --out " + (f / "r.png").string(),
        f / "r.png"},
+      {"render" + model + scene + " --camera cam00 --times 0:2:1 --out " + (f / "v.mp4").string(),
+       f / "v.mp4"},
+      {"render" + model + scene + " --camera cam00 --times 0:2:1 --out " + (f / "frames").string() +
+           "/",
+       f / "frames"},
       {"export" + model + " --time 1 --out " + (f / "e.ply").string(), f / "e.ply"},
+      {"export" + model + scene + " --web " + (f / "site").string(), f / "site"},
+      {"merge --out " + (f / "merged.rgs").string() + " " + model_file.string(), f / "merged.rgs"},
       {"sheet" + scene + " --out " + (f / "s.png").string(), f / "s.png"},
       {"train" + scene + " --out " + (f / "run").string() + " --iters 50 --cap 300",
        f / "run" / "config.json"},
+      {"train" + scene + " --out " + stopped.string() + " --iters 50 --cap 300 --resume", stopped},
   };
   for (const auto& [args, named] : cases) {
     r = test::run_cli_timed(args, 60, limit);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.err;
     EXPECT_TRUE(test::is_one_error_line(r.err)) << args << "\n" << r.err;
+    // The path the user gave, not a hidden temporary, and the system's reason (EFBIG).
     EXPECT_NE(r.err.find(named.string()), std::string::npos) << args << "\n" << r.err;
+    EXPECT_EQ(r.err.find(".tmp"), std::string::npos) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find("File too large"), std::string::npos) << args << "\n" << r.err;
     EXPECT_TRUE(fs::is_empty(f)) << args << ": " << leftovers(f);
   }
+  // The resumed run failed before changing anything: no half checkpoint, no model.
+  EXPECT_EQ(test::snapshot_diff(stopped_before, test::snapshot(stopped)), "");
 }
 
 TEST_F(DiskFullCli, AVideoIntoAReadOnlyFolderNamesTheFolder) {

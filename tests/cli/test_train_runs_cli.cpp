@@ -47,13 +47,6 @@ int interrupted_step(const std::string& err) {
   return std::regex_search(err, m, re) ? std::stoi(m[1]) : -1;
 }
 
-std::string last_line(const std::string& err) {
-  const std::size_t end = err.find_last_not_of('\n');
-  if (end == std::string::npos) return {};
-  const std::size_t start = err.rfind('\n', end);
-  return err.substr(start == std::string::npos ? 0 : start + 1, end - start);
-}
-
 TEST(TrainRunsCli, CtrlCWritesACheckpointAndTheResumedRunEqualsAnUninterruptedOne) {
   test::TempDir dir;
   const fs::path scene = make_scene(dir);
@@ -73,9 +66,9 @@ TEST(TrainRunsCli, CtrlCWritesACheckpointAndTheResumedRunEqualsAnUninterruptedOn
   ASSERT_GT(step, 0) << err;
   ASSERT_LT(step, kIters) << err;
   const fs::path checkpoint = dir / "run" / "checkpoints" / fmt::format("iter_{:06d}", step);
-  EXPECT_EQ(last_line(err), "retimegs: interrupted at step " + std::to_string(step) +
-                                "; checkpoint written to " + checkpoint.string() +
-                                "; resume with --resume")
+  EXPECT_EQ(test::last_line(err), "retimegs: interrupted at step " + std::to_string(step) +
+                                      "; checkpoint written to " + checkpoint.string() +
+                                      "; resume with --resume")
       << err;
   EXPECT_TRUE(fs::exists(checkpoint / "state.json"));
   EXPECT_FALSE(fs::exists(dir / "run" / "model.rgs"));
@@ -195,7 +188,8 @@ TEST(TrainRunsCli, CtrlCStopsARenderAndRemovesItsUnfinishedFolder) {
   const int status = render.wait();
   if (status == 0) GTEST_SKIP() << "the render ended before the signal arrived";
   EXPECT_EQ(status, 130) << render.err();
-  EXPECT_EQ(last_line(render.err()), "retimegs: interrupted by SIGINT; unfinished outputs removed");
+  EXPECT_EQ(test::last_line(render.err()),
+            "retimegs: interrupted by SIGINT; unfinished outputs removed");
   EXPECT_FALSE(fs::exists(dir / "frames"));
   for (const auto& e : fs::directory_iterator(dir.path()))
     EXPECT_EQ(e.path().filename().string().find(".frames"), std::string::npos) << e.path();

@@ -59,6 +59,7 @@ TEST(Slurm, ShellQuoteKeepsWordsWhole) {
   EXPECT_EQ(shell_quote("/a/b_c-1.rgs"), "/a/b_c-1.rgs");
   EXPECT_EQ(shell_quote("a b"), "'a b'");
   EXPECT_EQ(shell_quote("it's"), "'it'\\''s'");
+  EXPECT_EQ(shell_quote("a\\b"), "'a'\\\\'b'");  // sbatch would drop a backslash inside quotes
   EXPECT_EQ(shell_quote(""), "''");
 }
 
@@ -72,6 +73,7 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   job.windows = 2;
   job.train_args = {"--iters", "77"};
   job.sbatch_args = {"--partition=gpu", "--time=1:00:00"};
+  job.merge_sbatch_args = {"--partition=cpu"};
   const SlurmScripts s = write_slurm_scripts(job, media::read_scene(scene_dir));
   ASSERT_EQ(s.windows.size(), 2u);
   EXPECT_EQ(s.windows[0].last, 4);
@@ -90,10 +92,13 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   EXPECT_NE(window.find("--iters 77"), std::string::npos);
   EXPECT_NE(window.find("--resume"), std::string::npos);
   EXPECT_NE(train.find("#SBATCH --array=0-1\n"), std::string::npos) << train;
-  for (const std::string& text : {train, merge}) {
-    EXPECT_NE(text.find("#SBATCH --partition=gpu\n"), std::string::npos) << text;
-    EXPECT_NE(text.find("#SBATCH --time=1:00:00\n"), std::string::npos) << text;
-  }
+  // --sbatch-arg goes to the window jobs only, --merge-sbatch-arg to the merge only.
+  EXPECT_NE(train.find("#SBATCH --partition=gpu\n"), std::string::npos) << train;
+  EXPECT_NE(train.find("#SBATCH --time=1:00:00\n"), std::string::npos) << train;
+  EXPECT_EQ(train.find("--partition=cpu"), std::string::npos) << train;
+  EXPECT_NE(merge.find("#SBATCH --partition=cpu\n"), std::string::npos) << merge;
+  EXPECT_EQ(merge.find("--partition=gpu"), std::string::npos) << merge;
+  EXPECT_EQ(merge.find("--time"), std::string::npos) << merge;
   const std::string run = (dir / "run").string();
   const std::string merge_line = "/opt/x/retimegs merge --force --out " + run + "/model.rgs " +
                                  run + "/windows/0/model.rgs " + run + "/windows/1/model.rgs";
@@ -110,6 +115,159 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   job.sbatch_args = {"partition=gpu"};
   test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene_dir)); },
                      {"--sbatch-arg 'partition=gpu'"});
+  job.sbatch_args = {};
+  job.merge_sbatch_args = {"--comment=a\nb"};
+  test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene_dir)); },
+                     {"--merge-sbatch-arg '--comment=a"});
+}
+
+int run_shell(const std::string& command, const fs::path& output) {
+  const int raw = std::system((command + " >" + output.string() + " 2>&1").c_str());
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+}
+
+// The calls a stand-in binary recorded: one per line of `log`, its arguments separated by \x1f.
+std::vector<std::vector<std::string>> recorded_calls(const fs::path& log) {
+  std::vector<std::vector<std::string>> calls;
+  const std::string text = test::read_text(log);
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const std::size_t end = text.find('\x1e', start);
+    std::vector<std::string> args;
+    std::size_t a = start;
+    while (a < end) {
+      const std::size_t b = text.find('\x1f', a);
+      args.push_back(text.substr(a, b - a));
+      a = b + 1;
+    }
+    calls.push_back(args);
+    start = end + 1;
+  }
+  return calls;
+}
+
+// The words of `line` as a shell reads them (sbatch reads #SBATCH lines with the same quoting).
+std::vector<std::string> shell_words(const std::string& line, const test::TempDir& dir) {
+  test::write_text(dir / "line.txt", line);
+  const fs::path words = dir / "words.txt";
+  std::system(("bash -c 'eval \"set -- $(cat " + (dir / "line.txt").string() +
+               ")\"; printf \"%s\\x1f\" \"$@\"; printf \"\\x1e\"' >" + words.string())
+                  .c_str());
+  const auto calls = recorded_calls(words);
+  return calls.empty() ? std::vector<std::string>{} : calls.front();
+}
+
+// The #SBATCH lines of `script`, without "#SBATCH ".
+std::vector<std::string> sbatch_lines_of(const std::string& script) {
+  std::vector<std::string> lines;
+  std::size_t start = 0;
+  while (start < script.size()) {
+    std::size_t end = script.find('\n', start);
+    if (end == std::string::npos) end = script.size();
+    const std::string line = script.substr(start, end - start);
+    if (line.rfind("#SBATCH ", 0) == 0) lines.push_back(line.substr(8));
+    start = end + 1;
+  }
+  return lines;
+}
+
+TEST(Slurm, NamesThatLookLikeCommandsStayNames) {
+  test::TempDir dir;
+  // Every character a shell or sbatch could read as syntax, in the run folder, the scene folder and
+  // the binary's folder; the last two also hold a line break and a backslash (which only sbatch's
+  // --output cannot take).
+  const std::string hostile = "a b'c\"$(touch PWNED1);d`touch PWNED2`;touch PWNED3 #50%j&|*";
+  const fs::path root = dir / hostile, other = dir / (hostile + "\nx\\y");
+  const fs::path run = root / "run", bin_dir = other / "bin";
+  fs::create_directories(bin_dir);
+  fs::rename(small_scene(dir, 5), other / "scene");  // training frames 0, 2, 4: two windows
+  const fs::path scene = other / "scene";
+  const fs::path log = dir / "calls.log";
+  // A stand-in retimegs that records the arguments it was given.
+  test::write_text(bin_dir / "retimegs",
+                   "#!/bin/bash\nfor a in \"$@\"; do printf '%s\\x1f' \"$a\"; done >> \"$CALLS\"\n"
+                   "printf '\\x1e' >> \"$CALLS\"\n");
+  fs::permissions(bin_dir / "retimegs", fs::perms::owner_all);
+  SlurmJob job;
+  job.binary = bin_dir / "retimegs";
+  job.scene = scene;
+  job.run = run;
+  job.windows = 2;
+  job.train_args = {"--config", (other / "c;$(touch PWNED4).json").string()};
+  job.sbatch_args = {"--comment=two words #not a comment $(touch PWNED5)"};
+  job.merge_sbatch_args = {"--comment=it's"};
+  const SlurmScripts s = write_slurm_scripts(job, media::read_scene(scene));
+
+  // sbatch's reading of the #SBATCH lines: one word each, the run folder's % doubled for Slurm.
+  std::string logs = (run / "slurm" / "logs").string();
+  for (std::size_t at = logs.find('%'); at != std::string::npos; at = logs.find('%', at + 2))
+    logs.insert(at, "%");
+  const std::vector<std::vector<std::string>> train_lines = {
+      {"--job-name=retimegs-train"},
+      {"--array=0-1"},
+      {"--output=" + logs + "/train_%A_%a.out"},
+      {"--comment=two words #not a comment $(touch PWNED5)"}};
+  const std::vector<std::vector<std::string>> merge_lines = {
+      {"--job-name=retimegs-merge"}, {"--output=" + logs + "/merge_%j.out"}, {"--comment=it's"}};
+  for (const auto& [script, expected] :
+       {std::pair{s.train, train_lines}, std::pair{s.merge, merge_lines}}) {
+    const std::vector<std::string> lines = sbatch_lines_of(test::read_text(script));
+    ASSERT_EQ(lines.size(), expected.size()) << script;
+    for (std::size_t k = 0; k < lines.size(); ++k)
+      EXPECT_EQ(shell_words(lines[k], dir), expected[k]) << lines[k];
+  }
+
+  // Each script run with bash (the sbatch ones as a node would, by their task id) calls the binary
+  // with exactly its arguments and runs nothing else. Window 1 has a run to resume.
+  fs::create_directories(run / "windows" / "1");
+  test::write_text(run / "windows" / "1" / "config.json", "{}");
+  const std::string in_dir =
+      "cd " + shell_quote(dir.path().string()) + " && CALLS=" + shell_quote(log.string()) + " ";
+  const fs::path output = dir / "output.txt";
+  for (const std::string& command :
+       {"bash " + shell_quote(s.window.string()) + " 0",
+        "SLURM_ARRAY_TASK_ID=1 bash " + shell_quote(s.train.string()),
+        "bash " + shell_quote(s.merge.string()), "bash " + shell_quote(s.local.string())})
+    ASSERT_EQ(run_shell(in_dir + command, output), 0) << command << "\n" << test::read_text(output);
+  const std::string scene_arg = job.scene.string();
+  auto window_calls = [&](int k, const std::string& range) {
+    const std::vector<std::string> common = {"--train-frames", "even", "--window", range,
+                                             "--threads",      "0"};
+    std::vector<std::string> prepare = {"prepare", "--scene", scene_arg};
+    prepare.insert(prepare.end(), common.begin(), common.end());
+    std::vector<std::string> train = {"train", "--scene", scene_arg, "--out",
+                                      (run / "windows" / std::to_string(k)).string()};
+    train.insert(train.end(), common.begin(), common.end());
+    train.insert(train.end(), {"--device", "auto", "--config", job.train_args[1]});
+    if (k == 1) train.push_back("--resume");
+    return std::vector<std::vector<std::string>>{prepare, train};
+  };
+  const std::vector<std::string> merge = {"merge",
+                                          "--force",
+                                          "--out",
+                                          (run / "model.rgs").string(),
+                                          (run / "windows" / "0" / "model.rgs").string(),
+                                          (run / "windows" / "1" / "model.rgs").string()};
+  std::vector<std::vector<std::string>> expected;
+  for (const auto& calls : {window_calls(0, "0:2"), window_calls(1, "2:4"),
+                            std::vector<std::vector<std::string>>{merge}, window_calls(0, "0:2"),
+                            window_calls(1, "2:4"), std::vector<std::vector<std::string>>{merge}})
+    expected.insert(expected.end(), calls.begin(), calls.end());
+  EXPECT_EQ(recorded_calls(log), expected);
+  for (const fs::path& where : {dir.path(), root, other, run / "slurm"})
+    for (int k = 1; k <= 5; ++k)
+      EXPECT_FALSE(fs::exists(where / ("PWNED" + std::to_string(k)))) << where << " " << k;
+  // bash before 4.4 calls an empty array unbound under `set -u`: no script expands one.
+  for (const fs::path& p : {s.window, s.train, s.merge, s.local})
+    EXPECT_EQ(test::read_text(p).find("[@]"), std::string::npos) << p;
+
+  // A run folder sbatch cannot write logs under is refused before anything is written.
+  for (const std::string& name : {std::string("r\nx"), std::string("r\\x")}) {
+    job.run = dir / name;
+    test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene)); },
+                       {"--out " + job.run.string(), "line break or a backslash"});
+    EXPECT_FALSE(fs::exists(job.run)) << name;
+  }
 }
 
 // Sets PATH to `dir` first for the test's lifetime.
@@ -147,11 +305,6 @@ TEST(Slurm, SubmitMakesTheMergeWaitForTheArray) {
                    "#!/bin/sh\necho 'sbatch: error: invalid partition' >&2\nexit 1\n");
   PathFirst path(dir.path());
   test::expect_error([&] { submit(s); }, {"invalid partition", "exit 1"});
-}
-
-int run_shell(const std::string& command, const fs::path& output) {
-  const int raw = std::system((command + " >" + output.string() + " 2>&1").c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
 }
 
 TEST(Slurm, RunLocalTrainsTheWindowsMergesAndResumes) {

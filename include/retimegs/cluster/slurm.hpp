@@ -12,6 +12,8 @@
 //
 // Every path in them is absolute (the nodes share the file system, not the working directory);
 // the retimegs binary is the one given (the running one). Resubmitting the same scripts resumes.
+// Every path and value in them is one word quoted by shell_quote, in the shell's lines and in the
+// #SBATCH lines alike, so that no name (a quote, `$(...)`, a `;`, a line break) runs as a command.
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -35,8 +37,11 @@ struct SlurmJob {
   // Options given to every window's `train` as they are (--iters N, --preset P, --config FILE,
   // ...).
   std::vector<std::string> train_args;
-  // `#SBATCH` lines of both jobs, e.g. --partition=gpu, --time=2:00:00, --cpus-per-task=8.
+  // `#SBATCH` lines of the window jobs (train.sbatch), e.g. --partition=gpu, --time=2:00:00,
+  // --cpus-per-task=8, --gres=gpu:1.
   std::vector<std::string> sbatch_args;
+  // `#SBATCH` lines of the merge job alone (a short CPU job: it needs none of the windows' GPUs).
+  std::vector<std::string> merge_sbatch_args;
   // Rewrite scripts of RUN that differ from these (another job's settings); without it they are
   // refused, and scripts that are the same are left as they are (a resubmission).
   bool force = false;
@@ -48,9 +53,10 @@ struct SlurmScripts {
 };
 
 // Writes the scripts (atomically, executable) and RUN/slurm/logs/, with the windows split_windows
-// gives for `scene`. Paths are made absolute. Throws Error naming the option for an sbatch
-// argument that is not one option (it must start with '-' and hold no line break), and naming the
-// file for a script of RUN that differs unless job.force.
+// gives for `scene`. Paths are made absolute. Throws Error, before writing anything, naming the
+// option for an sbatch argument that is not one option (it must start with '-' and hold no line
+// break) and naming RUN when Slurm cannot write logs under it (a line break or a backslash);
+// naming the file for a script of RUN that differs unless job.force.
 SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene);
 
 struct SubmittedJobs {
@@ -61,7 +67,8 @@ struct SubmittedJobs {
 // --parsable` (found on PATH). Throws Error with sbatch's message when it fails.
 SubmittedJobs submit(const SlurmScripts& scripts);
 
-// `text` as one word of a POSIX shell command, single-quoted where needed.
+// `text` as one word of a POSIX shell command, single-quoted where needed; sbatch reads the same
+// quoting in #SBATCH lines.
 std::string shell_quote(const std::string& text);
 
 }  // namespace retimegs::cluster

@@ -1,6 +1,9 @@
 #pragma once
-// Outputs appear whole or not at all: write to a temporary sibling name, then rename.
+// Outputs appear whole or not at all: write to a temporary sibling name, then rename. An output a
+// user named without --force is moved into place only if nothing is there yet (renameat2
+// RENAME_NOREPLACE): of two writers of one output, the one that finishes second is refused.
 #include <filesystem>
+#include <ostream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -12,8 +15,9 @@ namespace retimegs {
 std::filesystem::path output_path(std::filesystem::path path);
 
 // Throws Error naming `path` when it exists and `force` is not set: a command never overwrites an
-// output unless told to (--force). A device, FIFO or socket is refused even with `force`: the
-// rename of a finished output would replace the node itself.
+// output unless told to (--force). A symbolic link counts as an output, dangling or a loop too. A
+// device, FIFO or socket is refused even with `force`: the rename of a finished output would
+// replace the node itself.
 void check_output_free(const std::filesystem::path& path, bool force);
 
 // An input of a command: a file, or a folder whose whole tree the command reads (`tree`).
@@ -29,11 +33,22 @@ struct InputPath {
 void check_output_overlap(const std::filesystem::path& output, const std::string& flag,
                           const std::vector<InputPath>& inputs);
 
+// `path` as the user named it: a temporary sibling of this process (".x.tmp<pid>.png", a file or
+// a folder on the way) is shown as the output it becomes ("x.png"), for error messages.
+std::string shown_path(const std::filesystem::path& path);
+
+// Throws Error "<shown_path(path)>: write failed: <the system's reason>" when `out` has failed.
+// Call it right after the operation that may fail (close() for the last bytes), so that errno is
+// that operation's; set errno to 0 before the writes.
+void check_written(const std::ostream& out, const std::filesystem::path& path);
+
 // A file written through temp_path() becomes `final_path` on commit(); if the object is destroyed
-// before commit() (an error was thrown), the temporary file is removed.
+// before commit() (an error was thrown), the temporary file is removed. With `replace` (a file the
+// command owns, or --force) commit() replaces what is at `final_path`; without it, it throws Error
+// naming the output when anything is there (another writer's output), replacing nothing.
 class AtomicFile {
  public:
-  explicit AtomicFile(std::filesystem::path final_path);
+  explicit AtomicFile(std::filesystem::path final_path, bool replace = true);
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
   ~AtomicFile();
@@ -44,15 +59,16 @@ class AtomicFile {
 
  private:
   std::filesystem::path final_, temp_;
-  bool committed_ = false;
+  bool replace_ = false, committed_ = false;
 };
 
-// Writes `text` to `path` through an AtomicFile, checking the stream: throws Error naming `path`
-// when it cannot be written whole (nothing appears at `path` then).
-void write_text_file(const std::filesystem::path& path, std::string_view text);
+// Writes `text` to `path` through an AtomicFile(path, replace), checking the stream: throws Error
+// naming `path` when it cannot be written whole (nothing appears at `path` then).
+void write_text_file(const std::filesystem::path& path, std::string_view text, bool replace = true);
 
 // The same for a whole directory tree (a scene, a folder of renders). `final_path` must not exist
-// unless `replace` is set, in which case the old tree is removed at commit time.
+// unless `replace` is set, in which case the old tree is removed at commit time; without
+// `replace`, an entry that another writer created meanwhile is refused at commit time.
 class AtomicDirectory {
  public:
   explicit AtomicDirectory(std::filesystem::path final_path, bool replace = false);

@@ -18,8 +18,8 @@ void check_input_file(const std::filesystem::path& path, const std::string& what
 // nerfstudio or COLMAP model), which can be anything.
 std::filesystem::file_status input_status(const std::filesystem::path& path);
 
-// The whole of text file `path` (check_input_file first); throws Error "<path>: cannot open
-// <what>" otherwise.
+// The whole of file `path`, text or binary (check_input_file first); throws Error "<path>: cannot
+// open <what>" otherwise, and Interrupted on Ctrl-C / SIGTERM while it reads.
 std::string read_text_file(const std::filesystem::path& path, const std::string& what);
 
 }  // namespace retimegs

@@ -3,6 +3,7 @@
 // between two units of work, so that outputs are never left half-written: most commands throw
 // Interrupted (their temporary outputs are removed as the stack unwinds), `train` first writes a
 // checkpoint. A second signal while the first is being handled ends the process at once.
+#include <cstddef>
 #include <exception>
 #include <string>
 
@@ -22,7 +23,8 @@ class Interrupted : public std::exception {
   std::string message_;
 };
 
-// Installs the SIGINT and SIGTERM handlers (once, at program start).
+// Installs the SIGINT and SIGTERM handlers and ignores SIGXFSZ, so that a write past the
+// file-size limit fails like one on a full disk (once, at program start).
 void install_interrupt_handlers();
 
 // The signal received since start (SIGINT or SIGTERM), or 0.
@@ -35,6 +37,16 @@ std::string signal_name(int signal);
 // arrived. Called between units of work, outside OpenMP regions (parallel_for's bodies may call it:
 // it carries exceptions out of its loop).
 void throw_if_interrupted();
+
+// Loops over many small items (primitives, rows, bytes) poll once every kItemsPerInterruptPoll
+// items: often enough that a signal stops a pass over a million primitives within milliseconds,
+// rarely enough to cost nothing beside the work.
+constexpr std::size_t kItemsPerInterruptPoll = std::size_t(1) << 16;
+
+// throw_if_interrupted() at every kItemsPerInterruptPoll-th item `i` of a loop.
+inline void throw_if_interrupted_every(std::size_t i) {
+  if (i % kItemsPerInterruptPoll == 0) throw_if_interrupted();
+}
 
 // Test hook: forget a received signal.
 void clear_interrupt();

@@ -29,6 +29,7 @@ struct EvalOptions {
   std::vector<int> cameras;                            // scene camera indices
   std::optional<std::filesystem::path> lpips_weights;  // none: lpips = null
   std::optional<std::filesystem::path> save_renders;   // DIR/<camera>/<frame:05d>.png
+  bool replace_renders = false;  // --force: an existing save_renders folder is replaced
   // Non-empty: also measure temporal_stability() of `cameras` through these training frames.
   std::vector<int> stability_frames;
   // A merged model's seams (model::Model::seams) as times: stability reports them apart.
@@ -98,7 +99,7 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
 // "static_fraction", "masked", "swept"}]} when measured.
 std::string to_json(const EvalResult& result);
 // That JSON and a newline, written atomically to `path`.
-void write_json(const EvalResult& result, const std::filesystem::path& path);
+void write_json(const EvalResult& result, const std::filesystem::path& path, bool replace);
 
 // The pixels of `camera` that are static in the ground truth. With a mask at every frame: outside
 // the union over all frames of the masks and of their paths between frames, dilated by

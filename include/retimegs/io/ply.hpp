@@ -25,8 +25,9 @@ struct PlyTable {
 PlyTable read_ply(const std::filesystem::path& path);
 
 // Writes every column as float32, except that columns named red/green/blue are written as uchar
-// (values 0..255) for viewer compatibility. Atomic.
-void write_ply(const std::filesystem::path& path, const PlyTable& table);
+// (values 0..255) for viewer compatibility. Atomic; an existing `path` is replaced only with
+// `replace` (core/atomic_file.hpp).
+void write_ply(const std::filesystem::path& path, const PlyTable& table, bool replace = true);
 
 // A world-space point cloud: xyz and optional colours in [0, 1].
 struct PointCloud {

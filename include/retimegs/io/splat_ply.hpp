@@ -13,7 +13,8 @@ namespace retimegs::io {
 // the first non-finite value.
 Splats read_splat_ply(const std::filesystem::path& path);
 
-// Writes the exact Inria property list (45 f_rest, zero above the model's degree); atomic.
-void write_splat_ply(const std::filesystem::path& path, const Splats& splats);
+// Writes the exact Inria property list (45 f_rest, zero above the model's degree); atomic, as
+// write_ply.
+void write_splat_ply(const std::filesystem::path& path, const Splats& splats, bool replace = true);
 
 }  // namespace retimegs::io

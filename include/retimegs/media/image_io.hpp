@@ -31,7 +31,9 @@ ImageSize read_image_size(const std::filesystem::path& path);
 // called once at program start.
 void quiet_opencv_log();
 
-// Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded).
-void write_png(const std::filesystem::path& path, const Image& image, int bits = 8);
+// Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded);
+// atomic, an existing `path` replaced only with `replace` (core/atomic_file.hpp).
+void write_png(const std::filesystem::path& path, const Image& image, int bits = 8,
+               bool replace = true);
 
 }  // namespace retimegs::media

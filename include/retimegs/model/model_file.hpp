@@ -56,8 +56,9 @@ void check_times(const Model& model, const std::vector<double>& times, std::stri
 // leaves a model where an image is expected. Throws Error "<what> <path>: ..." otherwise.
 void check_model_file_name(const std::filesystem::path& path, const std::string& what);
 
-// Writes `path` atomically (check_model_file_name first).
-void write_model(const std::filesystem::path& path, const Model& model);
+// Writes `path` atomically (check_model_file_name first); an existing `path` is replaced only with
+// `replace` (core/atomic_file.hpp).
+void write_model(const std::filesystem::path& path, const Model& model, bool replace = true);
 
 // Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,
 // truncated data, checksum mismatch, non-finite values, an unknown field, a malformed camera
