@@ -27,25 +27,32 @@ constexpr int kDisPatchStride = 2;
 // MEDIUM presets; ULTRAFAST has none).
 constexpr int kDisFineRefinement = 5;
 
+// `image` at 8 bits per value, its channels as they are (1 or 3): [0, 1] rounded to nearest.
+cv::Mat to_mat8(const Image& image) {
+  if (image.channels != 1 && image.channels != 3)
+    fail("optical flow: expected a 1- or 3-channel image, got {} channels", image.channels);
+  cv::Mat m(image.height, image.width, image.channels == 1 ? CV_8UC1 : CV_8UC3);
+  for (int y = 0; y < image.height; ++y) {
+    unsigned char* row = m.ptr<unsigned char>(y);
+    const float* src = image.pixel(y, 0);
+    for (int i = 0; i < image.width * image.channels; ++i)
+      row[i] = cv::saturate_cast<unsigned char>(src[i] * 255.0f);  // rounds to nearest
+  }
+  return m;
+}
+
 // The 8-bit image every estimator sees: grey (to_gray8), or RGB for RLOF, which needs three
 // channels (a grey image is repeated in each).
 cv::Mat estimator_input(const Image& image, FlowMethod method) {
-  std::vector<unsigned char> gray = to_gray8(image);
-  const cv::Mat g = cv::Mat(image.height, image.width, CV_8UC1, gray.data()).clone();
-  if (method != FlowMethod::kRlof) return g;
-  if (image.channels == 1) {
+  if (method == FlowMethod::kRlof) {
+    const cv::Mat values = to_mat8(image);
+    if (image.channels == 3) return values;
     cv::Mat rgb;
-    cv::cvtColor(g, rgb, cv::COLOR_GRAY2RGB);
+    cv::cvtColor(values, rgb, cv::COLOR_GRAY2RGB);
     return rgb;
   }
-  cv::Mat rgb(image.height, image.width, CV_8UC3);
-  for (int y = 0; y < image.height; ++y) {
-    unsigned char* row = rgb.ptr<unsigned char>(y);
-    const float* src = image.pixel(y, 0);
-    for (int i = 0; i < image.width * 3; ++i)
-      row[i] = cv::saturate_cast<unsigned char>(src[i] * 255.0f);
-  }
-  return rgb;
+  std::vector<unsigned char> gray = to_gray8(image);
+  return cv::Mat(image.height, image.width, CV_8UC1, gray.data()).clone();
 }
 
 Flow from_mat(const cv::Mat& m) {
@@ -168,20 +175,9 @@ FlowMethod parse_flow_method(const std::string& name, const std::string& flag) {
 }
 
 std::vector<unsigned char> to_gray8(const Image& image) {
-  if (image.channels != 1 && image.channels != 3)
-    fail("optical flow: expected a 1- or 3-channel image, got {} channels", image.channels);
-  cv::Mat rgb8(image.height, image.width, image.channels == 1 ? CV_8UC1 : CV_8UC3);
-  for (int y = 0; y < image.height; ++y) {
-    unsigned char* row = rgb8.ptr<unsigned char>(y);
-    const float* src = image.pixel(y, 0);
-    for (int i = 0; i < image.width * image.channels; ++i)
-      row[i] = cv::saturate_cast<unsigned char>(src[i] * 255.0f);  // rounds to nearest
-  }
-  cv::Mat gray;
-  if (image.channels == 3)
-    cv::cvtColor(rgb8, gray, cv::COLOR_RGB2GRAY);
-  else
-    gray = rgb8;
+  const cv::Mat values = to_mat8(image);
+  cv::Mat gray = values;
+  if (image.channels == 3) cv::cvtColor(values, gray, cv::COLOR_RGB2GRAY);
   return std::vector<unsigned char>(gray.datastart, gray.dataend);
 }
 
