@@ -123,9 +123,9 @@ void BM_TrainStep(benchmark::State& state) {
     model::Primitives copy = primitives;
     std::mt19937_64 rng(1);
     Stopwatch clock;
-    train::relocate(copy, model::Representation::kRetime, config.min_opacity, rng);
-    train::grow(copy, model::Representation::kRetime, config.cap, config.growth, config.min_opacity,
-                rng);
+    train::relocate(copy, train::RelocationScore::kOpacityTimesDuration, config.min_opacity, rng);
+    train::grow(copy, train::RelocationScore::kOpacityTimesDuration, config.cap, config.growth,
+                config.min_opacity, rng);
     relocation = clock.lap() / config.scaled(config.relocate_every);
   }
 

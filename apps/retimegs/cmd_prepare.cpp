@@ -1,4 +1,4 @@
-// retimegs prepare --scene SCENE [--train-frames even|all] [--flow dis|deepflow|tvl1]
+// retimegs prepare --scene SCENE [--train-frames even|all] [--flow METHOD]
 //                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks]
 //                  [--window A:B] [--force] [--threads T]
 #include <memory>
@@ -38,11 +38,15 @@ void add_prepare_command(CLI::App& app) {
                   "(flows of stride 1)")
       ->check(CLI::IsMember({"even", "all"}))
       ->capture_default_str();
+  std::vector<std::string> method_names;
+  for (const prepare::FlowMethod method : prepare::flow_methods())
+    method_names.push_back(prepare::flow_method_name(method));
   CLI::Option* flow =
       cmd->add_option("--flow", args->flow,
-                      "built-in estimator: dis (DIS, fast, default), deepflow or tvl1 (slower); "
-                      "a forward-backward check marks occluded pixels unknown")
-          ->check(CLI::IsMember({"dis", "deepflow", "tvl1"}))
+                      "built-in estimator, one of " + prepare::flow_method_names() +
+                          " (dis, the default: DIS at full resolution; bench/README.md compares "
+                          "them); a forward-backward check marks occluded pixels unknown")
+          ->check(CLI::IsMember(method_names))
           ->capture_default_str();
   cmd->add_option("--flow-dir", args->flow_dir,
                   "import .flo files (e.g. from WAFT, RAFT, SEA-RAFT) named "

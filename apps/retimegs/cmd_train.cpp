@@ -1,5 +1,6 @@
-// retimegs train --scene SCENE --out RUN [--train-frames even|all] [--preset fast|default|quality]
-//                [--iters N] [--cap N] [--config FILE] [--ablate LIST] [--baseline stgs]
+// retimegs train --scene SCENE --out RUN [--train-frames even|all]
+//                [--preset fast|default|quality|paper] [--iters N] [--cap N] [--config FILE]
+//                [--ablate LIST] [--baseline stgs]
 //                [--seed S] [--threads T] [--device cpu|cuda|auto] [--window A:B] [--resume]
 #include <fstream>
 #include <memory>
@@ -38,9 +39,9 @@ void add_train_command(CLI::App& app) {
                   "even: train on frames 0, 2, 4, ... (odd frames held out); all: every frame")
       ->check(CLI::IsMember({"even", "all"}))
       ->capture_default_str();
-  cmd->add_option("--preset", args->preset,
-                  "budget preset: " + train::describe_presets() +
-                      "; --config, --iters and --cap override it")
+  cmd->add_option(
+         "--preset", args->preset,
+         "preset: " + train::describe_presets() + "; --config, --iters and --cap override it")
       ->capture_default_str();
   cmd->add_option("--iters", args->iters,
                   "iterations (milestones scale with it); with --resume, the new total to "

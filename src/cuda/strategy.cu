@@ -1,4 +1,5 @@
-// The MCMC noise on the device (include/retimegs/cuda/strategy.hpp): one thread per active row.
+// The MCMC noise and the end velocities' tie on the device (include/retimegs/cuda/strategy.hpp):
+// one thread per active row.
 #include <cuda_runtime.h>
 
 #include "launch.hpp"
@@ -18,7 +19,23 @@ __global__ void __launch_bounds__(kThreads)
   train::noise_row(key, i, lr_means, opacity_logit[i], q0 + 4 * i, log_scale + 3 * i, mu + 3 * i);
 }
 
+__global__ void __launch_bounds__(kThreads)
+    tie_kernel(const std::int32_t* rows, std::size_t count, model::EndTie<float> tie,
+               const float* mu_tau, float* velocity) {
+  const std::size_t j = std::size_t(blockIdx.x) * kThreads + threadIdx.x;
+  if (j >= count) return;
+  const std::size_t i = std::size_t(rows[j]);
+  model::tie_end_velocities(tie, mu_tau[i], velocity + 9 * i);
+}
+
 }  // namespace
+
+void tie_end_velocities(DevicePrimitives& p, const std::int32_t* rows, std::size_t count,
+                        const model::EndTie<float>& tie) {
+  if (count == 0) return;
+  tie_kernel<<<blocks_for(count), kThreads>>>(rows, count, tie, p.mu_tau.data(), p.velocity.data());
+  check(cudaGetLastError(), "tie_kernel launch");
+}
 
 void inject_noise(DevicePrimitives& p, const std::int32_t* rows, std::size_t count, double lr_means,
                   std::uint64_t key) {

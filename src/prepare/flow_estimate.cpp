@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -22,7 +23,34 @@ namespace {
 constexpr int kDisFinestScale = 0;
 constexpr int kDisPatchStride = 2;
 
-cv::Mat gray_mat(const Image& image) {
+// Variational refinement iterations of the "-fine" DIS variants (those of OpenCV's FAST and
+// MEDIUM presets; ULTRAFAST has none).
+constexpr int kDisFineRefinement = 5;
+
+// `image` at 8 bits per value, its channels as they are (1 or 3): [0, 1] rounded to nearest.
+cv::Mat to_mat8(const Image& image) {
+  if (image.channels != 1 && image.channels != 3)
+    fail("optical flow: expected a 1- or 3-channel image, got {} channels", image.channels);
+  cv::Mat m(image.height, image.width, image.channels == 1 ? CV_8UC1 : CV_8UC3);
+  for (int y = 0; y < image.height; ++y) {
+    unsigned char* row = m.ptr<unsigned char>(y);
+    const float* src = image.pixel(y, 0);
+    for (int i = 0; i < image.width * image.channels; ++i)
+      row[i] = cv::saturate_cast<unsigned char>(src[i] * 255.0f);  // rounds to nearest
+  }
+  return m;
+}
+
+// The 8-bit image every estimator sees: grey (to_gray8), or RGB for RLOF, which needs three
+// channels (a grey image is repeated in each).
+cv::Mat estimator_input(const Image& image, FlowMethod method) {
+  if (method == FlowMethod::kRlof) {
+    const cv::Mat values = to_mat8(image);
+    if (image.channels == 3) return values;
+    cv::Mat rgb;
+    cv::cvtColor(values, rgb, cv::COLOR_GRAY2RGB);
+    return rgb;
+  }
   std::vector<unsigned char> gray = to_gray8(image);
   return cv::Mat(image.height, image.width, CV_8UC1, gray.data()).clone();
 }
@@ -37,21 +65,61 @@ Flow from_mat(const cv::Mat& m) {
   return flow;
 }
 
+cv::Ptr<cv::DISOpticalFlow> dis(int preset, bool fine) {
+  auto dis = cv::DISOpticalFlow::create(preset);
+  if (fine) {
+    dis->setFinestScale(0);
+    dis->setVariationalRefinementIterations(kDisFineRefinement);
+  }
+  return dis;
+}
+
 cv::Ptr<cv::DenseOpticalFlow> make_estimator(FlowMethod method) {
   switch (method) {
     case FlowMethod::kDis: {
-      auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_MEDIUM);
-      dis->setFinestScale(kDisFinestScale);
-      dis->setPatchStride(kDisPatchStride);
-      return dis;
+      auto estimator = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_MEDIUM);
+      estimator->setFinestScale(kDisFinestScale);
+      estimator->setPatchStride(kDisPatchStride);
+      return estimator;
     }
+    case FlowMethod::kDisUltrafast:
+      return dis(cv::DISOpticalFlow::PRESET_ULTRAFAST, false);
+    case FlowMethod::kDisFast:
+      return dis(cv::DISOpticalFlow::PRESET_FAST, false);
+    case FlowMethod::kDisMedium:
+      return dis(cv::DISOpticalFlow::PRESET_MEDIUM, false);
+    case FlowMethod::kDisUltrafastFine:
+      return dis(cv::DISOpticalFlow::PRESET_ULTRAFAST, true);
+    case FlowMethod::kDisFastFine:
+      return dis(cv::DISOpticalFlow::PRESET_FAST, true);
     case FlowMethod::kDeepFlow:
       return cv::optflow::createOptFlow_DeepFlow();
     case FlowMethod::kTvl1:
       return cv::optflow::DualTVL1OpticalFlow::create();
+    case FlowMethod::kRlof:
+      return cv::optflow::DenseRLOFOpticalFlow::create();
+    case FlowMethod::kPcaFlow:
+      return cv::optflow::createOptFlow_PCAFlow();
+    case FlowMethod::kFarneback:
+      return cv::FarnebackOpticalFlow::create();
   }
   fail("optical flow: unknown method {}", int(method));
 }
+
+// Every method with its name, in FlowMethod's order.
+constexpr std::pair<FlowMethod, const char*> kMethods[] = {
+    {FlowMethod::kDis, "dis"},
+    {FlowMethod::kDisUltrafast, "dis-ultrafast"},
+    {FlowMethod::kDisFast, "dis-fast"},
+    {FlowMethod::kDisMedium, "dis-medium"},
+    {FlowMethod::kDisUltrafastFine, "dis-ultrafast-fine"},
+    {FlowMethod::kDisFastFine, "dis-fast-fine"},
+    {FlowMethod::kDeepFlow, "deepflow"},
+    {FlowMethod::kTvl1, "tvl1"},
+    {FlowMethod::kRlof, "rlof"},
+    {FlowMethod::kPcaFlow, "pcaflow"},
+    {FlowMethod::kFarneback, "farneback"},
+};
 
 // Bilinear sample of `flow` at continuous pixel coordinates (u, v) (centres at +0.5), clamped to
 // the image; false when one of the taps with a non-zero weight is unknown.
@@ -78,40 +146,38 @@ bool sample_flow(const Flow& flow, double u, double v, double& fu, double& fv) {
 
 }  // namespace
 
-FlowMethod parse_flow_method(const std::string& name, const std::string& flag) {
-  if (name == "dis") return FlowMethod::kDis;
-  if (name == "deepflow") return FlowMethod::kDeepFlow;
-  if (name == "tvl1") return FlowMethod::kTvl1;
-  fail("{}: unknown flow method '{}' (dis, deepflow, tvl1)", flag, name);
+const std::vector<FlowMethod>& flow_methods() {
+  static const std::vector<FlowMethod> methods = [] {
+    std::vector<FlowMethod> all;
+    for (const auto& [method, name] : kMethods) all.push_back(method);
+    return all;
+  }();
+  return methods;
 }
 
 const char* flow_method_name(FlowMethod method) {
-  switch (method) {
-    case FlowMethod::kDis:
-      return "dis";
-    case FlowMethod::kDeepFlow:
-      return "deepflow";
-    case FlowMethod::kTvl1:
-      return "tvl1";
-  }
-  return "?";
+  for (const auto& [m, name] : kMethods)
+    if (m == method) return name;
+  fail("optical flow: unknown method {}", int(method));
+}
+
+std::string flow_method_names() {
+  std::string names;
+  for (const auto& [method, name] : kMethods)
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  return names;
+}
+
+FlowMethod parse_flow_method(const std::string& name, const std::string& flag) {
+  for (const auto& [method, n] : kMethods)
+    if (name == n) return method;
+  fail("{}: unknown flow method '{}' ({})", flag, name, flow_method_names());
 }
 
 std::vector<unsigned char> to_gray8(const Image& image) {
-  if (image.channels != 1 && image.channels != 3)
-    fail("optical flow: expected a 1- or 3-channel image, got {} channels", image.channels);
-  cv::Mat rgb8(image.height, image.width, image.channels == 1 ? CV_8UC1 : CV_8UC3);
-  for (int y = 0; y < image.height; ++y) {
-    unsigned char* row = rgb8.ptr<unsigned char>(y);
-    const float* src = image.pixel(y, 0);
-    for (int i = 0; i < image.width * image.channels; ++i)
-      row[i] = cv::saturate_cast<unsigned char>(src[i] * 255.0f);  // rounds to nearest
-  }
-  cv::Mat gray;
-  if (image.channels == 3)
-    cv::cvtColor(rgb8, gray, cv::COLOR_RGB2GRAY);
-  else
-    gray = rgb8;
+  const cv::Mat values = to_mat8(image);
+  cv::Mat gray = values;
+  if (image.channels == 3) cv::cvtColor(values, gray, cv::COLOR_RGB2GRAY);
   return std::vector<unsigned char>(gray.datastart, gray.dataend);
 }
 
@@ -121,10 +187,29 @@ Flow estimate_flow(const Image& from, const Image& to, FlowMethod method) {
          to.height);
   if (from.width < 2 || from.height < 2)
     fail("optical flow: image of {}x{} is too small", from.width, from.height);
-  const cv::Mat a = gray_mat(from), b = gray_mat(to);
+  const cv::Mat a = estimator_input(from, method), b = estimator_input(to, method);
   cv::Mat uv;
   make_estimator(method)->calc(a, b, uv);
   return from_mat(uv);
+}
+
+FlowErrors flow_errors(const Flow& flow, const Flow& truth,
+                       const std::vector<unsigned char>& mask) {
+  constexpr double kOutlierPixels = 3, kOutlierFraction = 0.05;  // KITTI 2015's Fl
+  if (flow.width != truth.width || flow.height != truth.height || mask.size() != truth.pixels())
+    fail("flow errors: flow {}x{}, truth {}x{} and mask of {} pixels differ", flow.width,
+         flow.height, truth.width, truth.height, mask.size());
+  FlowErrors e;
+  for (std::size_t i = 0; i < truth.pixels(); ++i) {
+    if (!mask[i]) continue;
+    const double tu = truth.uv[2 * i], tv = truth.uv[2 * i + 1];
+    const double error = std::hypot(flow.uv[2 * i] - tu, flow.uv[2 * i + 1] - tv);
+    e.epe += error;
+    e.outliers += error > kOutlierPixels && error > kOutlierFraction * std::hypot(tu, tv);
+    ++e.pixels;
+  }
+  if (e.pixels) e.epe /= double(e.pixels), e.outliers /= double(e.pixels);
+  return e;
 }
 
 std::size_t mark_inconsistent(Flow& forward, const Flow& backward,

@@ -48,6 +48,9 @@ constexpr std::string_view kSchedule = "**Schedule**";
 constexpr std::string_view kRates = "**Learning rates** (Adam, β = 0.9 / 0.999, ε = 1e-15)";
 constexpr std::string_view kLosses = "**Losses and model**";
 constexpr std::string_view kDensity = "**Primitive budget and density control**";
+constexpr std::string_view kPaper =
+    "**The paper's readings** (each `false` by default; `--preset paper` sets them and "
+    "`ablate.no_static_init`; docs/method.md, \"Departures from the paper\")";
 constexpr std::string_view kAblate =
     "**`ablate`**, an object (`--ablate` adds to it; each key with `-` for `_` is an `--ablate` "
     "name)";
@@ -79,7 +82,8 @@ constexpr ConfigKey kKeys[] = {
     {"lr_decay_final", &TrainConfig::lr_decay_final, kFactor, kSchedule,
      "… to this factor at the last iteration"},
     {"flow_decay_until", &TrainConfig::flow_decay_until, kCount, kSchedule,
-     "scaled; the flow weight reaches `flow_weight_end` here and stays"},
+     "scaled; the flow weight reaches `flow_weight_end` here and stays (`flow_hold`: starts to "
+     "decay here)"},
     {"relocate_every", &TrainConfig::relocate_every, kCount, kSchedule,
      "scaled; relocation and growth period"},
     {"relocate_start", &TrainConfig::relocate_start, kMilestone, kSchedule,
@@ -115,7 +119,7 @@ constexpr ConfigKey kKeys[] = {
     {"flow_weight_start", &TrainConfig::flow_weight_start, kPositiveWeight, kLosses,
      "flow-loss weight at iteration 0 …"},
     {"flow_weight_end", &TrainConfig::flow_weight_end, kPositiveWeight, kLosses,
-     "… falling log-linearly to this at `flow_decay_until`"},
+     "… falling log-linearly to this at `flow_decay_until` (`flow_hold`: at the last iteration)"},
     {"opacity_reg", &TrainConfig::opacity_reg, kWeight, kLosses,
      "weight of the mean opacity regulariser"},
     {"scale_reg", &TrainConfig::scale_reg, kWeight, kLosses,
@@ -144,11 +148,26 @@ constexpr ConfigKey kKeys[] = {
     {"stretch_speed", &TrainConfig::stretch_speed, kNonNegative, kDensity,
      "stretching and initialisation: largest speed of static content, × E per frame"},
 
+    {"flow_hold", &TrainConfig::flow_hold, std::nullopt, kPaper,
+     "the flow weight holds at `flow_weight_start` until `flow_decay_until`, then decays "
+     "exponentially to `flow_weight_end` at the last iteration; false: it decays from iteration 0"},
+    {"relocate_per_duration", &TrainConfig::relocate_per_duration, std::nullopt, kPaper,
+     "relocation and growth draw sources ∝ σ/(τ_l + τ_r); false: ∝ σ·(τ_l + τ_r)"},
+    {"init_average_lifts", &TrainConfig::init_average_lifts, std::nullopt, kPaper,
+     "initialisation: a point's 3-D displacement is the mean of each view's flow lifted at its "
+     "depth; false: the least-squares fit over the views"},
+    {"init_mean_velocity", &TrainConfig::init_mean_velocity, std::nullopt, kPaper,
+     "initialisation: v1 = v2 = v3 = the mean of the forward and the negated backward "
+     "displacement; false: each control point where the flows put the point"},
+    {"tie_end_velocities", &TrainConfig::tie_end_velocities, std::nullopt, kPaper,
+     "v1 of the clip's first interval and v3 of its last follow v2 after every step; false: they "
+     "keep their initial values"},
+
     {"no_flow_init", &Ablations::no_flow_init, std::nullopt, kAblate,
-     "velocities start at 0, points unmoved"},
+     "velocities start at 0, points unmoved (static content found as without it)"},
     {"no_flow_loss", &Ablations::no_flow_loss, std::nullopt, kAblate, "flow weight 0"},
     {"no_triple", &Ablations::no_triple, std::nullopt, kAblate,
-     "one all-primitives render per step"},
+     "no image loss on the group renders (their flow loss stays)"},
     {"no_stretch", &Ablations::no_stretch, std::nullopt, kAblate, "no dynamic stretching"},
     {"linear", &Ablations::linear, std::nullopt, kAblate, "straight-line trajectories"},
     {"no_static_init", &Ablations::no_static_init, std::nullopt, kAblate,
@@ -285,18 +304,29 @@ Ablations parse_ablations(const std::string& list, Ablations ablate, const std::
 
 namespace {
 
-// A preset sets keys of the config, as a --config file does.
+// A preset sets keys of the config, as a --config file does; `note` says what else than the budget.
 struct Preset {
   std::string_view name;
   json keys;
+  std::string_view note;
 };
 
 const std::vector<Preset>& presets() {
-  static const std::vector<Preset> table = {
-      {"fast", {{"iters", 5000}, {"cap", 100000}}},
-      {"default", {{"iters", TrainConfig{}.iters}, {"cap", TrainConfig{}.cap}}},
-      {"quality", {{"iters", 30000}, {"cap", 600000}}},
-  };
+  static const std::vector<Preset> table = [] {
+    const json default_budget = {{"iters", TrainConfig{}.iters}, {"cap", TrainConfig{}.cap}};
+    // The paper's reading wherever the paper states one (docs/method.md, "Departures from the
+    // paper"), at the default budget: the paper's 20 000 steps, the project's cap.
+    json paper = default_budget;
+    for (const ConfigKey& key : kKeys)
+      if (key.group == kPaper) paper[std::string(key.name)] = true;
+    paper["ablate"] = {{"no_static_init", true}};
+    return std::vector<Preset>{
+        {"fast", {{"iters", 5000}, {"cap", 100000}}, ""},
+        {"default", default_budget, ""},
+        {"quality", {{"iters", 30000}, {"cap", 600000}}, ""},
+        {"paper", paper, "; the paper's readings"},
+    };
+  }();
   return table;
 }
 
@@ -305,8 +335,8 @@ const std::vector<Preset>& presets() {
 std::string describe_presets() {
   std::string text;
   for (const Preset& p : presets())
-    text += fmt::format("{}{} ({} iterations, cap {})", text.empty() ? "" : ", ", p.name,
-                        p.keys.at("iters").dump(), p.keys.at("cap").dump());
+    text += fmt::format("{}{} ({} iterations, cap {}{})", text.empty() ? "" : ", ", p.name,
+                        p.keys.at("iters").dump(), p.keys.at("cap").dump(), p.note);
   return text;
 }
 

@@ -67,8 +67,9 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
     model::apply_camera_color(rgb, color, corrected_);
     seen = &corrected_;
   }
-  stats.image_loss += image_loss(*seen, ssim_target_, config_.ssim_lambda, 1.0, v_image);
-  if (state_.camera_color()) {
+  if (pass.image)
+    stats.image_loss += image_loss(*seen, ssim_target_, config_.ssim_lambda, 1.0, v_image);
+  if (pass.image && state_.camera_color()) {
     model::CameraColor v_color;
     model::apply_camera_color_backward(rgb, color, v_image, v_color);
     float* g = state_.color_grad(c);
@@ -137,6 +138,9 @@ StepStats CpuStep::step_view(int c, int i) {
   const double decay = lr_factor(config_, it);
   const double means = means_decay(config_, it);
   state_.adam.step(p, grads, active, means, decay);
+  if (const auto tie = state_.end_tie())
+    for (const std::int32_t r : active)
+      model::tie_end_velocities(*tie, p.mu_tau[r], &p.velocity[9 * std::size_t(r)]);
   if (state_.camera_color()) state_.step_camera_color(c, decay);
   stats.lr_means = state_.adam.means_rate(means, decay);
   stats.seconds.optimizer = clock.lap();

@@ -192,9 +192,10 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
     cuda::apply_camera_color(rgb, channels, w, h, color_.data(), corrected_.data());
     seen = corrected_.data(), seen_channels = 3;
   }
-  cuda::image_loss(seen, seen_channels, target_, config_.ssim_lambda, 1.0, v_image_.data(),
-                   channels, losses + kImageLoss, loss_scratch_);
-  if (state_.camera_color())
+  if (pass.image)
+    cuda::image_loss(seen, seen_channels, target_, config_.ssim_lambda, 1.0, v_image_.data(),
+                     channels, losses + kImageLoss, loss_scratch_);
+  if (pass.image && state_.camera_color())
     cuda::apply_camera_color_backward(rgb, channels, w, h, color_.data(), v_image_.data(), channels,
                                       v_color_.data(), loss_scratch_);
   if (pass.flow) {
@@ -272,6 +273,7 @@ StepStats CudaStep::step_view(int c, int i) {
     adam_[k].step_and_clear(values, gradient, state_.adam.rate(k, means, decay), rows, count);
     ++k;
   }
+  if (const auto tie = state_.end_tie()) cuda::tie_end_velocities(primitives_, rows, count, *tie);
   // The step's numbers, and the camera colour's gradient for its Adam step on the host.
   const std::vector<double> sums = losses_.download();
   if (state_.camera_color()) {

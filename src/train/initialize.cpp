@@ -51,14 +51,16 @@ struct Observation {
 // π_c(x + d) - target_c over the cameras (Gauss-Newton). With one camera, or views too close to
 // parallel to fix the depth, it falls back to the average of the per-camera lifts at x's depth —
 // which alone would underestimate motion along each camera's viewing direction.
-Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<Observation>& obs) {
+// `average_lifts`: the average alone (the paper's recipe, init_average_lifts).
+Eigen::Vector3d solve_displacement(const Eigen::Vector3d& x, const std::vector<Observation>& obs,
+                                   bool average_lifts) {
   constexpr int kIterations = 4;
   constexpr double kMinConditioning = 1e-3;  // smallest / largest eigenvalue of JᵀJ
   Eigen::Vector3d lifted = Eigen::Vector3d::Zero();
   for (const Observation& o : obs)
     lifted += o.camera->unproject(o.target, o.camera->world_to_cam(x).z()) - x;
   lifted /= double(obs.size());
-  if (obs.size() < 2) return lifted;
+  if (obs.size() < 2 || average_lifts) return lifted;
   Eigen::Vector3d d = lifted;
   for (int it = 0; it < kIterations; ++it) {
     Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
@@ -127,7 +129,8 @@ std::vector<std::vector<PointView>> point_views(const TrainingSet& set, int slot
 }
 
 std::vector<PointMotion> point_motion(const TrainingSet& set, int slot,
-                                      const std::vector<std::vector<PointView>>& views) {
+                                      const std::vector<std::vector<PointView>>& views,
+                                      bool average_lifts) {
   const io::PointCloud& cloud = *set.points[slot];
   const std::size_t n = cloud.size();
   std::vector<std::vector<Observation>> forward(n), backward(n);
@@ -148,8 +151,8 @@ std::vector<PointMotion> point_motion(const TrainingSet& set, int slot,
     const Eigen::Vector3d x(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]);
     PointMotion& m = motion[i];
     m.forward_views = int(forward[i].size()), m.backward_views = int(backward[i].size());
-    if (m.forward_views) m.forward = solve_displacement(x, forward[i]);
-    if (m.backward_views) m.backward = solve_displacement(x, backward[i]);
+    if (m.forward_views) m.forward = solve_displacement(x, forward[i], average_lifts);
+    if (m.backward_views) m.backward = solve_displacement(x, backward[i], average_lifts);
   }
   return motion;
 }
@@ -242,8 +245,23 @@ void add_still_points(const std::vector<StillPoint>& still, const model::TimeGri
 
 }  // namespace
 
+InitOptions init_options(const TrainConfig& config, model::Representation representation) {
+  InitOptions options;
+  options.use_flow = !config.ablate.no_flow_init;
+  options.static_once = !config.ablate.no_static_init;
+  options.representation = representation;
+  options.max_primitives = config.cap;
+  options.initial_opacity = config.init_opacity;
+  options.seed = config.seed;
+  options.stretch_color = config.stretch_color;
+  options.stretch_speed = config.stretch_speed;
+  options.average_lifts = config.init_average_lifts;
+  options.mean_velocity = config.init_mean_velocity;
+  return options;
+}
+
 std::vector<PointMotion> estimate_point_motion(const TrainingSet& set, int slot) {
-  return point_motion(set, slot, point_views(set, slot));
+  return point_motion(set, slot, point_views(set, slot), false);
 }
 
 model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
@@ -278,8 +296,10 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         "{:.3g} around ({:.3g}, {:.3g}, {:.3g})",
         io::kRandomPointsTotal, 2 * half, centre.x(), centre.y(), centre.z());
   } else {
-    const bool flow = options.use_flow && !stgs;
-    const bool find_still = flow && options.static_once;
+    // The flows are measured for the velocities and for the static-content test alike, so that
+    // the no-flow-init ablation changes the velocities only, not which points are found still.
+    const bool find_still = !stgs && options.static_once;
+    const bool flow = !stgs && (options.use_flow || find_still);
     const double max_speed = options.stretch_speed * set.scene_extent;
     std::vector<StillPoint> still;
     std::size_t with_motion = 0, total = 0, unmeasured = 0, fast = 0, changing = 0;
@@ -289,7 +309,8 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
       const std::vector<std::vector<PointView>> views =
           flow ? point_views(set, i) : std::vector<std::vector<PointView>>(cloud.size());
       const std::vector<PointMotion> motion =
-          flow ? point_motion(set, i, views) : std::vector<PointMotion>(cloud.size());
+          flow ? point_motion(set, i, views, options.average_lifts)
+               : std::vector<PointMotion>(cloud.size());
       for (std::size_t k = 0; k < cloud.size(); ++k) {
         const PointMotion& m = motion[k];
         // v = mean of the forward and the negated backward displacement, per frame.
@@ -300,7 +321,7 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
           v = m.forward / step;
         else if (m.backward_views)
           v = -m.backward / step;
-        with_motion += (m.forward_views + m.backward_views) > 0;
+        with_motion += options.use_flow && (m.forward_views + m.backward_views) > 0;
         ++total;
         const Eigen::Vector3d x(cloud.xyz[3 * k], cloud.xyz[3 * k + 1], cloud.xyz[3 * k + 2]);
         const Eigen::Vector3f colour =
@@ -341,8 +362,14 @@ model::Primitives initialize(const TrainingSet& set, const InitOptions& options,
         // the point's position at the interval's far end by the path's bend (the fast synthetic
         // ball, turning 1 rad per interval, lands 0.7 m off), so the two seeds of an interval draw
         // two objects.
-        const Eigen::Vector3d into = m.backward_views ? Eigen::Vector3d(-m.backward / step) : v;
-        const Eigen::Vector3d onward = m.forward_views ? Eigen::Vector3d(m.forward / step) : v;
+        // The no-flow-init ablation: the seeds start at the point, with velocities 0.
+        Eigen::Vector3d into = Eigen::Vector3d::Zero(), onward = Eigen::Vector3d::Zero();
+        if (options.use_flow && options.mean_velocity) {
+          into = onward = v;
+        } else if (options.use_flow) {
+          into = m.backward_views ? Eigen::Vector3d(-m.backward / step) : v;
+          onward = m.forward_views ? Eigen::Vector3d(m.forward / step) : v;
+        }
         if (i + 1 < nf)
           seeds.add(x + half_interval * onward, {into, onward, onward}, colour,
                     set.grid.at(i) + half_interval, half_interval, half_interval);

@@ -17,15 +17,16 @@ double opacity_of(const model::Primitives& p, std::size_t i) {
   return model::sigmoid<double>(p.opacity_logit[i]);
 }
 
-std::vector<double> sampling_scores(const model::Primitives& p, model::Representation rep,
+std::vector<double> sampling_scores(const model::Primitives& p, RelocationScore kind,
                                     double min_opacity) {
   std::vector<double> score(p.size(), 0.0);
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double sigma = opacity_of(p, i);
     if (sigma <= min_opacity) continue;  // dead rows are never sources
-    score[i] = rep == model::Representation::kStgs
-                   ? sigma
-                   : sigma * (double(p.tau_l[i]) + double(p.tau_r[i]));
+    const double duration = double(p.tau_l[i]) + double(p.tau_r[i]);
+    score[i] = kind == RelocationScore::kOpacity                ? sigma
+               : kind == RelocationScore::kOpacityTimesDuration ? sigma * duration
+                                                                : sigma / duration;
   }
   return score;
 }
@@ -76,7 +77,7 @@ void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_f
   scale_factor = opacity / denominator;
 }
 
-Relocation relocate(model::Primitives& p, model::Representation rep, double min_opacity,
+Relocation relocate(model::Primitives& p, RelocationScore score, double min_opacity,
                     std::mt19937_64& rng) {
   Relocation result;
   std::vector<std::int32_t> dead;
@@ -84,7 +85,7 @@ Relocation relocate(model::Primitives& p, model::Representation rep, double min_
     if (opacity_of(p, i) <= min_opacity) dead.push_back(std::int32_t(i));
   if (dead.empty()) return result;
   const std::vector<std::int32_t> sources =
-      sample(sampling_scores(p, rep, min_opacity), dead.size(), rng);
+      sample(sampling_scores(p, score, min_opacity), dead.size(), rng);
   if (sources.empty()) return result;  // nothing alive to copy
   correct_sources(p, sources, min_opacity);
   for (std::size_t k = 0; k < dead.size(); ++k) p.copy_row(dead[k], p, sources[k]);
@@ -94,14 +95,14 @@ Relocation relocate(model::Primitives& p, model::Representation rep, double min_
   return result;
 }
 
-Relocation grow(model::Primitives& p, model::Representation rep, std::size_t cap, double growth,
+Relocation grow(model::Primitives& p, RelocationScore score, std::size_t cap, double growth,
                 double min_opacity, std::mt19937_64& rng) {
   Relocation result;
   const std::size_t n = p.size();
   const std::size_t target = std::min(cap, std::size_t(std::floor(growth * double(n))));
   if (target <= n) return result;
   const std::vector<std::int32_t> sources =
-      sample(sampling_scores(p, rep, min_opacity), target - n, rng);
+      sample(sampling_scores(p, score, min_opacity), target - n, rng);
   if (sources.empty()) return result;
   correct_sources(p, sources, min_opacity);
   p.resize(n + sources.size());

@@ -8,17 +8,24 @@ namespace retimegs::train {
 std::vector<RenderPass> render_passes(const TrainConfig& config,
                                       model::Representation representation, int i, int frames,
                                       bool flow) {
-  if (representation != model::Representation::kStgs && !config.ablate.no_triple && i > 0 &&
-      i + 1 < frames)
-    return {{model::Group::kAll, false, false},
-            {model::Group::kLeft, true, flow},
-            {model::Group::kRight, true, flow}};
-  return {{model::Group::kAll, false, flow}};
+  if (representation == model::Representation::kStgs || i == 0 || i + 1 >= frames)
+    return {{model::Group::kAll, false, true, flow}};
+  const bool image = !config.ablate.no_triple;
+  if (!image && !flow) return {{model::Group::kAll, false, true, false}};
+  return {{model::Group::kAll, false, true, false},
+          {model::Group::kLeft, true, image, flow},
+          {model::Group::kRight, true, image, flow}};
 }
 
 double flow_weight(const TrainConfig& config, model::Representation representation, int it) {
   if (config.ablate.no_flow_loss || representation == model::Representation::kStgs) return 0;
-  const double s = std::min(1.0, double(it) / config.scaled(config.flow_decay_until));
+  // The fraction s of the exponential decay done at `it`.
+  const int milestone = config.scaled(config.flow_decay_until);
+  double s = std::min(1.0, double(it) / milestone);
+  if (config.flow_hold)
+    s = it <= milestone || config.iters <= milestone
+            ? 0.0
+            : double(it - milestone) / double(config.iters - milestone);
   return std::exp(std::log(config.flow_weight_start) +
                   s * (std::log(config.flow_weight_end) - std::log(config.flow_weight_start)));
 }

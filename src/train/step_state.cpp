@@ -58,18 +58,19 @@ void StepState::step_camera_color(int c, double decay) {
     model.camera_colors[set_.scene.cameras[set_.cameras[j]].name] = color_of(int(j));
 }
 
+std::optional<model::EndTie<float>> StepState::end_tie() const {
+  if (!config_.tie_end_velocities || model.config.representation == model::Representation::kStgs)
+    return std::nullopt;
+  // The clip's ends: a window's own ends have flows beyond them (model/window.hpp).
+  const model::TimeGrid& clip = set_.clip_grid ? *set_.clip_grid : set_.grid;
+  return model::EndTie<float>{float(clip.step / 2), float(clip.first), float(clip.last()),
+                              float(model.config.epsilon)};
+}
+
 std::string StepState::initialize() {
-  InitOptions options;
-  options.use_flow = !config_.ablate.no_flow_init;
-  options.static_once = !config_.ablate.no_static_init;
-  options.representation = model.config.representation;
-  options.max_primitives = config_.cap;
-  options.initial_opacity = config_.init_opacity;
-  options.seed = config_.seed;
-  options.stretch_color = config_.stretch_color;
-  options.stretch_speed = config_.stretch_speed;
   std::string note;
-  model.primitives = train::initialize(set_, options, note);
+  model.primitives =
+      train::initialize(set_, init_options(config_, model.config.representation), note);
   make_optimizers();
   rebuild_index();
   return note;

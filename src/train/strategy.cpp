@@ -36,8 +36,12 @@ DensityChanges McmcStrategy::reshape(int it, model::Model& model, Optimizers& op
   model::Primitives& p = model.primitives;
   const model::Representation rep = model.config.representation;
   if (relocates_at(it)) {
-    const Relocation moved = relocate(p, rep, config_.min_opacity, rng);
-    const Relocation grown = grow(p, rep, config_.cap, config_.growth, config_.min_opacity, rng);
+    const RelocationScore score = rep == model::Representation::kStgs ? RelocationScore::kOpacity
+                                  : config_.relocate_per_duration
+                                      ? RelocationScore::kOpacityPerDuration
+                                      : RelocationScore::kOpacityTimesDuration;
+    const Relocation moved = relocate(p, score, config_.min_opacity, rng);
+    const Relocation grown = grow(p, score, config_.cap, config_.growth, config_.min_opacity, rng);
     optimizers.reset_rows(moved.touched);
     optimizers.resize(p.size());
     optimizers.reset_rows(grown.touched);

@@ -63,14 +63,7 @@ std::vector<unsigned char> valid_pixels(const RefPair& pair, const Flow& gt) {
 
 // Mean end-point error over the pixels where `mask` is set.
 double epe(const Flow& flow, const Flow& gt, const std::vector<unsigned char>& mask) {
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < gt.pixels(); ++i) {
-    if (!mask[i]) continue;
-    sum += std::hypot(flow.uv[2 * i] - gt.uv[2 * i], flow.uv[2 * i + 1] - gt.uv[2 * i + 1]);
-    ++n;
-  }
-  return sum / double(n);
+  return flow_errors(flow, gt, mask).epe;
 }
 
 struct Timed {
@@ -198,11 +191,41 @@ TEST(FlowEstimate, ConsistencyThresholdFollowsSundaramEtAl) {
   EXPECT_EQ(forward.valid[3], 1);
 }
 
+// The faster estimators prepare offers besides DIS, DeepFlow and TV-L1 all follow RubberWhale's
+// motion: each well below zero flow's EPE (1.256).
+TEST(FlowEstimate, EveryOtherEstimatorBeatsZeroFlowOnRubberWhale) {
+  RETIMEGS_REQUIRE_DATA("flow/middlebury-rubberwhale");
+  const RefPair& pair = reference_pairs()[0];
+  const Flow gt = io::read_flo(flow_data(pair.gt));
+  const double zero = reference(pair.key).at("epe_zero_flow").get<double>();
+  for (const FlowMethod method : flow_methods()) {
+    if (method == FlowMethod::kDeepFlow || method == FlowMethod::kTvl1) continue;  // above
+    const double e = epe(timed_flow(pair, method).flow, gt, valid_pixels(pair, gt));
+    EXPECT_LT(e, 0.6 * zero) << flow_method_name(method);
+  }
+}
+
+// EPE and KITTI's outliers (error > 3 px and > 5 % of the motion) over the masked pixels.
+TEST(FlowEstimate, FlowErrorsCountEndPointErrorAndOutliers) {
+  Flow truth(3, 1), flow(3, 1);
+  truth.uv = {100, 0, 1, 0, 0, 0};
+  flow.uv = {104, 0, 5, 0, 3, 4};  // errors 4 (4 % of 100: no outlier), 4 and 5 (outliers)
+  const FlowErrors all = flow_errors(flow, truth, {1, 1, 1});
+  EXPECT_DOUBLE_EQ(all.epe, 13.0 / 3);
+  EXPECT_DOUBLE_EQ(all.outliers, 2.0 / 3);
+  EXPECT_EQ(all.pixels, 3u);
+  const FlowErrors first = flow_errors(flow, truth, {1, 0, 0});
+  EXPECT_DOUBLE_EQ(first.epe, 4);
+  EXPECT_EQ(first.outliers, 0);
+}
+
 TEST(FlowEstimate, ParsesMethodNamesAndRejectsOthers) {
   EXPECT_EQ(parse_flow_method("dis"), FlowMethod::kDis);
   EXPECT_EQ(parse_flow_method("deepflow"), FlowMethod::kDeepFlow);
   EXPECT_EQ(parse_flow_method("tvl1"), FlowMethod::kTvl1);
-  test::expect_error([] { parse_flow_method("raft"); }, {"--flow", "raft", "dis"});
+  for (const FlowMethod method : flow_methods())
+    EXPECT_EQ(parse_flow_method(flow_method_name(method)), method) << flow_method_name(method);
+  test::expect_error([] { parse_flow_method("raft"); }, {"--flow", "raft", "dis-fast", "rlof"});
   test::expect_error([] { estimate_flow(Image(8, 8, 3), Image(8, 9, 3)); }, {"8x8", "8x9"});
 }
 

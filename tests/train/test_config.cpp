@@ -69,6 +69,23 @@ TEST(Presets, SetIterationsAndBudgetOnlyAndDefaultIsTheConfigsOwn) {
   EXPECT_NE(describe_presets().find("quality (30000 iterations"), std::string::npos);
 }
 
+// `--preset paper`: the default budget and the paper's reading of every departure that has one;
+// every other key as it was.
+TEST(Presets, PaperSelectsThePapersReadingsAtTheDefaultBudget) {
+  TrainConfig base = with_preset({}, "fast", "--preset");
+  base.ssim_lambda = 0.3;
+  const TrainConfig paper = with_preset(base, "paper", "--preset");
+  TrainConfig expected = base;
+  expected.iters = TrainConfig{}.iters;
+  expected.cap = TrainConfig{}.cap;
+  expected.flow_hold = expected.relocate_per_duration = expected.init_average_lifts =
+      expected.init_mean_velocity = expected.tie_end_velocities = true;
+  expected.ablate.no_static_init = true;
+  EXPECT_EQ(to_json(paper), to_json(expected));
+  EXPECT_NE(describe_presets().find("paper (20000 iterations, cap 200000; the paper's readings)"),
+            std::string::npos);
+}
+
 // Every config value is range- and type-checked, with a message naming the key and the value:
 // values that crashed training (zero divisors, SH degree 10), wrapped (cap -1), truncated
 // (iters 2.5) or trained on a NaN loss (flow_weight_start 0).
@@ -134,10 +151,13 @@ constexpr const char* kDefaultJson = R"json({
   "checkpoint_keep": 2,
   "final_prune_opacity": 0.03,
   "flow_decay_until": 12000,
+  "flow_hold": false,
   "flow_weight_end": 1e-06,
   "flow_weight_start": 0.5,
   "gamma": 0.005,
   "growth": 1.05,
+  "init_average_lifts": false,
+  "init_mean_velocity": false,
   "init_opacity": 0.1,
   "iters": 20000,
   "lr_camera_color": 0.001,
@@ -158,6 +178,7 @@ constexpr const char* kDefaultJson = R"json({
   "min_opacity": 0.01,
   "opacity_reg": 0.01,
   "relocate_every": 100,
+  "relocate_per_duration": false,
   "relocate_start": 500,
   "relocate_stop": 25000,
   "scale_reg": 0.1,
@@ -169,7 +190,8 @@ constexpr const char* kDefaultJson = R"json({
   "stretch_color": 0.1,
   "stretch_distance": 0.01,
   "stretch_every": 3000,
-  "stretch_speed": 0.002
+  "stretch_speed": 0.002,
+  "tie_end_velocities": false
 })json";
 
 // `json_text` with the value of its (only) key `key` replaced by `value`.

@@ -260,6 +260,81 @@ TEST(Initialize, StillPointsWindowEndsWhereItsLookChanges) {
   EXPECT_EQ(spanning, 0u);  // no window crosses the change
 }
 
+// The no-flow-init ablation changes the motion alone: the same primitives with the same windows
+// (static content found as in the full recipe), every velocity 0 and every seed at its point.
+TEST(Initialize, NoFlowInitZeroesTheMotionAndKeepsStaticContent) {
+  test::TempDir dir;
+  const RepeatedGround g = repeated_ground(dir / "scene");
+  std::string note;
+  const model::Primitives full = initialize(g.set, {}, note);
+  InitOptions ablated;
+  ablated.use_flow = false;
+  const model::Primitives p = initialize(g.set, ablated, note);
+  EXPECT_NE(note.find("no-flow-init"), std::string::npos) << note;
+  ASSERT_EQ(p.size(), full.size());
+  EXPECT_EQ(p.mu_tau, full.mu_tau);
+  EXPECT_EQ(p.tau_l, full.tau_l);
+  EXPECT_EQ(p.tau_r, full.tau_r);
+  EXPECT_TRUE(std::all_of(p.velocity.begin(), p.velocity.end(), [](float v) { return v == 0; }));
+  std::vector<float> points;
+  for (const auto& cloud : g.set.points)
+    points.insert(points.end(), cloud->xyz.begin(), cloud->xyz.end());
+  const PointIndex index(points);
+  std::size_t unmoved = 0, still = 0, moving_in_full = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    std::uint32_t k;
+    float d2;
+    unmoved += index.knn(p.mu.data() + 3 * i, 1, &k, &d2) == 1 && d2 == 0;
+    const bool spans_more = p.tau_l[i] + p.tau_r[i] > 1.5f;
+    still += spans_more;
+    moving_in_full +=
+        !spans_more && (full.velocity[9 * i + 3] != 0 || full.velocity[9 * i + 4] != 0);
+  }
+  EXPECT_EQ(unmoved, p.size());
+  EXPECT_GT(still, 1000u);           // the static ground, once
+  EXPECT_GT(moving_in_full, 1000u);  // what the ablation stops moving
+}
+
+// The paper's readings of the initialisation: v1 = v2 = v3 on every seed (init_mean_velocity);
+// the per-view lifts averaged (init_average_lifts), which shortens motion along the views' depth
+// axes, so the moving seeds' speeds come out lower than the least-squares fit's.
+TEST(Initialize, PapersReadingsOfTheInitialMotion) {
+  test::TempDir dir;
+  const RepeatedGround g = repeated_ground(dir / "scene");
+  std::string note;
+  const model::Primitives fitted = initialize(g.set, {}, note);
+  InitOptions mean;
+  mean.mean_velocity = true;
+  const model::Primitives straight = initialize(g.set, mean, note);
+  std::size_t curved = 0;
+  for (std::size_t i = 0; i < straight.size(); ++i) {
+    const float* v = &straight.velocity[9 * i];
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_EQ(v[a], v[3 + a]) << i;
+      ASSERT_EQ(v[6 + a], v[3 + a]) << i;
+    }
+    const float* w = &fitted.velocity[9 * i];
+    curved += w[0] != w[3] || w[6] != w[3];
+  }
+  EXPECT_GT(curved, 1000u);  // the project's seeds differ there
+  InitOptions average;
+  average.average_lifts = true;
+  // The mean speed v2 of the seeds of one interval (the moving ones).
+  const auto mean_speed = [](const model::Primitives& p) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (p.tau_l[i] + p.tau_r[i] > 1.5f) continue;
+      sum += Eigen::Map<const Eigen::Vector3f>(&p.velocity[9 * i + 3]).norm();
+      ++n;
+    }
+    return sum / double(n);
+  };
+  const double speed_fitted = mean_speed(fitted);
+  const double speed_lifted = mean_speed(initialize(g.set, average, note));
+  EXPECT_LT(speed_lifted, 0.95 * speed_fitted) << speed_lifted << " vs " << speed_fitted;
+}
+
 TEST(Initialize, RandomFallbackWithoutPointsIsStated) {
   test::TempDir dir;
   minimal_scene(dir / "scene", 3, 48, 36);

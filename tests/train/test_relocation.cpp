@@ -50,7 +50,7 @@ TEST(Relocation, KeepsCountCopiesEveryFieldAndRevivesDeadSlots) {
   model::Primitives p = scene(1);
   p.tau_r[250] = 7;  // a distinctive temporal window, to see that temporal fields are copied
   std::mt19937_64 rng(3);
-  const Relocation r = relocate(p, model::Representation::kRetime, 0.01, rng);
+  const Relocation r = relocate(p, RelocationScore::kOpacityTimesDuration, 0.01, rng);
   EXPECT_EQ(p.size(), 300u);
   EXPECT_EQ(r.moved, 40u);
   for (std::size_t i = 0; i < p.size(); ++i) EXPECT_GT(model::sigmoid(p.opacity_logit[i]), 0.01f);
@@ -76,7 +76,7 @@ TEST(Relocation, KeepsCountCopiesEveryFieldAndRevivesDeadSlots) {
     t.opacity_logit[2] = -10;  // one dead slot
     t.copy_row(2, t, 2);
     std::mt19937_64 r2(trial);
-    relocate(t, model::Representation::kRetime, 0.01, r2);
+    relocate(t, RelocationScore::kOpacityTimesDuration, 0.01, r2);
     long_drawn += t.tau_r[2] == 7.0f;
   }
   EXPECT_NEAR(long_drawn / 2000.0, 0.8, 0.03);
@@ -104,12 +104,12 @@ TEST(Relocation, PreservesTheRenderedImageToFirstOrder) {
   const model::Primitives before = scene(7);
   model::Primitives corrected = before;
   std::mt19937_64 rng(11);
-  relocate(corrected, model::Representation::kRetime, 0.01, rng);
+  relocate(corrected, RelocationScore::kOpacityTimesDuration, 0.01, rng);
   // Same draws without the correction: copy the sources as they were.
   model::Primitives naive = before;
   std::mt19937_64 rng2(11);
   model::Primitives scratch = before;
-  const Relocation r = relocate(scratch, model::Representation::kRetime, 0.01, rng2);
+  const Relocation r = relocate(scratch, RelocationScore::kOpacityTimesDuration, 0.01, rng2);
   for (std::size_t k = 0; k < r.moved; ++k)
     naive.copy_row(r.touched[k], before, r.touched[r.moved + k]);
   const Image reference = render(before);
@@ -121,12 +121,36 @@ TEST(Relocation, PreservesTheRenderedImageToFirstOrder) {
 TEST(Relocation, GrowthTowardTheCap) {
   model::Primitives p = scene(2);
   std::mt19937_64 rng(5);
-  const Relocation r = grow(p, model::Representation::kRetime, 310, 1.05, 0.01, rng);
+  const Relocation r = grow(p, RelocationScore::kOpacityTimesDuration, 310, 1.05, 0.01, rng);
   EXPECT_EQ(p.size(), 310u);  // min(cap, floor(1.05 * 300) = 315)
   EXPECT_EQ(r.added, 10u);
-  const Relocation none = grow(p, model::Representation::kRetime, 310, 1.05, 0.01, rng);
+  const Relocation none = grow(p, RelocationScore::kOpacityTimesDuration, 310, 1.05, 0.01, rng);
   EXPECT_EQ(none.added, 0u);
   EXPECT_EQ(p.size(), 310u);
+}
+
+// Growth draws its sources by the score: of primitives alike but for their duration (1 or 8
+// frames), the project's σ·(τ_l+τ_r) draws the long ones 8 times as often, the paper's
+// σ/(τ_l+τ_r) the short ones, σ alone both alike.
+TEST(Relocation, SourcesAreDrawnByTheScore) {
+  const std::pair<RelocationScore, double> expected_short_share[] = {
+      {RelocationScore::kOpacityTimesDuration, 1.0 / 9},
+      {RelocationScore::kOpacityPerDuration, 8.0 / 9},
+      {RelocationScore::kOpacity, 0.5}};
+  for (const auto& [score, share] : expected_short_share) {
+    model::Primitives p;
+    p.resize(2000);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      p.q0[4 * i] = 1;
+      p.tau_l[i] = p.tau_r[i] = i % 2 ? 4.0f : 0.5f;
+    }
+    std::mt19937_64 rng(7);
+    const Relocation r = grow(p, score, 4000, 2.0, 0.01, rng);
+    ASSERT_EQ(r.added, 2000u);
+    std::size_t short_ones = 0;
+    for (std::size_t i = 2000; i < p.size(); ++i) short_ones += p.tau_l[i] == 0.5f;
+    EXPECT_NEAR(double(short_ones) / 2000, share, 0.04) << int(score);
+  }
 }
 
 // Rows 0..9 (faint) are left out of the set: they do not move.

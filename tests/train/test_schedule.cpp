@@ -27,9 +27,8 @@ TEST(Schedule, TripleRenderingAtInteriorFramesOnly) {
     EXPECT_TRUE(passes[0].group == Group::kAll && !passes[0].compensate && passes[0].flow);
   }
   EXPECT_EQ(render_passes(config, Representation::kStgs, 2, 5, false).size(), 1u);
-  TrainConfig no_triple;
-  no_triple.ablate.no_triple = true;
-  EXPECT_EQ(render_passes(no_triple, Representation::kRetime, 2, 5, true).size(), 1u);
+  for (const auto& passes : {interior, render_passes(config, Representation::kRetime, 2, 5, false)})
+    for (const RenderPass& pass : passes) EXPECT_TRUE(pass.image) << "every render's image loss";
 }
 
 TEST(Schedule, FlowWeightDecaysLogLinearlyThenStays) {
@@ -43,6 +42,22 @@ TEST(Schedule, FlowWeightDecaysLogLinearlyThenStays) {
   EXPECT_NEAR(flow_weight(config, Representation::kRetime, 1200), 1e-6, 1e-15);
   config.ablate.no_flow_loss = true;
   EXPECT_EQ(flow_weight(config, Representation::kRetime, 0), 0.0);
+}
+
+// The paper's reading (flow_hold): 0.5 until flow_decay_until, then exponential to 1e-6 at the
+// last iteration.
+TEST(Schedule, FlowWeightHeldThenDecaysToTheEnd) {
+  TrainConfig config;
+  config.flow_hold = true;
+  EXPECT_DOUBLE_EQ(flow_weight(config, Representation::kRetime, 1), 0.5);
+  EXPECT_DOUBLE_EQ(flow_weight(config, Representation::kRetime, 12000), 0.5);
+  EXPECT_NEAR(flow_weight(config, Representation::kRetime, 16000), std::sqrt(0.5 * 1e-6), 1e-12);
+  EXPECT_NEAR(flow_weight(config, Representation::kRetime, 20000), 1e-6, 1e-15);
+  config.iters = 2000;  // scaled: held until 1 200
+  EXPECT_DOUBLE_EQ(flow_weight(config, Representation::kRetime, 1200), 0.5);
+  EXPECT_NEAR(flow_weight(config, Representation::kRetime, 1600), std::sqrt(0.5 * 1e-6), 1e-12);
+  config.ablate.no_flow_loss = true;
+  EXPECT_EQ(flow_weight(config, Representation::kRetime, 1), 0.0);
 }
 
 TEST(Schedule, RatesAndShDegree) {

@@ -94,6 +94,74 @@ TEST(Trainer, StepViewStagesAndExplicitPrimitives) {
   test::expect_error([&] { given.step_view(0, -1); }, {"no view"});
 }
 
+// At an interior frame the no-triple ablation's step has the full recipe's flow loss (the same
+// group renders) and the image loss of the all-primitives render alone (that of a step with no
+// flow loss either, which renders nothing else).
+TEST(Trainer, NoTripleStepKeepsTheGroupsFlowLossAndDropsTheirImageLoss) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);
+  TrainConfig full;
+  full.iters = 40;
+  full.cap = 1500;
+  TrainConfig no_triple = full, all_only = full;
+  no_triple.ablate.no_triple = true;
+  all_only.ablate.no_triple = all_only.ablate.no_flow_loss = true;
+  CpuStep first(set, full);
+  first.initialize();
+  std::vector<StepStats> stats;
+  for (const TrainConfig& config : {full, no_triple, all_only}) {
+    CpuStep step(set, config);
+    step.initialize(first.model().primitives);
+    stats.push_back(step.step_view(1, 1));  // frame slot 1 of 0, 2, 4: interior
+  }
+  EXPECT_EQ(stats[0].renders, 3);
+  EXPECT_EQ(stats[1].renders, 3);
+  EXPECT_EQ(stats[2].renders, 1);
+  EXPECT_GT(stats[0].flow_loss, 0);
+  EXPECT_EQ(stats[1].flow_loss, stats[0].flow_loss);
+  EXPECT_EQ(stats[1].image_loss, stats[2].image_loss);
+  EXPECT_LT(stats[1].image_loss, stats[0].image_loss);
+  EXPECT_EQ(stats[1].psnr, stats[0].psnr);
+}
+
+// tie_end_velocities: after a step at the clip's first (last) frame, the primitives of the first
+// (last) interval have v1 = v2 (v3 = v2); without it v2 learns and v1 (v3) stays where the
+// initialisation put it, on the initial v2.
+TEST(Trainer, TieEndVelocitiesKeepsTheEndsOnV2) {
+  test::TempDir dir;
+  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  const TrainingSet set = load_training_set(scene, io::FrameSelection::kEven);  // 0, 2, 4
+  for (const bool tie : {false, true}) {
+    TrainConfig config;
+    config.iters = 40;
+    config.cap = 1500;
+    config.tie_end_velocities = tie;
+    CpuStep step(set, config);
+    step.initialize();
+    step.step_view(0, 0);
+    step.step_view(1, 2);
+    const model::Primitives& p = step.model().primitives;
+    std::size_t first = 0, last = 0, first_tied = 0, last_tied = 0;
+    for (std::size_t r = 0; r < p.size(); ++r) {
+      const float* v = &p.velocity[9 * r];
+      const bool v1_tied = std::equal(v, v + 3, v + 3), v3_tied = std::equal(v + 6, v + 9, v + 3);
+      if (p.tau_l[r] != 1.0f || p.tau_r[r] != 1.0f) continue;  // still content spans more
+      if (p.mu_tau[r] == 1.0f) ++first, first_tied += v1_tied;
+      if (p.mu_tau[r] == 3.0f) ++last, last_tied += v3_tied;
+    }
+    ASSERT_GT(first, 100u);
+    ASSERT_GT(last, 100u);
+    if (tie) {
+      EXPECT_EQ(first_tied, first);
+      EXPECT_EQ(last_tied, last);
+    } else {
+      EXPECT_LT(first_tied, first);
+      EXPECT_LT(last_tied, last);
+    }
+  }
+}
+
 // A step changes only the rows of its active set, the temporal index's rows at its frame (the
 // first step neither relocates nor stretches); the STGS baseline's set is every row.
 TEST(Trainer, AStepChangesOnlyItsActiveRows) {

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "retimegs/cuda/primitives.hpp"
+#include "retimegs/model/trajectory.hpp"
 
 namespace retimegs::cuda {
 
@@ -18,5 +19,9 @@ namespace retimegs::cuda {
 // (key = rng(), one per call), so that a run draws the same numbers on either device.
 void inject_noise(DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
                   double lr_means, std::uint64_t key);
+
+// model::tie_end_velocities on rows[0, count) (device, int32), as the CPU step applies it.
+void tie_end_velocities(DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
+                        const model::EndTie<float>& tie);
 
 }  // namespace retimegs::cuda

@@ -70,6 +70,24 @@ RETIMEGS_HD TrajectoryCoefficients<T> trajectory_at(Representation representatio
   return c;
 }
 
+// The clip's ends for tie_end_velocities: Δt/2, the first and last training times, ε (frames).
+template <typename T>
+struct EndTie {
+  T half, first, last, epsilon;
+};
+
+// The paper's fallback where an interval has no neighbour, kept through training (the training
+// config's tie_end_velocities): a primitive whose own interval [μ_τ - Δt/2, μ_τ + Δt/2] starts at
+// the clip's first training time takes v1 := v2, one whose interval ends at the last v3 := v2.
+// v [3, 3].
+template <typename T>
+RETIMEGS_HD void tie_end_velocities(const EndTie<T>& tie, T mu_tau, T* v) {
+  if (mu_tau - tie.half <= tie.first + tie.epsilon)
+    for (int a = 0; a < 3; ++a) v[a] = v[3 + a];
+  if (mu_tau + tie.half >= tie.last - tie.epsilon)
+    for (int a = 0; a < 3; ++a) v[6 + a] = v[3 + a];
+}
+
 // x = μ + Σ coef_j v_j.   mu [3], v [3, 3] (row j = v_{j+1}).
 template <typename T>
 RETIMEGS_HD void apply_trajectory(const TrajectoryCoefficients<T>& c, const T* mu, const T* v,

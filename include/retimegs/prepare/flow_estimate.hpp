@@ -1,6 +1,7 @@
 #pragma once
-// Built-in dense optical flow for `retimegs prepare` (OpenCV): DIS (default), DeepFlow and TV-L1,
-// and the forward-backward consistency check that marks occluded / unreliable pixels unknown.
+// Built-in dense optical flow for `retimegs prepare` (OpenCV and opencv_contrib's optflow), and
+// the forward-backward consistency check that marks occluded / unreliable pixels unknown.
+// bench/flow_bench.cpp measures every method against data/flow's ground truth (bench/README.md).
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -10,14 +11,27 @@
 namespace retimegs::prepare {
 
 enum class FlowMethod {
-  kDis,       // DIS (Kroeger et al. 2016), MEDIUM at full resolution, patch stride 2
-  kDeepFlow,  // DeepFlow (Weinzaepfel et al. 2013), opencv_contrib optflow defaults
-  kTvl1,      // Dual TV-L1 (Zach et al. 2007), opencv_contrib optflow defaults
+  kDis,               // DIS (Kroeger et al. 2016), MEDIUM at full resolution, patch stride 2
+  kDisUltrafast,      // DIS, OpenCV's ULTRAFAST preset as it is
+  kDisFast,           // DIS, FAST preset
+  kDisMedium,         // DIS, MEDIUM preset
+  kDisUltrafastFine,  // ULTRAFAST down to full resolution, with variational refinement
+  kDisFastFine,       // FAST down to full resolution
+  kDeepFlow,          // DeepFlow (Weinzaepfel et al. 2013), opencv_contrib optflow defaults
+  kTvl1,              // Dual TV-L1 (Zach et al. 2007), opencv_contrib optflow defaults
+  kRlof,              // dense RLOF (Senst et al. 2012), optflow defaults, on the colour image
+  kPcaFlow,           // PCA-Flow (Wulff & Black 2015), optflow defaults
+  kFarneback,         // Farnebäck (2003), OpenCV video defaults
 };
 
-// "dis" | "deepflow" | "tvl1"; throws Error naming `flag` and the value otherwise.
-FlowMethod parse_flow_method(const std::string& name, const std::string& flag = "--flow");
+// Every method, in FlowMethod's order.
+const std::vector<FlowMethod>& flow_methods();
+// Its name on the command line ("dis", "dis-fast", "rlof", ...).
 const char* flow_method_name(FlowMethod method);
+// "dis, dis-ultrafast, ...", for help texts and errors.
+std::string flow_method_names();
+// The method of `name`; throws Error naming `flag`, the value and the names otherwise.
+FlowMethod parse_flow_method(const std::string& name, const std::string& flag = "--flow");
 
 // The 8-bit grey image every estimator sees: RGB in [0, 1] rounded to 8 bits, then OpenCV's
 // cvtColor(RGB2GRAY) (0.299 R + 0.587 G + 0.114 B), the reference conversion of the yardsticks
@@ -29,6 +43,15 @@ std::vector<unsigned char> to_gray8(const Image& image);
 // (x + u, y + v) in `to`. Every pixel is valid. Single-threaded or OpenCV-parallel depending on
 // cv::getNumThreads() of the caller.
 Flow estimate_flow(const Image& from, const Image& to, FlowMethod method = FlowMethod::kDis);
+
+// A flow against ground truth over the pixels where `mask` is set (non-zero): the mean end-point
+// error in pixels, and the share of outliers, KITTI's Fl (an end-point error above 3 px and above
+// 5 % of the true motion's length).
+struct FlowErrors {
+  double epe = 0, outliers = 0;
+  std::size_t pixels = 0;
+};
+FlowErrors flow_errors(const Flow& flow, const Flow& truth, const std::vector<unsigned char>& mask);
 
 // Forward-backward consistency (Sundaram, Brox & Keutzer, "Dense point trajectories by
 // GPU-accelerated large displacement optical flow", ECCV 2010, eq. 5; the same test with

@@ -48,6 +48,10 @@ struct TrainConfig {
   int lr_decay_start = 18000;
   double lr_decay_final = 0.1;
   int flow_decay_until = 12000;
+  // The paper's reading of its flow schedule: held at flow_weight_start until flow_decay_until,
+  // then exponential to flow_weight_end at the last iteration. false: exponential from iteration
+  // 0, reaching flow_weight_end at flow_decay_until (docs/method.md, "Departures from the paper").
+  bool flow_hold = false;
   int relocate_every = 100, relocate_start = 500, relocate_stop = 25000;
   int stretch_every = 3000;
 
@@ -67,8 +71,16 @@ struct TrainConfig {
   // Model.
   double gamma = 0.005;
 
+  // Flow-aware initialisation: the paper's readings (true) or the project's (docs/method.md).
+  bool init_average_lifts = false;  // 3-D displacement: mean of the per-view lifts at the depth
+  bool init_mean_velocity = false;  // v1 = v2 = v3 = the mean of both displacements
+  // The paper's fallback at the clip's ends kept through training: v1 of the clip's first interval
+  // and v3 of its last follow v2 after every step.
+  bool tie_end_velocities = false;
+
   // MCMC.
   std::size_t cap = 200000;
+  bool relocate_per_duration = false;  // relocation score σ/(τ_l+τ_r) (paper); false: σ·(τ_l+τ_r)
   double min_opacity = 0.01, growth = 1.05;
   double final_prune_opacity = 0.03;
   double init_opacity = 0.1;
@@ -114,9 +126,10 @@ struct ConfigKey {
 // Every key, in the order of the documentation.
 std::span<const ConfigKey> config_keys();
 
-// Budget presets of `train --preset`: iterations and primitive budget, fast to quality.
-// `default` is TrainConfig's own iters and cap (the paper's 20 000 steps). Returns `config` with
-// the preset's values; throws Error naming `flag` on an unknown name.
+// Presets of `train --preset`: iterations and primitive budget, fast to quality; `default` is
+// TrainConfig's own iters and cap (the paper's 20 000 steps), `paper` the default budget with the
+// paper's readings (the keys of "The paper's readings" and ablate.no_static_init). Returns `config`
+// with the preset's values; throws Error naming `flag` on an unknown name.
 TrainConfig with_preset(TrainConfig config, const std::string& name, const std::string& flag);
 // "fast (5000 iterations, cap 100000), default (...), ...", for help texts and errors.
 std::string describe_presets();

@@ -12,7 +12,9 @@
 namespace retimegs::train {
 
 struct InitOptions {
-  bool use_flow = true;  // false: the no-flow-init ablation (zero velocities, points unmoved)
+  // false: the no-flow-init ablation: zero velocities, points unmoved; static content is still
+  // found from the flows as with true, so that the ablation changes the motion alone.
+  bool use_flow = true;
   model::Representation representation = model::Representation::kRetime;
   std::size_t max_primitives = 100000;  // subsampled (deterministically) above this
   double initial_opacity = 0.1;
@@ -24,7 +26,15 @@ struct InitOptions {
   bool static_once = true;
   double stretch_color = TrainConfig{}.stretch_color;
   double stretch_speed = TrainConfig{}.stretch_speed;
+  // The paper's readings (TrainConfig's init_average_lifts, init_mean_velocity): each 3-D
+  // displacement the mean of the per-view lifts at the point's depth; v1 = v2 = v3 = the mean of
+  // the forward and the negated backward displacement, the seeds moved by it.
+  bool average_lifts = false, mean_velocity = false;
 };
+
+// The initialisation a training run with `config` makes: its ablations, budget, opacity, seed and
+// static-content thresholds.
+InitOptions init_options(const TrainConfig& config, model::Representation representation);
 
 // 3-D forward / backward displacement of point X (frame slot i) from the flows of every camera
 // that sees it unoccluded (z-test against the cloud's own depth map): the flow is sampled at X's

@@ -1,11 +1,11 @@
 #pragma once
 // MCMC relocation and growth (3DGS-MCMC Eq. 9 as gsplat's MCMCStrategy implements it;
 // docs/method.md) adapted to 4D primitives: dead slots (σ <= min_opacity) take copies of live
-// primitives drawn ∝ the sampling score σ · (τ_l + τ_r), the primitive's opacity mass over time (σ
-// for the STGS baseline), with the opacity / scale correction that keeps the rendered image
-// unchanged to first order; every parameter is copied, the temporal ones too.
+// primitives drawn ∝ a sampling score (RelocationScore), with the opacity / scale correction that
+// keeps the rendered image unchanged to first order; every parameter is copied, the temporal ones
+// too.
 //
-// The score departs from the paper (σ / (τ_l + τ_r)). 3DGS-MCMC treats the
+// The project's score departs from the paper's (σ / (τ_l + τ_r)). 3DGS-MCMC treats the
 // primitives as samples of the scene's opacity and draws new ones where that mass is; in space-time
 // a primitive's mass is σ times the time it is visible, and a slot spent on static content serves
 // every frame it spans while a slot spent on one interval serves that interval only. Dividing by
@@ -18,6 +18,13 @@
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
+
+// What a live primitive's chance to be copied is proportional to.
+enum class RelocationScore {
+  kOpacity,               // σ: the STGS baseline
+  kOpacityTimesDuration,  // σ · (τ_l + τ_r), its opacity mass over time: the project's
+  kOpacityPerDuration,    // σ / (τ_l + τ_r): the paper's (relocate_per_duration)
+};
 
 constexpr int kMaxCopies = 51;  // gsplat n_max: ratios are clamped to [1, 51]
 
@@ -32,12 +39,12 @@ struct Relocation {
 void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_factor);
 
 // Moves every dead primitive (σ <= min_opacity) onto a live one sampled with replacement ∝ score.
-Relocation relocate(model::Primitives& primitives, model::Representation representation,
-                    double min_opacity, std::mt19937_64& rng);
+Relocation relocate(model::Primitives& primitives, RelocationScore score, double min_opacity,
+                    std::mt19937_64& rng);
 
 // Appends copies so that the count becomes min(cap, floor(growth · N)), sources sampled ∝ score.
-Relocation grow(model::Primitives& primitives, model::Representation representation,
-                std::size_t cap, double growth, double min_opacity, std::mt19937_64& rng);
+Relocation grow(model::Primitives& primitives, RelocationScore score, std::size_t cap,
+                double growth, double min_opacity, std::mt19937_64& rng);
 
 // 3DGS-MCMC noise: μ += Σ ε · sigmoid(-100 (σ - 0.005)) · lr_means · 5e5, Σ = R diag(e^s)² Rᵀ,
 // on the ascending `rows` only: a training step perturbs the primitives visible at its time, those

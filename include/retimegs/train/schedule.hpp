@@ -11,21 +11,26 @@
 
 namespace retimegs::train {
 
-// One render of a step's view: triple rendering renders all primitives, then each group
-// compensated (flow on the groups); otherwise all primitives once.
+// One render of a step's view and the losses on it: `image` the image loss, `flow` the flow loss.
+// Triple rendering renders all primitives, then each group compensated (image and flow losses on
+// the groups); otherwise all primitives once.
 struct RenderPass {
   model::Group group;
-  bool compensate, flow;
+  bool compensate, image, flow;
 };
 
-// Triple at interior frames (frame slot i of `frames`), one render at the ends and for STGS or
-// the no_triple ablation; `flow`: the flow loss is on at this step.
+// Triple at interior frames (frame slot i of `frames`), one render at the ends and for STGS;
+// `flow`: the flow loss is on at this step. The no_triple ablation drops the image loss of the
+// group renders only (the paper's row: triple rendering is their image loss; their flow
+// supervision stays), so a group render is made only while the flow loss is on.
 std::vector<RenderPass> render_passes(const TrainConfig& config,
                                       model::Representation representation, int i, int frames,
                                       bool flow);
 
 // The flow loss weight at iteration `it`: log-linear from flow_weight_start to flow_weight_end
-// until flow_decay_until (scaled), then constant; 0 for STGS and the no_flow_loss ablation.
+// until flow_decay_until (scaled), then constant; with flow_hold, flow_weight_start until
+// flow_decay_until, then log-linear to flow_weight_end at the last iteration. 0 for STGS and the
+// no_flow_loss ablation.
 double flow_weight(const TrainConfig& config, model::Representation representation, int it);
 
 // The factor of every learning rate: 1 until lr_decay_start (scaled), then exponential down to

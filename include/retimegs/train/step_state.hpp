@@ -7,6 +7,7 @@
 // checkpoints, strategy calls and the end.
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -15,6 +16,7 @@
 #include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/temporal_index.hpp"
+#include "retimegs/model/trajectory.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -57,6 +59,11 @@ class StepState {
   // Adam step of slot c's correction on its gradient (then zeroed), then the gauge rule; writes
   // every correction into the model.
   void step_camera_color(int c, double decay);
+  // The clip's ends for model::tie_end_velocities, which each step applies to its active rows
+  // after the optimiser step; none without tie_end_velocities and for STGS. Nothing supervises v1
+  // of the clip's first interval nor v3 of its last (no flow leads out of the clip), so without
+  // the tie they keep their initial values while v2 learns.
+  std::optional<model::EndTie<float>> end_tie() const;
 
   model::Model model;
   Optimizers adam;
