@@ -63,8 +63,10 @@ void add_render_command(CLI::App& app) {
       "model's colours");
   camera_path->check(input_file("a camera path"));
   camera_path->excludes(camera)->excludes(path_option);
-  auto* time = cmd->add_option("--time", args->shot.time,
-                               "one time, in scene frame units, within the model's time range");
+  auto* time =
+      cmd->add_option("--time", args->shot.time,
+                      "one time, in scene frame units, within the model's time range (a static "
+                      ".ply needs none)");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
   auto* slowmo = cmd->add_option("--slowmo", args->shot.slowmo,
                                  "F frames per scene-frame interval over the model's time "
