@@ -428,5 +428,13 @@ TEST_F(BadInputCli, WindowMergeSlurmViewAndWebCasesExitTwoInOneLineAndLeaveNothi
   run_cases(root_->path(), cases);
 }
 
+// Mistakes on the own-capture path (issue 43), named in the user's words.
+TEST_F(BadInputCli, OwnCaptureMistakesAreNamedInTheUsersWords) {
+  const std::vector<Case> cases = {
+      {"sheet" + kScene + " --out {D}/sheet.jpg", {"--out {D}/sheet.jpg", "ending in .png"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
 }  // namespace
 }  // namespace retimegs
