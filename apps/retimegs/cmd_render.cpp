@@ -1,7 +1,8 @@
 // retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
 //                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
 // retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
-//   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--force]
+//   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--exr half|float]
+//   [--force]
 //   [--device cpu|cuda|auto] [--threads T]
 #include <cmath>
 #include <memory>
@@ -37,6 +38,7 @@ void add_render_command(CLI::App& app) {
     std::optional<double> scale, fps;
     bool alpha = false;
     int bit_depth = 8;
+    std::string exr;
     std::string device = "cpu";
   };
   auto args = std::make_shared<Args>();
@@ -64,8 +66,10 @@ void add_render_command(CLI::App& app) {
       "model's colours");
   camera_path->check(input_file("a camera path"));
   camera_path->excludes(camera)->excludes(path_option);
-  auto* time = cmd->add_option("--time", args->shot.time,
-                               "one time, in scene frame units, within the model's time range");
+  auto* time =
+      cmd->add_option("--time", args->shot.time,
+                      "one time, in scene frame units, within the model's time range (a static "
+                      ".ply needs none)");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
   auto* slowmo = cmd->add_option("--slowmo", args->shot.slowmo,
                                  "F frames per scene-frame interval over the model's time "
@@ -82,8 +86,8 @@ void add_render_command(CLI::App& app) {
                   "frames of a --path move at a fixed --time (bullet time)")
       ->capture_default_str();
   cmd->add_option("--out", args->out,
-                  "output: x.png (one frame), x.mp4 / x.mov / x.mkv (H.264), x.avi (Motion-JPEG) "
-                  "or a folder of PNGs with times.csv")
+                  "output: x.png or x.exr (one frame), x.mp4 / x.mov / x.mkv (H.264), x.avi "
+                  "(Motion-JPEG) or a folder of PNGs (EXRs with --exr) with times.csv")
       ->required();
   cmd->add_option("--fps", args->fps,
                   "frame rate of a video (default: the scene's; a --camera-path file's own)");
@@ -94,10 +98,15 @@ void add_render_command(CLI::App& app) {
                                 "render at the camera's size times S, rounded (intrinsics scaled)");
   size->excludes(scale);
   cmd->add_flag("--alpha", args->alpha,
-                "PNG outputs: RGBA, straight colour and alpha = the render's opacity");
+                "image outputs: RGBA, alpha = the render's opacity (PNG: straight colour; EXR: "
+                "premultiplied)");
   cmd->add_option("--bit-depth", args->bit_depth, "PNG outputs: 8 or 16 bits per channel")
       ->check(CLI::IsMember({8, 16}))
       ->capture_default_str();
+  cmd->add_option("--exr", args->exr,
+                  "OpenEXR frames, half or 32-bit float per channel, unclamped (alpha "
+                  "premultiplied): a folder of EXRs, or x.exr (half by default)")
+      ->check(CLI::IsMember({"half", "float"}));
   cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
       ->capture_default_str();
   add_near_option(*cmd, args->near);
@@ -137,6 +146,9 @@ void add_render_command(CLI::App& app) {
     writer_options.fps = args->fps.value_or(shot.fps);  // a video's: the source's by default
     writer_options.alpha = args->alpha;
     writer_options.bit_depth = args->bit_depth;
+    if (!args->exr.empty())
+      writer_options.exr =
+          args->exr == "float" ? media::ExrPrecision::kFloat : media::ExrPrecision::kHalf;
     writer_options.times = shot.times;
     writer_options.force = args->force;
     const std::size_t frames = shot.times.size();

@@ -1,4 +1,5 @@
 // retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST] [--renders DIRS]
+#include <filesystem>
 #include <memory>
 
 #include <spdlog/spdlog.h>
@@ -6,11 +7,13 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/error.hpp"
 #include "retimegs/eval/contact_sheet.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
 
 namespace retimegs::app {
+namespace fs = std::filesystem;
 
 void add_sheet_command(CLI::App& app) {
   struct Args {
@@ -40,6 +43,9 @@ void add_sheet_command(CLI::App& app) {
         inputs.push_back({dir, "render folder", true});
     check_output_overlap(args->out, "--out", inputs);
     check_output_free(args->out, args->force);
+    if (fs::path(args->out).extension() != ".png")
+      fail("--out {}: the contact sheet is a PNG image; give a file name ending in .png",
+           args->out);
     const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
     eval::SheetOptions options;
     options.tile_width = args->tile_width;

@@ -1,7 +1,8 @@
 // retimegs train --scene SCENE --out RUN [--train-frames even|all]
 //                [--preset fast|default|quality|paper] [--iters N] [--cap N] [--config FILE]
 //                [--ablate LIST] [--baseline stgs]
-//                [--seed S] [--threads T] [--device cpu|cuda|auto] [--window A:B] [--resume]
+//                [--seed S] [--threads T] [--device cpu|cuda|auto] [--window A:B] [--downscale F]
+//                [--resume]
 #include <fstream>
 #include <memory>
 #include <optional>
@@ -26,6 +27,7 @@ void add_train_command(CLI::App& app) {
     std::optional<std::uint64_t> seed;
     std::string device = "cpu";
     int threads = 0;
+    double downscale = 1.0;
     bool resume = false, force = false;
   };
   auto args = std::make_shared<Args>();
@@ -58,6 +60,10 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--window", args->window,
                   "A:B: train only scene frames A..B (training frames; their flows and points), "
                   "a window of a long clip for `retimegs merge`");
+  cmd->add_option("--downscale", args->downscale,
+                  "train on the images at 1/F of their size (intrinsics, masks and flows follow; "
+                  "gsplat's --data_factor); the model renders at any size")
+      ->capture_default_str();
   add_device_option(*cmd, args->device);
   auto* resume = cmd->add_flag("--resume", args->resume, "continue RUN from its latest checkpoint");
   cmd->add_flag("--force", args->force,
@@ -79,6 +85,7 @@ void add_train_command(CLI::App& app) {
     run.iters = args->iters;
     run.force = args->force;
     run.device = cuda::resolve_device(args->device);
+    run.downscale = args->downscale;
     run.frames = io::parse_frame_selection(args->frames, "--train-frames");
     if (!args->window.empty()) run.window = io::parse_frame_window(args->window, "--window");
     train::TrainConfig& config = run.config;

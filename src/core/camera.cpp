@@ -1,5 +1,6 @@
 #include "retimegs/core/camera.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "retimegs/core/error.hpp"
@@ -14,6 +15,18 @@ Camera resized(Camera camera, int width, int height) {
   camera.fx *= sx, camera.cx *= sx, camera.fy *= sy, camera.cy *= sy;
   camera.width = width, camera.height = height;
   return camera;
+}
+
+void check_downscale(double downscale) {
+  if (!(downscale >= 1.0) || !std::isfinite(downscale))
+    fail("--downscale: must be a finite number >= 1, got {}", downscale);
+}
+
+Camera downscaled(Camera camera, double downscale) {
+  check_downscale(downscale);
+  const int width = std::max(1, int(std::lround(camera.width / downscale)));
+  const int height = std::max(1, int(std::lround(camera.height / downscale)));
+  return resized(std::move(camera), width, height);
 }
 
 Eigen::Matrix4d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,

@@ -15,6 +15,7 @@
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/media/resize.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -57,7 +58,7 @@ std::vector<std::string> camera_names(const std::vector<io::ColmapImage>& images
 
 void import_colmap(const fs::path& source, const fs::path& out, const ImportOptions& options) {
   if (!fs::is_directory(source)) fail("{}: COLMAP source folder does not exist", source.string());
-  detail::check_downscale(options.downscale);
+  check_downscale(options.downscale);
   if (options.first_frame != 0 || options.last_frame > 0)
     fail("--frames: a COLMAP model is one static frame (0:0), got {}:{}", options.first_frame,
          options.last_frame);
@@ -86,7 +87,7 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
     cam.name = names[i];
     cam.world_to_camera = im.world_to_camera();
     check_rigid(cam.world_to_camera, fmt::format("{}: image {}", model_dir.string(), im.name));
-    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+    scene.cameras.push_back(downscaled(cam, options.downscale));
     const fs::path file = image_dir / im.name;
     if (!fs::is_regular_file(input_status(file)))
       fail("{}: missing image of the COLMAP model", file.string());
@@ -106,9 +107,9 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
           fail("{}: image is {}x{} but COLMAP camera {} is {}x{}", file.string(), image.width,
                image.height, im.camera_id, source_camera.width, source_camera.height);
         const Camera& cam = scene.cameras[i];
-        media::write_png(scene.image_path(int(i), 0),
-                         detail::resize_area(undistorters.at(im.camera_id)->apply(image), cam.width,
-                                             cam.height));
+        media::write_png(
+            scene.image_path(int(i), 0),
+            media::resize_area(undistorters.at(im.camera_id)->apply(image), cam.width, cam.height));
         progress.tick();
       });
   if (!model.points.empty()) io::write_points_ply(scene.points_path(0), model.point_cloud());

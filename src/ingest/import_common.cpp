@@ -30,27 +30,6 @@ std::pair<int, int> frame_range(const ImportOptions& options, int steps, const s
   return {first, last};
 }
 
-void check_downscale(double downscale) {
-  if (!(downscale >= 1.0) || !std::isfinite(downscale))
-    fail("--downscale: must be a finite number >= 1, got {}", downscale);
-}
-
-Camera downscaled(Camera cam, double downscale) {
-  const int width = std::max(1, int(std::lround(cam.width / downscale)));
-  const int height = std::max(1, int(std::lround(cam.height / downscale)));
-  return resized(std::move(cam), width, height);
-}
-
-Image resize_area(const Image& image, int width, int height) {
-  if (image.width == width && image.height == height) return image;
-  cv::Mat src(image.height, image.width, CV_32FC(image.channels),
-              const_cast<float*>(image.data.data()));
-  Image out(width, height, image.channels);
-  cv::Mat dst(height, width, CV_32FC(image.channels), out.data.data());
-  cv::resize(src, dst, dst.size(), 0, 0, cv::INTER_AREA);
-  return out;
-}
-
 Image from_bgr8(const cv::Mat& mat) {
   cv::Mat rgb;
   if (mat.channels() == 1)

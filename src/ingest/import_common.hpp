@@ -21,18 +21,9 @@ namespace retimegs::ingest::detail {
 // v as a finite double; throws Error "<file>: '<field>' must be a finite number, got <v>".
 double finite_number(const nlohmann::json& v, const std::string& file, const std::string& field);
 
-// The camera with its image size divided by `downscale` (rounded) and intrinsics scaled to match.
-Camera downscaled(Camera camera, double downscale);
-
 // The first and last source frame that --frames selects out of `steps` (last_frame < 0: to the
 // end); throws "--frames: A:B is outside the frames 0:N of <what>".
 std::pair<int, int> frame_range(const ImportOptions& options, int steps, const std::string& what);
-
-// Checks --downscale (finite, >= 1).
-void check_downscale(double downscale);
-
-// cv::INTER_AREA resize (identity when the size already matches).
-Image resize_area(const Image& image, int width, int height);
 
 // An 8-bit BGR / BGRA / grey OpenCV image -> RGB Image in [0, 1].
 Image from_bgr8(const cv::Mat& mat);

@@ -19,6 +19,7 @@
 #include "retimegs/io/npy.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/media/resize.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -32,7 +33,7 @@ constexpr int kPoseColumns = 17;  // 3x5 matrix + near + far
 void import_n3dv(const fs::path& source, const fs::path& out, const ImportOptions& options) {
   if (!fs::is_directory(source))
     fail("{}: Neural3DV source folder does not exist", source.string());
-  detail::check_downscale(options.downscale);
+  check_downscale(options.downscale);
 
   const fs::path poses_path = source / "poses_bounds.npy";
   const std::string poses_file = poses_path.string();
@@ -109,7 +110,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
     cam.fx = pose.f * sx, cam.fy = pose.f * sy;
     cam.cx = 0.5 * v.width, cam.cy = 0.5 * v.height;
     cam.split = (cam.name == "cam00" && count > 1) ? Split::kTest : Split::kTrain;
-    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+    scene.cameras.push_back(downscaled(cam, options.downscale));
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
@@ -133,7 +134,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
             fail("{}: frame {} is {}x{} but the video header says {}x{}", v.path.string(), k,
                  frame.cols, frame.rows, v.width, v.height);
           media::write_png(scene.image_path(int(c), k - first),
-                           detail::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
+                           media::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
           progress.tick();
         }
       });

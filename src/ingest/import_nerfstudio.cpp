@@ -38,6 +38,7 @@
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/media/resize.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -176,7 +177,7 @@ bool same_intrinsics(const io::ColmapCamera& a, const io::ColmapCamera& b) {
 }  // namespace
 
 void import_nerfstudio(const fs::path& source, const fs::path& out, const ImportOptions& options) {
-  detail::check_downscale(options.downscale);
+  check_downscale(options.downscale);
   const fs::path json_path =
       fs::is_directory(source) ? source / "transforms.json" : source;  // folder or the file
   const fs::path base = json_path.parent_path();
@@ -306,7 +307,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
     Camera cam = undistorters.back()->pinhole();
     cam.name = camera_names[c];
     cam.world_to_camera = e0.world_to_camera;
-    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+    scene.cameras.push_back(downscaled(cam, options.downscale));
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
@@ -323,7 +324,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
           fail("{}: image is {}x{} but {} says {}x{}", e.image.string(), image.width, image.height,
                file, e.intrinsics.width, e.intrinsics.height);
         media::write_png(scene.image_path(c, k),
-                         detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
+                         media::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
         // mask_path, else the alpha channel of an RGBA image (Blender renders).
         const std::optional<Image> mask =
             e.mask.empty() ? alpha_mask(e.image) : std::optional<Image>(media::read_mask(e.mask));
@@ -331,8 +332,8 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
           if (mask->width != image.width || mask->height != image.height)
             fail("{}: mask is {}x{} but its image is {}x{}", e.mask.string(), mask->width,
                  mask->height, image.width, image.height);
-          media::write_png(scene.mask_path(c, k), detail::resize_area(undistorters[c]->apply(*mask),
-                                                                      cam.width, cam.height));
+          media::write_png(scene.mask_path(c, k), media::resize_area(undistorters[c]->apply(*mask),
+                                                                     cam.width, cam.height));
         }
         progress.tick();
       });

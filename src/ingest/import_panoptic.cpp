@@ -16,6 +16,7 @@
 #include "retimegs/io/json_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/media/resize.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -114,7 +115,7 @@ std::vector<SourceCamera> read_meta(const fs::path& path, Split split) {
 
 void import_panoptic(const fs::path& source, const fs::path& out, const ImportOptions& options) {
   if (!fs::is_directory(source)) fail("{}: Panoptic source folder does not exist", source.string());
-  detail::check_downscale(options.downscale);
+  check_downscale(options.downscale);
   std::vector<SourceCamera> cams = read_meta(source / "train_meta.json", Split::kTrain);
   if (fs::exists(source / "test_meta.json")) {
     auto test = read_meta(source / "test_meta.json", Split::kTest);
@@ -143,8 +144,7 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
   scene.num_frames = last - first + 1;
   scene.fps = kPanopticFps;
   scene.up = {0, -1, 0};  // Panoptic world: floor at y = 0, people at y < 0
-  for (const auto& c : cams)
-    scene.cameras.push_back(detail::downscaled(c.camera, options.downscale));
+  for (const auto& c : cams) scene.cameras.push_back(downscaled(c.camera, options.downscale));
 
   // Check every source file before writing anything.
   struct Job {
@@ -174,14 +174,14 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
       fail("{}: image is {}x{} but the metadata says {}x{}", job.image.string(), image.width,
            image.height, cams[job.camera].camera.width, cams[job.camera].camera.height);
     media::write_png(scene.image_path(job.camera, job.frame),
-                     detail::resize_area(image, cam.width, cam.height));
+                     media::resize_area(image, cam.width, cam.height));
     if (!job.mask.empty()) {
       const Image mask = media::read_mask(job.mask);
       if (mask.width != image.width || mask.height != image.height)
         fail("{}: mask is {}x{} but its image is {}x{}", job.mask.string(), mask.width, mask.height,
              image.width, image.height);
       media::write_png(scene.mask_path(job.camera, job.frame),
-                       detail::resize_area(mask, cam.width, cam.height));
+                       media::resize_area(mask, cam.width, cam.height));
     }
     progress.tick();
   };

@@ -18,6 +18,7 @@
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/media/resize.hpp"
 
 namespace retimegs::ingest {
 namespace fs = std::filesystem;
@@ -158,7 +159,7 @@ std::string join(const std::vector<std::string>& names) {
 
 VideosReport import_videos(const fs::path& source, const fs::path& out,
                            const ImportOptions& options, const VideosOptions& videos) {
-  detail::check_downscale(options.downscale);
+  check_downscale(options.downscale);
   std::vector<Footage> footage = find_footage(source);
   std::vector<std::string> names;
   for (const Footage& f : footage) names.push_back(f.name);
@@ -225,11 +226,16 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
         std::find(test.begin(), test.end(), f.name) != test.end() ? Split::kTest : Split::kTrain;
     report.test_cameras += cam.split == Split::kTest;
     report.undistorted += !undistorters.back()->identity();
-    scene.cameras.push_back(detail::downscaled(cam, options.downscale));
+    scene.cameras.push_back(downscaled(cam, options.downscale));
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
   const int scene_start = lo + first;  // k of scene frame 0
+  for (std::size_t c = 0; c < footage.size(); ++c) {
+    const int source_first = scene_start + offsets[c];
+    scene.sources.push_back({footage[c].path.filename().string(), source_first,
+                             source_first + scene.num_frames - 1, offsets[c], footage[c].fps});
+  }
   AtomicDirectory dir(out, options.force);
   scene.root = dir.temp_path();
   const std::size_t total = footage.size() * std::size_t(scene.num_frames);
@@ -238,11 +244,11 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
       [&](std::size_t c, Progress& progress) {
         const Footage& f = footage[c];
         const Camera& cam = scene.cameras[c];
-        const int source_first = scene_start + offsets[c];  // source frame of scene frame 0
+        const int source_first = scene.sources[c].first_frame;
         auto store = [&](const Image& image, int frame) {
           media::write_png(
               scene.image_path(int(c), frame),
-              detail::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
+              media::resize_area(undistorters[c]->apply(image), cam.width, cam.height));
           progress.tick();
         };
         if (!f.video()) {

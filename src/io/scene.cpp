@@ -195,8 +195,12 @@ Scene read_scene_json(const fs::path& root) {
 }
 
 void write_scene_json(const Scene& scene) {
+  if (!scene.sources.empty() && scene.sources.size() != scene.cameras.size())
+    fail("{}: {} camera sources for {} cameras", scene.json_path().string(), scene.sources.size(),
+         scene.cameras.size());
   json cams = json::array();
-  for (const Camera& cam : scene.cameras) {
+  for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
+    const Camera& cam = scene.cameras[c];
     json m = json::array();
     for (int r = 0; r < 4; ++r)
       m.push_back({cam.world_to_camera(r, 0), cam.world_to_camera(r, 1), cam.world_to_camera(r, 2),
@@ -210,6 +214,13 @@ void write_scene_json(const Scene& scene) {
                     {"cy", cam.cy},
                     {"world_to_camera", m},
                     {"split", cam.split == Split::kTest ? "test" : "train"}});
+    if (scene.sources.empty()) continue;
+    const CameraSource& source = scene.sources[c];
+    json& entry = cams.back()["source"] = {{"file", source.file},
+                                           {"first_frame", source.first_frame},
+                                           {"last_frame", source.last_frame},
+                                           {"offset", source.offset}};
+    if (source.fps > 0) entry["fps"] = source.fps;
   }
   const json j = {{"format", kFormat},
                   {"version", kVersion},

@@ -53,15 +53,21 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
     fail("{}: bit depth must be 8 or 16, not {}", out_.string(), options.bit_depth);
   check_output_free(out_, options.force);
   const std::string ext = out_.extension().string();
+  if (ext == ".exr" && !options_.exr) options_.exr = ExrPrecision::kHalf;
+  if (options_.exr) check_exr_writer(out_);
   if (!out.has_filename() || ext.empty()) {  // `x/` is a folder whatever its name
     kind_ = Kind::kFolder;
     folder_ = std::make_unique<AtomicDirectory>(out_, options.force);
-  } else if (ext == ".png") {
+  } else if (ext == ".png" || ext == ".exr") {
     if (frames != 1)
-      fail("{}: a .png output holds one frame but {} were requested; give a folder or an .mp4",
-           out_.string(), frames);
-    kind_ = Kind::kPng;
+      fail("{}: a {} output holds one frame but {} were requested; give a folder or an .mp4",
+           out_.string(), ext, frames);
+    if (ext == ".png" && options_.exr)
+      fail("{}: an EXR precision was given for a .png output: name it x.exr", out_.string());
+    kind_ = Kind::kImage;
   } else if (is_video(out_)) {
+    if (options_.exr)
+      fail("{}: a video is not EXR: give x.exr or a folder for EXR frames", out_.string());
     if (!(options.fps > 0) || !std::isfinite(options.fps))
       fail("{}: invalid video frame rate {}", out_.string(), options.fps);
     if (options.alpha)
@@ -88,8 +94,8 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
     video_ = std::make_unique<Video>();
   } else {
     fail(
-        "{}: unknown output type '{}': give x.png (one frame), a video (.mp4, .mov, .mkv, .avi) "
-        "or a folder (a name ending in '/' is always one)",
+        "{}: unknown output type '{}': give x.png or x.exr (one frame), a video (.mp4, .mov, "
+        ".mkv, .avi) or a folder (a name ending in '/' is always one)",
         out_.string(), ext);
   }
 }
@@ -104,12 +110,13 @@ void FrameWriter::write(const Image& image) {
     fail("{}: frame {} is {}x{}x{}, expected {} channels", out_.string(), written_, image.width,
          image.height, image.channels, channels);
   switch (kind_) {
-    case Kind::kPng:
-      write_png(out_, image, options_.bit_depth, /*replace=*/options_.force);
+    case Kind::kImage:
+      write_image(out_, image, /*replace=*/options_.force);
       break;
     case Kind::kFolder:
-      write_png(folder_->temp_path() / fmt::format("{:05d}.png", written_), image,
-                options_.bit_depth);
+      write_image(
+          folder_->temp_path() / fmt::format("{:05d}.{}", written_, options_.exr ? "exr" : "png"),
+          image, /*replace=*/true);
       break;
     case Kind::kVideo: {
       if (!video_->writer.isOpened()) {
@@ -142,6 +149,13 @@ void FrameWriter::write(const Image& image) {
     }
   }
   ++written_;
+}
+
+void FrameWriter::write_image(const fs::path& path, const Image& image, bool replace) const {
+  if (options_.exr)
+    write_exr(path, image, *options_.exr == ExrPrecision::kFloat, replace);
+  else
+    write_png(path, image, options_.bit_depth, replace);
 }
 
 void FrameWriter::finish() {

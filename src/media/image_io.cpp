@@ -366,6 +366,36 @@ ImageSize read_image_size(const fs::path& path) {
   return {m.cols, m.rows};
 }
 
+namespace {
+// Throws Error naming `path` unless `image` is a 1-, 3- or 4-channel buffer of its size.
+void check_writable(const fs::path& path, const Image& image, const char* format) {
+  const int c = image.channels;
+  if (c != 1 && c != 3 && c != 4)
+    fail("{}: {} needs 1, 3 or 4 channels, not {}", path.string(), format, c);
+  if (image.width <= 0 || image.height <= 0 || image.data.size() != image.pixels() * c)
+    fail("{}: image buffer does not match its size {}x{}x{}", path.string(), image.width,
+         image.height, c);
+}
+
+// Encodes `rgb` (RGB or RGBA order; OpenCV's codecs take BGR) as `ext` in memory and writes it
+// through a checked stream: imwrite does not report a write that fails on a full disk.
+void encode_to_file(const fs::path& path, cv::Mat rgb, const char* ext, const char* format,
+                    bool replace, const std::vector<int>& params = {}) {
+  if (rgb.channels() == 3) cv::cvtColor(rgb, rgb, cv::COLOR_RGB2BGR);
+  if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_RGBA2BGRA);
+  std::vector<unsigned char> bytes;
+  bool ok = false;
+  try {
+    ok = cv::imencode(ext, rgb, bytes, params);
+  } catch (const cv::Exception& e) {
+    fail("{}: cannot encode {}: {}", path.string(), format, e.err);
+  }
+  if (!ok) fail("{}: cannot encode {}", path.string(), format);
+  write_text_file(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                  replace);
+}
+}  // namespace
+
 void write_png(const fs::path& path, const Image& image, int bits, bool replace) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
@@ -373,30 +403,37 @@ void write_png(const fs::path& path, const Image& image, int bits, bool replace)
   if (ext != ".png") fail("{}: write_png needs a .png file name", path.string());
   if (bits != 8 && bits != 16)
     fail("{}: PNG bit depth must be 8 or 16, not {}", path.string(), bits);
-  const int c = image.channels;
-  if (c != 1 && c != 3 && c != 4)
-    fail("{}: PNG needs 1, 3 or 4 channels, not {}", path.string(), c);
-  if (image.width <= 0 || image.height <= 0 || image.data.size() != image.pixels() * c)
-    fail("{}: image buffer does not match its size {}x{}x{}", path.string(), image.width,
-         image.height, c);
-  const cv::Mat values(image.height, image.width, CV_32FC(c),
+  check_writable(path, image, "PNG");
+  const cv::Mat values(image.height, image.width, CV_32FC(image.channels),
                        const_cast<float*>(image.data.data()));
   cv::Mat codes;  // convertTo rounds to nearest and saturates (NaN becomes 0)
   values.convertTo(codes, bits == 8 ? CV_8U : CV_16U, bits == 8 ? 255.0 : 65535.0);
-  if (c == 3) cv::cvtColor(codes, codes, cv::COLOR_RGB2BGR);
-  if (c == 4) cv::cvtColor(codes, codes, cv::COLOR_RGBA2BGRA);
-  // Encoded in memory and written through a checked stream: imwrite does not report a write that
-  // fails on a full disk.
-  std::vector<unsigned char> bytes;
-  bool ok = false;
-  try {
-    ok = cv::imencode(".png", codes, bytes);
-  } catch (const cv::Exception& e) {
-    fail("{}: cannot encode PNG: {}", path.string(), e.err);
-  }
-  if (!ok) fail("{}: cannot encode PNG", path.string());
-  write_text_file(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
-                  replace);
+  encode_to_file(path, codes, ".png", "PNG", replace);
+}
+
+bool can_write_exr() {
+  return cv::haveImageWriter(".exr");
+}
+
+void check_exr_writer(const fs::path& path) {
+  if (!can_write_exr())
+    fail("{}: this build's OpenCV cannot write OpenEXR (built without it); write PNGs instead",
+         path.string());
+}
+
+void write_exr(const fs::path& path, const Image& image, bool float32, bool replace) {
+  check_exr_writer(path);
+  check_writable(path, image, "EXR");
+  const int c = image.channels;
+  cv::Mat values(image.height, image.width, CV_32FC(c));
+  float* v = values.ptr<float>();
+  std::copy(image.data.begin(), image.data.end(), v);
+  if (c == 4)  // premultiplied, as EXR defines alpha
+    for (std::size_t i = 0; i < image.pixels(); ++i)
+      for (int k = 0; k < 3; ++k) v[4 * i + k] *= image.data[4 * i + 3];
+  encode_to_file(
+      path, values, ".exr", "EXR", replace,
+      {cv::IMWRITE_EXR_TYPE, float32 ? cv::IMWRITE_EXR_TYPE_FLOAT : cv::IMWRITE_EXR_TYPE_HALF});
 }
 
 void quiet_opencv_log() {

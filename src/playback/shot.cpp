@@ -33,6 +33,8 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
     shot.times = slowmo_times(0, scene.num_frames - 1, *request.slowmo);
   else if (!request.retime.empty())
     shot.times = ramp_times(media::read_retime_csv(request.retime));
+  else if (!model_4d)  // a static model looks the same at every time: one frame
+    shot.times = {0.0};
   else
     fail("render: give one of --time, --times, --slowmo or --retime");
   if (model_4d) model::check_times(*model_4d, shot.times, "render");

@@ -241,7 +241,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   // Checked again once the folder is locked; here so that a refusal comes before the images load.
   if (!run.resume && !run.force && holds_run(run.out)) refuse_existing_run(run.out);
   // Every input is read before the run folder is created or changed: a bad scene leaves nothing.
-  const TrainingSet set = load_training_set(scene, run.frames, run.window);
+  const TrainingSet set = load_training_set(scene, run.frames, run.window, run.downscale);
   RunFolder folder(run);
   const TrainConfig& config = folder.config;
 

@@ -498,5 +498,16 @@ TEST_F(BadInputCli, WindowMergeSlurmViewAndWebCasesExitTwoInOneLineAndLeaveNothi
   run_cases(root_->path(), cases);
 }
 
+// Mistakes on the own-capture path (issue 43), named in the user's words.
+TEST_F(BadInputCli, OwnCaptureMistakesAreNamedInTheUsersWords) {
+  const std::vector<Case> cases = {
+      {"sheet" + kScene + " --out {D}/sheet.jpg", {"--out {D}/sheet.jpg", "ending in .png"}},
+      {"train" + kScene + " --out {D}/new_run --iters 3 --downscale 0.5", {"--downscale", "0.5"}},
+      {"render" + kModel + kScene + " --camera cam00 --times 0:1:1 --exr half --out {D}/v.mp4",
+       {"{D}/v.mp4", "not EXR"}},
+  };
+  run_cases(root_->path(), cases);
+}
+
 }  // namespace
 }  // namespace retimegs

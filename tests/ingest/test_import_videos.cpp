@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -311,6 +312,15 @@ TEST(VideosImport, OffsetsShiftEachCameraAndFramesSelectWithin) {
   options.first_frame = 1, options.last_frame = 2;
   r = import_videos(dir / "src", dir / "b", options, v);
   EXPECT_EQ(r.first_frame, 2);
+  // scene.json records each camera's source frames: k + offset over the scene's frames 1..2 of k.
+  const nlohmann::json cameras =
+      nlohmann::json::parse(test::read_text(dir / "b" / "scene.json"))["cameras"];
+  EXPECT_EQ(cameras[0]["source"], nlohmann::json::parse(R"({"file": "cam00", "first_frame": 2,
+                                    "last_frame": 3, "offset": 0})"));
+  EXPECT_EQ(cameras[1]["source"], nlohmann::json::parse(R"({"file": "cam01.mkv", "first_frame": 4,
+                                    "last_frame": 5, "offset": 2, "fps": 30.0})"));
+  EXPECT_EQ(cameras[2]["source"]["first_frame"], 1);
+  EXPECT_EQ(cameras[2]["source"]["offset"], -1);
   scene = media::read_scene(dir / "b");
   ASSERT_EQ(scene.num_frames, 2);
   expect_frame(scene, 0, 0, 2);

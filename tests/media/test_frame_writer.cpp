@@ -4,6 +4,7 @@
 // output are refused before anything is written.
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/media/frame_writer.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::media {
@@ -255,6 +257,53 @@ TEST(FrameWriter, AFolderGetsItsFramesTimes) {
   EXPECT_FALSE(fs::exists(dir / "bad.csv"));
 }
 
+// An EXR plate as a compositor reads it: half or float as asked, values unclamped, alpha
+// premultiplied (EXR's convention); a folder of EXRs with the precision set.
+TEST(FrameWriter, ExrHoldsUnclampedPremultipliedRgbaAtTheAskedPrecision) {
+  if (!can_write_exr()) GTEST_SKIP() << "this OpenCV build writes no OpenEXR";
+  ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);  // OpenCV reads EXR only when asked to
+  TempDir dir;
+  Image rgba(3, 2, 4);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x) {
+      for (int c = 0; c < 3; ++c) rgba.at(y, x, c) = 0.1f + float(6 * y + 3 * x + c) / 5.0f;
+      rgba.at(y, x, 3) = float(x + 3 * y) / 5.0f;  // 0 to 1
+    }
+  rgba.at(0, 0, 0) = 1.0f / 3.0f;  // not a half: float keeps it, half rounds it
+  rgba.at(0, 0, 3) = 1.0f;
+  for (const ExrPrecision precision : {ExrPrecision::kHalf, ExrPrecision::kFloat}) {
+    const bool float32 = precision == ExrPrecision::kFloat;
+    const fs::path path = dir / (float32 ? "float.exr" : "half.exr");
+    FrameWriterOptions o = options(0, true);
+    o.exr = precision;
+    FrameWriter writer(path, 1, o);
+    writer.write(rgba);
+    writer.finish();
+    const cv::Mat read = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(read.type(), CV_32FC4) << path;
+    const double tolerance = float32 ? 1e-7 : 2e-3;  // half: 11 significant bits
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 3; ++x)
+        for (int c = 0; c < 4; ++c) {
+          const double alpha = c == 3 ? 1.0 : rgba.at(y, x, 3);
+          const double expected = rgba.at(y, x, c) * alpha;  // above 1 where the image is
+          EXPECT_NEAR(read.at<cv::Vec4f>(y, x)[c == 3 ? 3 : 2 - c], expected,
+                      tolerance * std::max(1.0, expected))
+              << path << " " << x << "," << y << "," << c;
+        }
+    EXPECT_EQ(read.at<cv::Vec4f>(0, 0)[2] == 1.0f / 3.0f, float32) << path;
+  }
+  FrameWriterOptions o = options(0, false, 8, {0.0, 0.5});
+  o.exr = ExrPrecision::kFloat;
+  FrameWriter folder(dir / "plates", 2, o);
+  folder.write(moving_frame(8, 6, 0));
+  folder.write(moving_frame(8, 6, 1));
+  folder.finish();
+  EXPECT_EQ(cv::imread((dir / "plates" / "00001.exr").string(), cv::IMREAD_UNCHANGED).type(),
+            CV_32FC3);
+  EXPECT_TRUE(fs::exists(dir / "plates" / "times.csv"));
+}
+
 TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
   TempDir dir;
   expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(24, true)); },
@@ -265,7 +314,11 @@ TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
   expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(0)); }, {"v.mp4", "frame rate"});
   expect_error([&] { FrameWriter(dir / "f", 2, options(0, false, 8, {0.0})); },
                {"1 frame times for 2 frames"});
-  expect_error([&] { FrameWriter(dir / "v.exr", 1, options()); }, {"'.exr'"});
+  expect_error([&] { FrameWriter(dir / "v.tif", 1, options()); }, {"'.tif'"});
+  FrameWriterOptions exr = options(24);
+  exr.exr = ExrPrecision::kHalf;
+  expect_error([&] { FrameWriter(dir / "v.mp4", 2, exr); }, {"v.mp4", "not EXR"});
+  expect_error([&] { FrameWriter(dir / "v.png", 1, exr); }, {"v.png", "x.exr"});
   {
     FrameWriter rgba(dir / "a.png", 1, options(0, true));
     expect_error([&] { rgba.write(moving_frame(4, 4, 0)); }, {"a.png", "4 channels"});

@@ -106,8 +106,9 @@ TEST(SceneShot, BadRequestsAreRefusedNamingTheFlag) {
   SceneShotRequest request = at_camera("cam00");
   request.time = 1.75;  // beyond the model's last training frame
   expect_error([&] { scene_shot(request, f.scene, model); }, {"render", "1.75", "time range"});
-  // A static model has no time range.
+  // A static model has no time range, and needs no time: one frame.
   EXPECT_EQ(scene_shot(request, f.scene, Splats{}).times, std::vector<double>{1.75});
+  EXPECT_EQ(scene_shot(at_camera("cam00"), f.scene, Splats{}).times, std::vector<double>{0.0});
   request = at_camera("cam07");
   request.time = 1.0;
   expect_error([&] { scene_shot(request, f.scene, model); }, {"cam07"});

@@ -55,6 +55,14 @@ struct Camera {
 // (continuous image coordinates scale with the grid). Throws Error unless both sizes are > 0.
 Camera resized(Camera camera, int width, int height);
 
+// Checks a downscale factor (import --downscale, train --downscale): throws Error naming
+// --downscale unless it is finite and >= 1.
+void check_downscale(double downscale);
+
+// The camera with its image size divided by `downscale` (each side rounded, at least 1 pixel) and
+// its intrinsics following (resized). Throws Error as check_downscale does.
+Camera downscaled(Camera camera, double downscale);
+
 // A camera at `eye` looking at `target` with the given world "up" direction (OpenCV axes:
 // the camera's -y axis is as close to `up` as possible).
 Eigen::Matrix4d look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,

@@ -18,12 +18,24 @@
 
 namespace retimegs::io {
 
+// Where a camera's frames came from (`import videos`): scene frame k is source frame
+// first_frame + k of `file`. Written to scene.json as the camera's "source" for the user's records;
+// nothing reads it back.
+struct CameraSource {
+  std::string file;     // the video or image folder, its name in the footage folder
+  int first_frame = 0;  // source frame of scene frame 0 (0-based, decoding order)
+  int last_frame = 0;   // source frame of the last scene frame
+  int offset = 0;       // the camera's --offsets value
+  double fps = 0;       // the video's own frame rate; 0 for an image folder, which has none
+};
+
 struct Scene {
   std::filesystem::path root;
   int num_frames = 0;
   double fps = 0;
   std::vector<Camera> cameras;
   Eigen::Vector3d up{0, -1, 0};
+  std::vector<CameraSource> sources;  // [C] as `cameras`, or empty when unknown
 
   // Index of the camera called `name`; throws Error naming it when absent.
   int camera_index(const std::string& name) const;

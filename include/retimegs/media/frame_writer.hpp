@@ -1,21 +1,25 @@
 #pragma once
 // Where rendered frames go, chosen by the output path:
 //   x.png                  exactly one frame
+//   x.exr                  exactly one frame as OpenEXR (write_exr: half or float, unclamped)
 //   x.mp4, x.mov, x.mkv    H.264 video (libx264 through OpenCV's FFmpeg backend; 8-bit yuv420p,
-//                          x264's constant quality CRF 23): what browsers, players and editors
-//                          open
+//                          x264's constant quality CRF 23): what browsers, players and
+//                          editors open
 //   x.avi                  Motion-JPEG video (every frame a JPEG, 4:2:0): intra-only frames for
 //                          tools that scrub or cut frame by frame
 // Both videos halve the chroma in each direction, so their frames must have an even width and
 // height: an odd size is refused (the encoders would drop the last column and row).
-//   x/, or no extension    a folder of <frame:05d>.png (frame 0 first), with times.csv
-//                          (write_times_csv) when the frames' times are given
+//   x/, or no extension    a folder of <frame:05d>.png (frame 0 first), or .exr with an EXR
+//                          precision set, with times.csv (write_times_csv) when the frames' times
+//                          are given
 // Any other extension (x.jpg) is an error rather than a folder of that name. PNG outputs hold 8- or
-// 16-bit RGB, or RGBA with straight (unassociated) alpha as PNG defines it; videos hold 8-bit RGB.
+// 16-bit RGB, or RGBA with straight (unassociated) alpha as PNG defines it; EXR outputs RGB or RGBA
+// with premultiplied alpha as EXR defines it; videos hold 8-bit RGB.
 // Every kind appears atomically when finish() is called; an unfinished writer leaves nothing
 // behind.
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,10 +29,15 @@
 
 namespace retimegs::media {
 
+enum class ExrPrecision { kHalf, kFloat };
+
 struct FrameWriterOptions {
-  double fps = 0;             // frame rate of a video, finite and > 0; PNG outputs ignore it
-  bool alpha = false;         // PNG outputs only: write() takes RGBA, written with its alpha
-  int bit_depth = 8;          // PNG outputs: 8 or 16 bits per channel; videos are 8-bit only
+  double fps = 0;      // frame rate of a video, finite and > 0; PNG outputs ignore it
+  bool alpha = false;  // image outputs only: write() takes RGBA, written with its alpha
+  int bit_depth = 8;   // PNG outputs: 8 or 16 bits per channel; videos are 8-bit only
+  // EXR outputs: half or 32-bit float per channel. Set, a folder holds EXR frames; an x.exr
+  // output without it is half.
+  std::optional<ExrPrecision> exr;
   std::vector<double> times;  // scene time of each frame (empty: unknown): a folder's times.csv
   bool force = false;         // replace an existing output folder or file
 };
@@ -36,7 +45,8 @@ struct FrameWriterOptions {
 class FrameWriter {
  public:
   // `frames`: how many will be written (checked; so is times.size() when times are given). Throws
-  // Error naming the output when the options do not fit its kind (alpha or 16 bits for a video).
+  // Error naming the output when the options do not fit its kind (alpha or 16 bits for a video,
+  // EXR where this build cannot write it).
   FrameWriter(std::filesystem::path out, int frames, const FrameWriterOptions& options);
   FrameWriter(std::filesystem::path out, int frames, double fps, bool force = false);
   ~FrameWriter();
@@ -51,7 +61,9 @@ class FrameWriter {
   void finish();
 
  private:
-  enum class Kind { kPng, kVideo, kFolder };
+  enum class Kind { kImage, kVideo, kFolder };
+  // An image file (PNG or EXR by the options); an existing `path` replaced only with `replace`.
+  void write_image(const std::filesystem::path& path, const Image& image, bool replace) const;
   struct Video;
   std::filesystem::path out_;
   Kind kind_;

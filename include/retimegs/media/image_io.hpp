@@ -1,6 +1,6 @@
 #pragma once
 // Image files: 8/16-bit PNG and JPG in (libpng / libjpeg, silent: their warnings are dropped,
-// their errors become the Error), PNG out (written atomically).
+// their errors become the Error), PNG and OpenEXR out (written atomically).
 #include <filesystem>
 #include <optional>
 
@@ -34,6 +34,19 @@ void quiet_opencv_log();
 // Writes a 1-, 3- or 4-channel image in [0, 1] as an 8- or 16-bit PNG (values clamped, rounded);
 // atomic, an existing `path` replaced only with `replace` (core/atomic_file.hpp).
 void write_png(const std::filesystem::path& path, const Image& image, int bits = 8,
+               bool replace = true);
+
+// Whether this build's OpenCV writes OpenEXR (Debian's links OpenEXR; a build without it cannot).
+bool can_write_exr();
+// Throws Error naming `path` unless can_write_exr().
+void check_exr_writer(const std::filesystem::path& path);
+
+// Writes a 1-, 3- or 4-channel image as OpenEXR, half (16-bit) or 32-bit float per channel, the
+// values as they are (not clamped). RGBA is written premultiplied, as EXR defines alpha (RGB
+// times A; `image` holds straight colour). Throws Error naming the file when this build cannot
+// write EXR (can_write_exr) or the write fails. Atomic, an existing `path` replaced only with
+// `replace`.
+void write_exr(const std::filesystem::path& path, const Image& image, bool float32 = false,
                bool replace = true);
 
 }  // namespace retimegs::media

@@ -52,8 +52,9 @@ struct SceneShotRequest {
 // The frames of a scene request, at the scene's fps. --slowmo covers the model's time range, its
 // first to last training frame (a static model's: the scene's frames 0 to num_frames - 1). A path
 // at one time is held for path_frames frames (>= 1, at most kMaxOutputFrames). Every time must lie
-// in a 4D model's time range (model::check_times); cameras are at the output size. Throws Error
-// naming the flag, the camera or the time otherwise, and when no time is given.
+// in a 4D model's time range (model::check_times); cameras are at the output size. A static model
+// without a time gives one frame (time is ignored). Throws Error naming the flag, the camera or the
+// time otherwise, and when no time is given for a 4D model.
 Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const LoadedModel& model);
 
 // The frames of a nerfstudio camera path file (`render --camera-path`), at the file's fps: its

@@ -21,6 +21,8 @@ struct TrainRun {
   // Set: train only the training frames within it; the model keeps the clip's grid and records
   // the window (model/window.hpp), for `merge`.
   std::optional<io::FrameWindow> window;
+  // Train on the images at 1/downscale of their size (load_training_set); >= 1.
+  double downscale = 1.0;
   bool resume = false;
   // With resume: the new total of iterations (--iters), which replaces config.json's; the
   // schedules follow the new total from the resume point on.
