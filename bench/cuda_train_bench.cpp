@@ -124,15 +124,30 @@ std::size_t gpu_memory_in_use() {
 
 struct Timing {
   double ms_per_step = 0;
-  double active = 0;  // mean active rows
+  double active = 0;            // mean active rows
+  train::StageSeconds seconds;  // summed over the timed steps
 };
+
+// The mean stage times in ms. On the GPU they are host times around asynchronous launches unless
+// CUDA_LAUNCH_BLOCKING=1 makes every launch wait for its kernel.
+void print_stages(const char* device, const Timing& t, int steps) {
+  const auto ms = [&](double seconds) { return seconds * 1e3 / steps; };
+  const train::StageSeconds& s = t.seconds;
+  std::printf(
+      "%s stages (ms/step): slice %.2f, forward %.2f, losses %.2f, backward %.2f, slice backward "
+      "%.2f, optimizer %.2f, other %.2f\n",
+      device, ms(s.slice), ms(s.render_forward), ms(s.losses), ms(s.render_backward),
+      ms(s.slice_backward), ms(s.optimizer), ms(s.other()));
+}
 
 Timing time_steps(train::TrainingStep& step, int warmup, int steps, std::size_t* peak) {
   for (int k = 0; k < warmup; ++k) step.step();
   Timing t;
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < steps; ++k) {
-    t.active += double(step.step().active) / steps;
+    const train::StepStats stats = step.step();
+    t.active += double(stats.active) / steps;
+    t.seconds += stats.seconds;
     if (peak) *peak = std::max(*peak, gpu_memory_in_use());
   }
   t.ms_per_step =
@@ -141,26 +156,8 @@ Timing time_steps(train::TrainingStep& step, int warmup, int steps, std::size_t*
   return t;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Settings s;
-  for (int a = 1; a + 1 < argc; a += 2) {
-    const std::string flag = argv[a];
-    const long value = std::strtol(argv[a + 1], nullptr, 10);
-    if (flag == "--primitives")
-      s.primitives = std::size_t(value);
-    else if (flag == "--size")
-      s.size = int(value);
-    else if (flag == "--gpu-steps")
-      s.gpu_steps = int(value);
-    else if (flag == "--cpu-steps")
-      s.cpu_steps = int(value);
-    else {
-      std::fprintf(stderr, "cuda_train_bench: unknown option %s\n", flag.c_str());
-      return 2;
-    }
-  }
+// The benchmark; its figures on stdout.
+int run(const Settings& s) {
   const cuda::DeviceQuery gpu = cuda::query_device();
   if (!gpu.usable()) {
     std::printf("no usable GPU: %s\n", gpu.reason.c_str());
@@ -184,18 +181,49 @@ int main(int argc, char** argv) {
     step->initialize(primitives);
     gpu_time = time_steps(*step, 5, s.gpu_steps, &peak);
   }
+  // The GPU's figures first: the CPU steps that follow take minutes at this scale.
+  const double peak_gb = double(peak - before) / 1e9;
+  std::printf(
+      "headline: train step %zu prims %dx%d: gpu %.1f ms/step (mean active %.0f), peak %.2f GB\n",
+      s.primitives, s.size, s.size, gpu_time.ms_per_step, gpu_time.active, peak_gb);
+  print_stages("gpu", gpu_time, s.gpu_steps);
+  std::fflush(stdout);
+  if (s.cpu_steps <= 0) return 0;
   std::unique_ptr<train::TrainingStep> cpu = train::make_step(set, config, cuda::Device::kCpu);
   cpu->initialize(primitives);
   const Timing cpu_time = time_steps(*cpu, 1, s.cpu_steps, nullptr);
 
-  const double peak_gb = double(peak - before) / 1e9;
-  std::printf("gpu: %.1f ms/step over %d steps (mean active %.0f), peak GPU memory %.2f GB\n",
-              gpu_time.ms_per_step, s.gpu_steps, gpu_time.active, peak_gb);
-  std::printf("cpu (%d threads): %.1f ms/step over %d steps\n", omp_get_max_threads(),
-              cpu_time.ms_per_step, s.cpu_steps);
-  std::printf(
-      "headline: train step %zu prims %dx%d: gpu %.1f ms, cpu %.0f ms (%.1fx), peak %.2f GB\n",
-      s.primitives, s.size, s.size, gpu_time.ms_per_step, cpu_time.ms_per_step,
-      cpu_time.ms_per_step / gpu_time.ms_per_step, peak_gb);
+  print_stages("cpu", cpu_time, s.cpu_steps);
+  std::printf("headline: cpu (%d threads) %.0f ms/step over %d steps: gpu %.1fx faster\n",
+              omp_get_max_threads(), cpu_time.ms_per_step, s.cpu_steps,
+              cpu_time.ms_per_step / gpu_time.ms_per_step);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings s;
+  for (int a = 1; a + 1 < argc; a += 2) {
+    const std::string flag = argv[a];
+    const long value = std::strtol(argv[a + 1], nullptr, 10);
+    if (flag == "--primitives")
+      s.primitives = std::size_t(value);
+    else if (flag == "--size")
+      s.size = int(value);
+    else if (flag == "--gpu-steps")
+      s.gpu_steps = int(value);
+    else if (flag == "--cpu-steps")
+      s.cpu_steps = int(value);
+    else {
+      std::fprintf(stderr, "cuda_train_bench: unknown option %s\n", flag.c_str());
+      return 2;
+    }
+  }
+  try {
+    return run(s);
+  } catch (const std::exception& e) {
+    std::printf("cuda_train_bench: %s\n", e.what());
+    return 1;
+  }
 }

@@ -10,13 +10,16 @@
 #
 # --no-gpu-ok carries on without a GPU, to check the script on a build machine: the tests then
 # skip with the reason, and the benchmarks are not run. CMAKE_ARGS go to the configure step, e.g.
-# -DCMAKE_CUDA_ARCHITECTURES=90. RETIMEGS_GPU_BENCH_TIMEOUT (seconds, default 240) bounds each
-# benchmark.
+# -DCMAKE_CUDA_ARCHITECTURES=90. RETIMEGS_GPU_TEST_TIMEOUT (seconds, default 300) bounds the
+# tests, RETIMEGS_GPU_BENCH_TIMEOUT (default 240) each benchmark. With RETIMEGS_GPU_SANITIZE=1,
+# each failing test runs once more under compute-sanitizer (sanitizer.log), for the access that
+# went wrong.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build="$root/build-gpu"
 prefix=/tmp/retimegs-gpu-deps
 logs="${OUT:-$build/logs}"
+test_timeout="${RETIMEGS_GPU_TEST_TIMEOUT:-300}"
 bench_timeout="${RETIMEGS_GPU_BENCH_TIMEOUT:-240}"
 
 die() {
@@ -84,8 +87,8 @@ build_seconds=$((SECONDS - started))
 
 ctest_log="$logs/ctest.log"
 tests_ok=1
-ctest --test-dir "$build" -L gpu --output-on-failure -j "$(nproc)" > "$ctest_log" 2>&1 ||
-  tests_ok=0
+timeout "$test_timeout" ctest --test-dir "$build" -L gpu --output-on-failure -j "$(nproc)" \
+  > "$ctest_log" 2>&1 || tests_ok=0
 # "100% tests passed, 0 tests failed out of N", or from CMake 4 "100% tests passed out of N".
 total=$(sed -n 's/^[0-9]*% tests passed.* out of \([0-9]*\)$/\1/p' "$ctest_log")
 passed=$(grep -cE '^ *[0-9]+/[0-9]+ Test +#[0-9]+: .* Passed' "$ctest_log" || true)
@@ -99,6 +102,24 @@ else
     reason=$(grep -m 1 -h '^no usable CUDA device' "$build/Testing/Temporary/LastTest.log" || true)
     tests+="${reason:+: $reason}"
   fi
+fi
+
+# A failing test once more under compute-sanitizer: ctest names it "Suite.Test", and the
+# executable that holds it is the one whose test list names it.
+if ((!tests_ok && gpu)) && [[ ${RETIMEGS_GPU_SANITIZE:-0} == 1 ]] &&
+  command -v compute-sanitizer > /dev/null; then
+  sanitizer_log="$logs/sanitizer.log"
+  : > "$sanitizer_log"
+  sed -n 's/^[[:space:]]*[0-9]* - \([A-Za-z0-9_/]*\.[A-Za-z0-9_/]*\) (.*)$/\1/p' "$ctest_log" |
+    while read -r failed; do
+      for exe in "$build"/tests/test_*; do
+        "$exe" --gtest_list_tests 2> /dev/null | grep -qE "^  ${failed#*.}( |$)" || continue
+        echo "== $failed in $(basename "$exe")" >> "$sanitizer_log"
+        timeout 120 compute-sanitizer --tool memcheck "$exe" --gtest_filter="$failed" \
+          >> "$sanitizer_log" 2>&1 || true
+        break
+      done
+    done
 fi
 
 # The GPU benchmarks that bench/CMakeLists.txt registered, one executable a line.
@@ -125,12 +146,12 @@ while read -r exe; do
     bench_ok=0
     bench_rows+=("$name: FAILED, exit status $status (log: $bench_log)")
   else
-    # Its figures marked "headline: ...", else its last line.
-    headlines=$(sed -n 's/^headline: //p' "$output")
-    [[ -n $headlines ]] || headlines=$(tail -n 1 "$output")
     bench_rows+=("$name ($((SECONDS - started)) s):")
-    while IFS= read -r line; do bench_rows+=("    $line"); done <<< "$headlines"
   fi
+  # Its figures marked "headline: ...", else its last line; those printed before a failure too.
+  headlines=$(sed -n 's/^headline: //p' "$output")
+  [[ -n $headlines ]] || headlines=$(tail -n 1 "$output")
+  while IFS= read -r line; do bench_rows+=("    $line"); done <<< "$headlines"
   rm -f "$output"
 done < "$build/gpu_benchmarks.txt"
 ((${#bench_rows[@]})) || bench_rows+=("none registered (bench/cuda_*.cu)")
