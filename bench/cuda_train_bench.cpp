@@ -156,6 +156,39 @@ Timing time_steps(train::TrainingStep& step, int warmup, int steps, std::size_t*
   return t;
 }
 
+// The host round trip of relocation and growth, which the GPU step runs on the host (download,
+// reshape, index rebuild, upload): steps with a reshape every 10th iteration, the model free to
+// grow, against the steps between them.
+void time_reshapes(const train::TrainingSet& set, train::TrainConfig config,
+                   const model::Primitives& primitives) {
+  config.relocate_start = 5;
+  config.relocate_every = 10;
+  config.cap = 2 * primitives.size();
+  const std::unique_ptr<train::TrainingStep> step =
+      train::make_step(set, config, cuda::Device::kCuda);
+  step->initialize(primitives);
+  double reshape_ms = 0, other_ms = 0;
+  int reshapes = 0, others = 0;
+  std::size_t added = 0;
+  for (int k = 0; k < 30; ++k) {
+    const auto start = std::chrono::steady_clock::now();
+    const train::StepStats stats = step->step();
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (stats.iteration % config.relocate_every == 0 && stats.iteration > config.relocate_start) {
+      reshape_ms += ms, ++reshapes, added += stats.added;
+    } else if (k >= 5) {
+      other_ms += ms, ++others;
+    }
+  }
+  std::printf(
+      "headline: reshape on the host: %.1f ms a reshape step (%d, %zu rows added in all, %zu "
+      "primitives after), %.1f ms the others\n",
+      reshape_ms / std::max(reshapes, 1), reshapes, added, step->primitive_count(),
+      other_ms / std::max(others, 1));
+  std::fflush(stdout);
+}
+
 // The benchmark; its figures on stdout.
 int run(const Settings& s) {
   const cuda::DeviceQuery gpu = cuda::query_device();
@@ -188,6 +221,7 @@ int run(const Settings& s) {
       s.primitives, s.size, s.size, gpu_time.ms_per_step, gpu_time.active, peak_gb);
   print_stages("gpu", gpu_time, s.gpu_steps);
   std::fflush(stdout);
+  time_reshapes(set, config, primitives);
   if (s.cpu_steps <= 0) return 0;
   std::unique_ptr<train::TrainingStep> cpu = train::make_step(set, config, cuda::Device::kCpu);
   cpu->initialize(primitives);

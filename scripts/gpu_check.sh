@@ -110,7 +110,7 @@ if ((!tests_ok && gpu)) && [[ ${RETIMEGS_GPU_SANITIZE:-0} == 1 ]] &&
   command -v compute-sanitizer > /dev/null; then
   sanitizer_log="$logs/sanitizer.log"
   : > "$sanitizer_log"
-  sed -n 's/^[[:space:]]*[0-9]* - \([A-Za-z0-9_/]*\.[A-Za-z0-9_/]*\) (.*)$/\1/p' "$ctest_log" |
+  sed -n 's/^[[:space:]]*[0-9]* - \([A-Za-z0-9_/]*\.[A-Za-z0-9_/]*\) (.*$/\1/p' "$ctest_log" |
     while read -r failed; do
       for exe in "$build"/tests/test_*; do
         "$exe" --gtest_list_tests 2> /dev/null | grep -qE "^  ${failed#*.}( |$)" || continue

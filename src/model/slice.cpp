@@ -118,7 +118,7 @@ void slice(const PrimitivesT<T>& primitives, const ModelConfig& config, const Ti
     for (std::size_t k = begin; k < end; ++k) {
       const std::size_t i = rows ? std::size_t((*rows)[k]) : k;
       if (rows && (i >= n || (k > 0 && i <= std::size_t((*rows)[k - 1])))) {
-        unordered = k;
+        unordered = std::min(unordered, k);  // one thread may run several chunks
         break;
       }
       T w;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "cuda/require_gpu.hpp"
@@ -124,20 +125,43 @@ TEST(CudaStep, FirstStepUpdateMatchesTheCpu) {
   const model::Primitives g = pair.gpu->host_model().primitives, &h = pair.cpu.model().primitives;
   ASSERT_EQ(g.size(), h.size());
   const auto fields_g = g.fields(), fields_h = h.fields(), fields_0 = before.fields();
+  // Per field, the values that disagree by kind, for a failure message that points at the cause.
   std::size_t moved = 0, agree = 0;
+  std::string disagreements;
   for (int f = 0; f < model::Primitives::kFieldCount; ++f) {
     const std::vector<float>&a = *fields_g[f].values, &b = *fields_h[f].values,
           &o = *fields_0[f].values;
+    std::size_t field_moved = 0, only_gpu = 0, only_cpu = 0, opposite = 0, size = 0;
+    std::string example;
     for (std::size_t k = 0; k < b.size(); ++k) {
       ASSERT_TRUE(std::isfinite(a[k])) << fields_g[f].name << " value " << k;
       const double dg = double(a[k]) - o[k], dh = double(b[k]) - o[k];
       if (dh == 0 && dg == 0) continue;
-      ++moved;
-      if (std::abs(dg - dh) <= 1e-2 * std::abs(dh) + 1e-7 * (1 + std::abs(o[k]))) ++agree;
+      ++field_moved;
+      if (std::abs(dg - dh) <= 1e-2 * std::abs(dh) + 1e-7 * (1 + std::abs(o[k]))) continue;
+      if (dh == 0)
+        ++only_gpu;
+      else if (dg == 0)
+        ++only_cpu;
+      else if ((dg > 0) != (dh > 0))
+        ++opposite;
+      else
+        ++size;
+      if (example.empty())
+        example = fmt::format(" (value {}: {} -> gpu {}, cpu {})", k, o[k], a[k], b[k]);
     }
+    const std::size_t bad = only_gpu + only_cpu + opposite + size;
+    moved += field_moved, agree += field_moved - bad;
+    if (bad)
+      disagreements += fmt::format(
+          "\n  {}: {} of {} moved values disagree: {} moved on the GPU only, {} on the CPU only, "
+          "{} "
+          "in opposite directions, {} by different amounts{}",
+          fields_g[f].name, bad, field_moved, only_gpu, only_cpu, opposite, size, example);
   }
   EXPECT_GT(moved, 1000u);
-  EXPECT_GE(double(agree), 0.98 * double(moved)) << agree << " of " << moved << " values agree";
+  EXPECT_GE(double(agree), 0.98 * double(moved))
+      << agree << " of " << moved << " values agree" << disagreements;
 }
 
 // Two CUDA runs from the same state over the same views agree (the rasteriser's backward sums in

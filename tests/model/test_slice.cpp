@@ -57,6 +57,15 @@ P random_primitives(Representation rep, unsigned seed, int n = 6) {
   return p;
 }
 
+PrimitivesT<float> float_primitives(const P& source) {
+  PrimitivesT<float> p;
+  p.resize(source.size());
+  for (int f = 0; f < P::kFieldCount; ++f)
+    std::copy(source.fields()[f].values->begin(), source.fields()[f].values->end(),
+              p.fields()[f].values->begin());
+  return p;
+}
+
 // Every optimised scalar of the model, by name, for finite differences.
 std::vector<std::pair<std::string, double*>> parameters(P& p, Representation rep, int sh_degree) {
   std::vector<std::pair<std::string, double*>> out;
@@ -324,12 +333,8 @@ TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
 // way the batch is the value overload's on one thread, byte for byte, for every group, whether the
 // reused batch held a bigger or a smaller one before.
 TEST(Slice, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
-  const P source = random_primitives(Representation::kRetime, 11, 20000);
-  PrimitivesT<float> p;
-  p.resize(source.size());
-  for (int f = 0; f < P::kFieldCount; ++f)
-    std::copy(source.fields()[f].values->begin(), source.fields()[f].values->end(),
-              p.fields()[f].values->begin());
+  const PrimitivesT<float> p =
+      float_primitives(random_primitives(Representation::kRetime, 11, 20000));
   ModelConfig config;
   config.sh_degree = 3;
   std::vector<std::int32_t> rows;
@@ -359,6 +364,28 @@ TEST(Slice, ThreadCountsAndReusedBatchesGiveTheSameBatch) {
       EXPECT_TRUE(same(slice(p, config, kGrid, 4.0, camera, options), serial)) << threads;
       slice(p, config, kGrid, 4.0, camera, options, reused);
       EXPECT_TRUE(same(reused, serial)) << threads;
+    }
+  }
+  set_threads(threads_before);
+}
+
+// A bad row list is reported at its first bad entry whatever the thread count: with more chunks
+// than candidates, one thread runs several chunks, and a later chunk's entry must not win.
+TEST(Slice, BadRowListNamesItsFirstBadEntry) {
+  const PrimitivesT<float> p = float_primitives(random_primitives(Representation::kRetime, 7, 40));
+  const int threads_before = max_threads();
+  for (const int threads : {1, 2, 16}) {
+    set_threads(threads);
+    for (const auto& [rows, message] :
+         std::vector<std::pair<std::vector<std::int32_t>, std::string>>{
+             {{-1, 2}, "row list entry 0 (-1)"},
+             {{0, 5, 5, 9}, "row list entry 2 (5)"},
+             {{1, 2, 40}, "row list entry 2 (40)"}}) {
+      SliceOptions options;
+      options.rows = &rows;
+      const std::string error =
+          test::message_of([&] { slice(p, ModelConfig{}, kGrid, 4.0, small_camera(), options); });
+      EXPECT_NE(error.find(message), std::string::npos) << threads << ": " << error;
     }
   }
   set_threads(threads_before);
