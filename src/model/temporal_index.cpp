@@ -46,10 +46,10 @@ FrameRange frames_around(double centre, const TimeGrid& grid, const Holds& holds
 }  // namespace
 
 template <typename T>
-TemporalIndex::TemporalIndex(const PrimitivesT<T>& p, const ModelConfig& config,
+TemporalIndex::TemporalIndex(const WindowFields<T>& p, const ModelConfig& config,
                              const TimeGrid& grid, double min_opacity)
-    : frames_(grid.count), size_(p.size()) {
-  const std::size_t n = p.size();
+    : frames_(grid.count), size_(p.size) {
+  const std::size_t n = p.size;
   if (config.representation == Representation::kStgs) {
     every_row_ = true;
     rows_.assign(1, std::vector<std::int32_t>(n));
@@ -62,7 +62,7 @@ TemporalIndex::TemporalIndex(const PrimitivesT<T>& p, const ModelConfig& config,
   const double inf = std::numeric_limits<double>::infinity();
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
-    const RetimeWindow<T> w = retime_window(p, i, config, grid);
+    const RetimeWindow<T> w = retime_window<T>(p.mu_tau[i], p.tau_l[i], p.tau_r[i], config, grid);
     // Both edges closed: σ_τ is symmetric about the support's midpoint, its mode. One edge open:
     // σ_τ is monotone, its mode at that end. Both open: σ_τ ≡ 1. (Rounding in T cannot split
     // the run: near 1/255 adjacent training times' σ_τ differ by a factor of about e^(Δt/γ),
@@ -113,9 +113,9 @@ std::vector<std::int32_t> TemporalIndex::locality_order() const {
   return old_from_new;
 }
 
-template TemporalIndex::TemporalIndex(const PrimitivesT<float>&, const ModelConfig&,
+template TemporalIndex::TemporalIndex(const WindowFields<float>&, const ModelConfig&,
                                       const TimeGrid&, double);
-template TemporalIndex::TemporalIndex(const PrimitivesT<double>&, const ModelConfig&,
+template TemporalIndex::TemporalIndex(const WindowFields<double>&, const ModelConfig&,
                                       const TimeGrid&, double);
 
 }  // namespace retimegs::model

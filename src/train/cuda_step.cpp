@@ -81,8 +81,16 @@ class CudaStep final : public TrainingStep {
   }
 
  private:
+  // Relocation's and growth's moves applied to the device rows (RelocatableRows).
+  class DeviceRows;
   // The device copy of the host state: primitives, zero gradient, Adam moments, the index's rows.
   void upload();
+  // The index's rows of every frame (state_.index) uploaded.
+  void upload_rows();
+  // StepState::rebuild_index on the device rows: the index from their windows, the rows (and their
+  // Adam moments) put in its locality order, the index's rows uploaded. The host mirror is left
+  // as it was: download() brings it up to date.
+  void rebuild_index();
   // The host state brought up to date from the device (primitives and Adam moments).
   void download() const;
   void render_pass(const RenderPass& pass, std::size_t pass_index, int c, int i, double w_flow,
@@ -101,6 +109,8 @@ class CudaStep final : public TrainingStep {
   // [row_offsets_[i], row_offsets_[i + 1]).
   cuda::DeviceBuffer<std::int32_t> rows_;
   std::vector<std::size_t> row_offsets_;
+  cuda::DeviceBuffer<std::int32_t> row_scratch_;  // index arrays of reshaping: moves, orders
+  cuda::DeviceBuffer<float> value_scratch_;
 
   std::vector<std::vector<cuda::DevicePackedImage>> images_;  // [camera slot][frame slot]
   cuda::DeviceFlow forward_flow_, backward_flow_;             // the step's view's, uploaded
@@ -133,6 +143,48 @@ std::pair<float*, float*> field_and_gradient(cuda::DevicePrimitives& p,
   fail("CUDA training step: no optimised field '{}'", name);
 }
 
+template <typename T>
+std::vector<T> joined(std::vector<T> a, const std::vector<T>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+class CudaStep::DeviceRows final : public RelocatableRows {
+ public:
+  explicit DeviceRows(CudaStep& step) : step_(step) {}
+
+  RelocationFields fields() override {
+    const cuda::DevicePrimitives& p = step_.primitives_;
+    opacity_logit_ = p.opacity_logit.download();
+    tau_l_ = p.tau_l.download();
+    tau_r_ = p.tau_r.download();
+    return {opacity_logit_.data(), tau_l_.data(), tau_r_.data(), p.size()};
+  }
+
+  void apply(const RowMoves& moves) override {
+    cuda::DevicePrimitives& p = step_.primitives_;
+    if (moves.rows != p.size()) {
+      p.resize(moves.rows);
+      step_.grads_.resize_zero(moves.rows);
+      for (cuda::DeviceAdam& adam : step_.adam_) adam.resize(moves.rows);
+    }
+    cuda::DeviceBuffer<std::int32_t>& rows = step_.row_scratch_;
+    cuda::DeviceBuffer<float>& values = step_.value_scratch_;
+    const std::size_t n = moves.sources.size();
+    rows.upload(moves.sources);
+    values.upload(joined(moves.source_logit, moves.source_log_scale_shift));
+    cuda::correct_sources(p, rows.data(), values.data(), values.data() + n, n);
+    const std::vector<std::int32_t> touched = moves.touched();  // to, then from
+    rows.upload(touched);
+    p.copy_rows(rows.data(), rows.data() + moves.to.size(), moves.to.size());
+    for (cuda::DeviceAdam& adam : step_.adam_) adam.reset_rows(rows.data(), rows.size());
+  }
+
+ private:
+  CudaStep& step_;
+  std::vector<float> opacity_logit_, tau_l_, tau_r_;
+};
+
 void CudaStep::upload() {
   primitives_.upload(state_.model.primitives);
   grads_.resize_zero(primitives_.size());
@@ -140,6 +192,31 @@ void CudaStep::upload() {
   adam_.resize(std::size_t(std::distance(state_.adam.begin(), state_.adam.end())));
   std::size_t k = 0;
   for (const auto& [name, adam] : state_.adam) adam_[k++].assign(adam);
+  upload_rows();
+}
+
+void CudaStep::rebuild_index() {
+  std::vector<float> mu_tau = primitives_.mu_tau.download(), tau_l = primitives_.tau_l.download(),
+                     tau_r = primitives_.tau_r.download();
+  const auto index = [&] {
+    return model::TemporalIndex(
+        model::WindowFields<float>{mu_tau.data(), tau_l.data(), tau_r.data(), mu_tau.size()},
+        state_.model.config, state_.model.grid);
+  };
+  state_.index = index();
+  const std::vector<std::int32_t> old_from_new = state_.index.locality_order();
+  if (!std::is_sorted(old_from_new.begin(), old_from_new.end())) {
+    row_scratch_.upload(old_from_new);
+    primitives_.reorder(row_scratch_.data(), old_from_new.size());
+    for (cuda::DeviceAdam& adam : adam_) adam.reorder(row_scratch_.data(), old_from_new.size());
+    for (std::vector<float>* field : {&mu_tau, &tau_l, &tau_r})
+      model::reorder_rows(*field, 1, old_from_new);
+    state_.index = index();
+  }
+  upload_rows();
+}
+
+void CudaStep::upload_rows() {
   std::vector<std::int32_t> rows;
   row_offsets_.assign(1, 0);
   for (int f = 0; f < state_.index.frames(); ++f) {
@@ -293,10 +370,11 @@ StepStats CudaStep::step_view(int c, int i) {
   stats.lr_means = state_.adam.means_rate(means, decay);
   stats.seconds.optimizer = lap(clock);
 
-  // The strategy: noise here, with its key drawn first as McmcStrategy::after_step draws it; the
-  // rare reshaping on the host.
+  // The strategy: noise here, with its key drawn first as McmcStrategy::after_step draws it;
+  // relocation and growth on the device rows (decided on the host from three of their fields);
+  // stretching, which reads whole rows every stretch_every steps, on a host copy.
   cuda::inject_noise(primitives_, rows, count, stats.lr_means, state_.rng());
-  if (strategy_.reshapes_at(it)) {
+  if (strategy_.stretches_at(it, representation)) {
     download();
     const DensityChanges changes = strategy_.reshape(it, m, state_.adam, state_.rng);
     stats.relocated = changes.relocated, stats.added = changes.added;
@@ -305,6 +383,12 @@ StepStats CudaStep::step_view(int c, int i) {
       state_.rebuild_index();
       upload();
     }
+  } else if (strategy_.relocates_at(it)) {
+    DeviceRows device_rows(*this);
+    const DensityChanges changes =
+        strategy_.relocate_and_grow(device_rows, representation, state_.rng);
+    stats.relocated = changes.relocated, stats.added = changes.added;
+    if (changes.relocated || changes.added) rebuild_index();
   }
   stats.primitives = primitives_.size();
   stats.seconds.total = lap(step_clock);

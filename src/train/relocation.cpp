@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 
 #include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/train/noise_formulas.hpp"
@@ -13,17 +14,17 @@ namespace {
 
 constexpr double kMaxOpacity = 1.0 - 1e-6;  // keep logits finite
 
-double opacity_of(const model::Primitives& p, std::size_t i) {
-  return model::sigmoid<double>(p.opacity_logit[i]);
+double opacity_of(float logit) {
+  return model::sigmoid<double>(logit);
 }
 
-std::vector<double> sampling_scores(const model::Primitives& p, RelocationScore kind,
+std::vector<double> sampling_scores(const RelocationFields& rows, RelocationScore kind,
                                     double min_opacity) {
-  std::vector<double> score(p.size(), 0.0);
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double sigma = opacity_of(p, i);
+  std::vector<double> score(rows.size, 0.0);
+  for (std::size_t i = 0; i < rows.size; ++i) {
+    const double sigma = opacity_of(rows.opacity_logit[i]);
     if (sigma <= min_opacity) continue;  // dead rows are never sources
-    const double duration = double(p.tau_l[i]) + double(p.tau_r[i]);
+    const double duration = double(rows.tau_l[i]) + double(rows.tau_r[i]);
     score[i] = kind == RelocationScore::kOpacity                ? sigma
                : kind == RelocationScore::kOpacityTimesDuration ? sigma * duration
                                                                 : sigma / duration;
@@ -47,19 +48,43 @@ std::vector<std::int32_t> sample(const std::vector<double>& weights, std::size_t
   return out;
 }
 
-// Applies the correction to every drawn source: n = (times drawn) + 1.
-void correct_sources(model::Primitives& p, const std::vector<std::int32_t>& sources,
-                     double min_opacity) {
-  std::vector<int> drawn(p.size(), 0);
-  for (const auto s : sources) ++drawn[s];
-  for (std::size_t i = 0; i < p.size(); ++i) {
+// Copies of the rows `from` onto the rows `to`, with every drawn source's correction for n =
+// (times drawn) + 1.
+RowMoves copies(const RelocationFields& rows, std::size_t size, std::vector<std::int32_t> to,
+                std::vector<std::int32_t> from, double min_opacity) {
+  RowMoves moves;
+  moves.rows = size;
+  std::vector<int> drawn(rows.size, 0);
+  for (const auto s : from) ++drawn[s];
+  for (std::size_t i = 0; i < rows.size; ++i) {
     if (!drawn[i]) continue;
     double opacity = 0, factor = 1;
-    mcmc_correction(opacity_of(p, i), std::min(drawn[i] + 1, kMaxCopies), opacity, factor);
+    mcmc_correction(opacity_of(rows.opacity_logit[i]), std::min(drawn[i] + 1, kMaxCopies), opacity,
+                    factor);
     opacity = std::clamp(opacity, min_opacity, kMaxOpacity);
-    p.opacity_logit[i] = float(std::log(opacity / (1 - opacity)));
-    for (int a = 0; a < 3; ++a) p.log_scale[3 * i + a] += float(std::log(factor));
+    moves.sources.push_back(std::int32_t(i));
+    moves.source_logit.push_back(float(std::log(opacity / (1 - opacity))));
+    moves.source_log_scale_shift.push_back(float(std::log(factor)));
   }
+  moves.to = std::move(to);
+  moves.from = std::move(from);
+  return moves;
+}
+
+RowMoves unchanged(std::size_t rows) {
+  RowMoves moves;
+  moves.rows = rows;
+  return moves;
+}
+
+Relocation summary(const RowMoves& moves, std::size_t rows_before) {
+  Relocation r;
+  if (moves.rows > rows_before)
+    r.added = moves.to.size();
+  else
+    r.moved = moves.to.size();
+  r.touched = moves.touched();
+  return r;
 }
 
 }  // namespace
@@ -77,39 +102,65 @@ void mcmc_correction(double opacity, int n, double& new_opacity, double& scale_f
   scale_factor = opacity / denominator;
 }
 
+RelocationFields relocation_fields(const model::Primitives& p) {
+  return {p.opacity_logit.data(), p.tau_l.data(), p.tau_r.data(), p.size()};
+}
+
+std::vector<std::int32_t> RowMoves::touched() const {
+  std::vector<std::int32_t> touched = to;
+  touched.insert(touched.end(), from.begin(), from.end());
+  return touched;
+}
+
+RowMoves relocation_moves(const RelocationFields& rows, RelocationScore score, double min_opacity,
+                          std::mt19937_64& rng) {
+  std::vector<std::int32_t> dead;
+  for (std::size_t i = 0; i < rows.size; ++i)
+    if (opacity_of(rows.opacity_logit[i]) <= min_opacity) dead.push_back(std::int32_t(i));
+  if (dead.empty()) return unchanged(rows.size);
+  std::vector<std::int32_t> sources =
+      sample(sampling_scores(rows, score, min_opacity), dead.size(), rng);
+  if (sources.empty()) return unchanged(rows.size);  // nothing alive to copy
+  return copies(rows, rows.size, std::move(dead), std::move(sources), min_opacity);
+}
+
+RowMoves growth_moves(const RelocationFields& rows, RelocationScore score, std::size_t cap,
+                      double growth, double min_opacity, std::mt19937_64& rng) {
+  const std::size_t n = rows.size;
+  const std::size_t target = std::min(cap, std::size_t(std::floor(growth * double(n))));
+  if (target <= n) return unchanged(n);
+  std::vector<std::int32_t> sources =
+      sample(sampling_scores(rows, score, min_opacity), target - n, rng);
+  const std::size_t size = n + sources.size();
+  std::vector<std::int32_t> appended(sources.size());
+  std::iota(appended.begin(), appended.end(), std::int32_t(n));
+  return copies(rows, size, std::move(appended), std::move(sources), min_opacity);
+}
+
+void apply(const RowMoves& moves, model::Primitives& p) {
+  if (moves.rows != p.size()) p.resize(moves.rows);
+  for (std::size_t k = 0; k < moves.sources.size(); ++k) {
+    const std::size_t i = std::size_t(moves.sources[k]);
+    correct_source(moves.source_logit[k], moves.source_log_scale_shift[k], p.opacity_logit[i],
+                   &p.log_scale[3 * i]);
+  }
+  for (std::size_t k = 0; k < moves.to.size(); ++k) p.copy_row(moves.to[k], p, moves.from[k]);
+}
+
 Relocation relocate(model::Primitives& p, RelocationScore score, double min_opacity,
                     std::mt19937_64& rng) {
-  Relocation result;
-  std::vector<std::int32_t> dead;
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (opacity_of(p, i) <= min_opacity) dead.push_back(std::int32_t(i));
-  if (dead.empty()) return result;
-  const std::vector<std::int32_t> sources =
-      sample(sampling_scores(p, score, min_opacity), dead.size(), rng);
-  if (sources.empty()) return result;  // nothing alive to copy
-  correct_sources(p, sources, min_opacity);
-  for (std::size_t k = 0; k < dead.size(); ++k) p.copy_row(dead[k], p, sources[k]);
-  result.moved = dead.size();
-  result.touched = dead;
-  result.touched.insert(result.touched.end(), sources.begin(), sources.end());
-  return result;
+  const std::size_t n = p.size();
+  const RowMoves moves = relocation_moves(relocation_fields(p), score, min_opacity, rng);
+  apply(moves, p);
+  return summary(moves, n);
 }
 
 Relocation grow(model::Primitives& p, RelocationScore score, std::size_t cap, double growth,
                 double min_opacity, std::mt19937_64& rng) {
-  Relocation result;
   const std::size_t n = p.size();
-  const std::size_t target = std::min(cap, std::size_t(std::floor(growth * double(n))));
-  if (target <= n) return result;
-  const std::vector<std::int32_t> sources =
-      sample(sampling_scores(p, score, min_opacity), target - n, rng);
-  if (sources.empty()) return result;
-  correct_sources(p, sources, min_opacity);
-  p.resize(n + sources.size());
-  for (std::size_t k = 0; k < sources.size(); ++k) p.copy_row(n + k, p, sources[k]);
-  result.added = sources.size();
-  result.touched = sources;
-  return result;
+  const RowMoves moves = growth_moves(relocation_fields(p), score, cap, growth, min_opacity, rng);
+  apply(moves, p);
+  return summary(moves, n);
 }
 
 void inject_noise(model::Primitives& p, const std::vector<std::int32_t>& rows, double lr_means,
@@ -131,7 +182,8 @@ std::vector<std::int32_t> faint_short_rows(const model::Primitives& p, const mod
   const double one_interval = grid.step * (1 + 1e-4);
   std::vector<std::int32_t> rows;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (opacity_of(p, i) < max_opacity && double(p.tau_l[i]) + double(p.tau_r[i]) <= one_interval)
+    if (opacity_of(p.opacity_logit[i]) < max_opacity &&
+        double(p.tau_l[i]) + double(p.tau_r[i]) <= one_interval)
       rows.push_back(std::int32_t(i));
   return rows;
 }

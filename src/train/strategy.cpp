@@ -5,6 +5,27 @@
 
 namespace retimegs::train {
 
+namespace {
+
+// The host's rows and their optimisers.
+class HostRows final : public RelocatableRows {
+ public:
+  HostRows(model::Primitives& primitives, Optimizers& optimizers)
+      : primitives_(primitives), optimizers_(optimizers) {}
+  RelocationFields fields() override { return relocation_fields(primitives_); }
+  void apply(const RowMoves& moves) override {
+    train::apply(moves, primitives_);
+    optimizers_.resize(primitives_.size());
+    optimizers_.reset_rows(moves.touched());
+  }
+
+ private:
+  model::Primitives& primitives_;
+  Optimizers& optimizers_;
+};
+
+}  // namespace
+
 McmcStrategy::McmcStrategy(const TrainConfig& config, double scene_extent)
     : config_(config), scene_extent_(scene_extent) {}
 
@@ -26,6 +47,22 @@ bool McmcStrategy::stretches_at(int it, model::Representation rep) const {
          it % config_.scaled(config_.stretch_every) == 0 && it < config_.iters;
 }
 
+DensityChanges McmcStrategy::relocate_and_grow(RelocatableRows& rows, model::Representation rep,
+                                               std::mt19937_64& rng) const {
+  const RelocationScore score = rep == model::Representation::kStgs ? RelocationScore::kOpacity
+                                : config_.relocate_per_duration
+                                    ? RelocationScore::kOpacityPerDuration
+                                    : RelocationScore::kOpacityTimesDuration;
+  DensityChanges changes;
+  const RowMoves moved = relocation_moves(rows.fields(), score, config_.min_opacity, rng);
+  rows.apply(moved);
+  const RowMoves grown =
+      growth_moves(rows.fields(), score, config_.cap, config_.growth, config_.min_opacity, rng);
+  rows.apply(grown);
+  changes.relocated = moved.to.size(), changes.added = grown.to.size();
+  return changes;
+}
+
 bool McmcStrategy::reshapes_at(int it) const {
   return relocates_at(it) || stretches_at(it, config_.model_config().representation);
 }
@@ -36,16 +73,8 @@ DensityChanges McmcStrategy::reshape(int it, model::Model& model, Optimizers& op
   model::Primitives& p = model.primitives;
   const model::Representation rep = model.config.representation;
   if (relocates_at(it)) {
-    const RelocationScore score = rep == model::Representation::kStgs ? RelocationScore::kOpacity
-                                  : config_.relocate_per_duration
-                                      ? RelocationScore::kOpacityPerDuration
-                                      : RelocationScore::kOpacityTimesDuration;
-    const Relocation moved = relocate(p, score, config_.min_opacity, rng);
-    const Relocation grown = grow(p, score, config_.cap, config_.growth, config_.min_opacity, rng);
-    optimizers.reset_rows(moved.touched);
-    optimizers.resize(p.size());
-    optimizers.reset_rows(grown.touched);
-    changes.relocated = moved.moved, changes.added = grown.added;
+    HostRows rows(p, optimizers);
+    changes = relocate_and_grow(rows, rep, rng);
   }
   if (stretches_at(it, rep)) {
     const StretchSettings settings{config_.stretch_distance * scene_extent_, config_.stretch_color,

@@ -249,9 +249,9 @@ TEST(CudaStep, TrainsAsWellAsTheCpu) {
   EXPECT_NEAR(g, h, 0.3) << "mean held-out PSNR over " << kSeeds << " seeds";
 }
 
-// Relocation and growth run on a host copy at the CPU's iterations: the same counts added, and
-// the state the device continues from is the host's.
-TEST(CudaStep, ReshapesOnTheHostAtTheCpusIterations) {
+// Relocation and growth run on the device rows at the CPU's iterations, with the same counts
+// added, and training goes on from them.
+TEST(CudaStep, ReshapesAtTheCpusIterations) {
   RETIMEGS_REQUIRE_GPU();
   const TrainingSet set = flow_scene();
   TrainConfig config = tiny_config(200);  // scaled: relocation every step from step 5
@@ -267,6 +267,39 @@ TEST(CudaStep, ReshapesOnTheHostAtTheCpusIterations) {
   }
   EXPECT_GT(added, 0u);
   EXPECT_EQ(pair.gpu->host_model().primitives.size(), pair.gpu->primitive_count());
+}
+
+// Relocation and growth on the device rows, decided on the host from three of their fields, leave
+// the rows the CPU's do, bit for bit and in the same order, from the same state: every learning
+// rate zero, so that the step before them leaves the parameters as they were, and one row in
+// seven dead.
+TEST(CudaStep, RelocationAndGrowthLeaveTheCpusRows) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  TrainConfig config = tiny_config(200);
+  config.scale_schedule = false;
+  config.relocate_start = 0, config.relocate_every = 1;  // at the first step
+  for (double* lr :
+       {&config.lr_means, &config.lr_means_final, &config.lr_velocity, &config.lr_scales,
+        &config.lr_quats, &config.lr_quat_rate, &config.lr_opacities, &config.lr_sh0,
+        &config.lr_temporal_center, &config.lr_temporal_scale, &config.lr_camera_color})
+    *lr = 0;
+  Pair pair(set, config);
+  model::Primitives start = pair.cpu.model().primitives;
+  for (std::size_t i = 0; i < start.size(); i += 7) start.opacity_logit[i] = -12;
+  pair.cpu.initialize(start);
+  pair.gpu->initialize(start);
+  const StepStats g = pair.gpu->step_view(1, 2), h = pair.cpu.step_view(1, 2);
+  EXPECT_GT(h.relocated, 0u);
+  EXPECT_GT(h.added, 0u);
+  EXPECT_EQ(g.relocated, h.relocated);
+  EXPECT_EQ(g.added, h.added);
+  const model::Primitives a = pair.gpu->host_model().primitives, &b = pair.cpu.model().primitives;
+  ASSERT_EQ(a.size(), b.size());
+  const auto fields_a = a.fields(), fields_b = b.fields();
+  for (int f = 0; f < model::Primitives::kFieldCount; ++f)
+    EXPECT_EQ(*fields_a[f].values, *fields_b[f].values) << fields_a[f].name;
+  for (int s = 0; s < 3; ++s) ASSERT_TRUE(std::isfinite(pair.gpu->step().loss)) << s;
 }
 
 // A checkpoint written on one device resumes on the other: the model read back is the one

@@ -20,6 +20,12 @@ namespace retimegs::cuda {
 void inject_noise(DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
                   double lr_means, std::uint64_t key);
 
+// train::apply's corrections of the drawn sources (train::correct_source) on the device: for k
+// in [0, count), row rows[k] (distinct) takes opacity logit logits[k] and its three log scales
+// move by shifts[k]. All three arrays on the device.
+void correct_sources(DevicePrimitives& primitives, const std::int32_t* rows, const float* logits,
+                     const float* shifts, std::size_t count);
+
 // model::tie_end_velocities on rows[0, count) (device, int32), as the CPU step applies it.
 void tie_end_velocities(DevicePrimitives& primitives, const std::int32_t* rows, std::size_t count,
                         const model::EndTie<float>& tie);

@@ -11,6 +11,15 @@
 
 namespace retimegs::model {
 
+// The fields the index reads, row by row: each row's window (μ_τ, τ_l, τ_r).
+template <typename T>
+struct WindowFields {
+  const T* mu_tau = nullptr;
+  const T* tau_l = nullptr;
+  const T* tau_r = nullptr;
+  std::size_t size = 0;
+};
+
 class TemporalIndex {
  public:
   TemporalIndex() = default;
@@ -23,6 +32,13 @@ class TemporalIndex {
   // every frame.
   template <typename T>
   TemporalIndex(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
+                double min_opacity = SliceOptions{}.min_opacity)
+      : TemporalIndex(WindowFields<T>{primitives.mu_tau.data(), primitives.tau_l.data(),
+                                      primitives.tau_r.data(), primitives.size()},
+                      config, grid, min_opacity) {}
+  // The same from the window fields alone (rows that live elsewhere: the CUDA step's).
+  template <typename T>
+  TemporalIndex(const WindowFields<T>& windows, const ModelConfig& config, const TimeGrid& grid,
                 double min_opacity = SliceOptions{}.min_opacity);
 
   // The ascending rows that can take part in any render at training time grid.at(frame).

@@ -65,12 +65,17 @@ RETIMEGS_HD void stgs_temporal_opacity_vjp(T mu_tau, T log_scale, T t, T v, T& v
 
 // The RetimeGS window of primitive i under the model's settings, in S: the primitives' own scalar
 // (evaluate), or double where a float model is read without rounding its window to float (export).
+template <typename S, typename T>
+RetimeWindow<S> retime_window(T mu_tau, T tau_l, T tau_r, const ModelConfig& config,
+                              const TimeGrid& grid) {
+  return {S(mu_tau),        S(tau_l),       S(tau_r),
+          S(grid.first),    S(grid.last()), S(grid.to_frames(config.gamma)),
+          S(config.epsilon)};
+}
 template <typename T, typename S = T>
 RetimeWindow<S> retime_window(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
                               const TimeGrid& grid) {
-  return {S(p.mu_tau[i]),   S(p.tau_l[i]),  S(p.tau_r[i]),
-          S(grid.first),    S(grid.last()), S(grid.to_frames(config.gamma)),
-          S(config.epsilon)};
+  return retime_window<S>(p.mu_tau[i], p.tau_l[i], p.tau_r[i], config, grid);
 }
 
 // σ_τ(t) of primitive i, in the scalar of t: the STGS Gaussian or the RetimeGS window, as the

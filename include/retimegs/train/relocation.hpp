@@ -15,6 +15,7 @@
 #include <random>
 #include <vector>
 
+#include "retimegs/core/hd.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::train {
@@ -33,6 +34,49 @@ struct Relocation {
   std::size_t moved = 0;              // dead rows that received a copy
   std::size_t added = 0;              // rows appended by growth
 };
+
+// The three fields relocation and growth decide from, row by row: opacity logit, τ_l and τ_r.
+struct RelocationFields {
+  const float* opacity_logit = nullptr;
+  const float* tau_l = nullptr;
+  const float* tau_r = nullptr;
+  std::size_t size = 0;
+};
+
+// Those of host rows.
+RelocationFields relocation_fields(const model::Primitives& primitives);
+
+// What relocation or growth does to the rows, decided from RelocationFields alone, so that the
+// rows may live elsewhere (the CUDA step applies it to device rows). In order: the model is
+// resized to `rows` (growth appends zero rows), each drawn source's opacity logit is set and
+// its three log scales shifted (the correction for the copies it gets), then row from[k] is
+// copied onto row to[k]. The to rows are distinct and never a source.
+struct RowMoves {
+  std::size_t rows = 0;
+  std::vector<std::int32_t> sources;                        // distinct, ascending
+  std::vector<float> source_logit, source_log_scale_shift;  // [sources]
+  std::vector<std::int32_t> to, from;
+  // Rows whose optimiser state restarts: the targets, then the sources once per copy.
+  std::vector<std::int32_t> touched() const;
+};
+
+// A drawn source's correction for its copies (RowMoves): its opacity logit set, each of its three
+// log scales shifted. Both devices apply it.
+RETIMEGS_HD inline void correct_source(float logit, float log_scale_shift, float& opacity_logit,
+                                       float* log_scale) {
+  opacity_logit = logit;
+  for (int a = 0; a < 3; ++a) log_scale[a] += log_scale_shift;
+}
+
+// Every dead row (σ <= min_opacity) takes a copy of a live one sampled with replacement ∝ score.
+RowMoves relocation_moves(const RelocationFields& rows, RelocationScore score, double min_opacity,
+                          std::mt19937_64& rng);
+// Rows appended so that the count becomes min(cap, floor(growth · N)), each a copy of a live row
+// sampled ∝ score.
+RowMoves growth_moves(const RelocationFields& rows, RelocationScore score, std::size_t cap,
+                      double growth, double min_opacity, std::mt19937_64& rng);
+// The moves applied to host rows.
+void apply(const RowMoves& moves, model::Primitives& primitives);
 
 // σ_new = 1 - (1 - σ)^(1/n) and the scale factor σ / D (docs/method.md) for a source drawn so that
 // it and its copies number n in total.

@@ -10,12 +10,25 @@
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/train/adam.hpp"
 #include "retimegs/train/config.hpp"
+#include "retimegs/train/relocation.hpp"
 
 namespace retimegs::train {
 
 // What one call changed, for the training log.
 struct DensityChanges {
   std::size_t relocated = 0, added = 0, stretched = 0, pruned = 0;
+};
+
+// Rows that relocation and growth act on where they live: the host's (McmcStrategy::reshape) or
+// the CUDA step's. The moves are decided on the host from three fields of every row.
+class RelocatableRows {
+ public:
+  virtual ~RelocatableRows() = default;
+  // The rows' opacity logits and window halves as they are now.
+  virtual RelocationFields fields() = 0;
+  // The moves applied to the rows, and the touched rows' optimiser state restarted (zero
+  // moments, as appended rows have).
+  virtual void apply(const RowMoves& moves) = 0;
 };
 
 class DensityStrategy {
@@ -54,11 +67,14 @@ class McmcStrategy final : public DensityStrategy {
   // Relocation, growth and stretching as after_step does them after its noise.
   DensityChanges reshape(int iteration, model::Model& model, Optimizers& optimizers,
                          std::mt19937_64& rng);
-
- private:
+  // reshape's parts: relocation then growth, on rows that may live elsewhere; stretching, which
+  // reads and writes whole rows, on the host's.
   bool relocates_at(int iteration) const;
   bool stretches_at(int iteration, model::Representation representation) const;
+  DensityChanges relocate_and_grow(RelocatableRows& rows, model::Representation representation,
+                                   std::mt19937_64& rng) const;
 
+ private:
   TrainConfig config_;
   double scene_extent_;
 };
