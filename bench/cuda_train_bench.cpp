@@ -156,9 +156,9 @@ Timing time_steps(train::TrainingStep& step, int warmup, int steps, std::size_t*
   return t;
 }
 
-// The host round trip of relocation and growth, which the GPU step runs on the host (download,
-// reshape, index rebuild, upload): steps with a reshape every 10th iteration, the model free to
-// grow, against the steps between them.
+// Relocation and growth (decided on the host from three fields of every row, applied on the
+// device, then the temporal index rebuilt and the rows reordered): steps with a reshape every 10th
+// iteration, the model free to grow, against the steps between them.
 void time_reshapes(const train::TrainingSet& set, train::TrainConfig config,
                    const model::Primitives& primitives) {
   config.relocate_start = 5;
@@ -182,7 +182,7 @@ void time_reshapes(const train::TrainingSet& set, train::TrainConfig config,
     }
   }
   std::printf(
-      "headline: reshape on the host: %.1f ms a reshape step (%d, %zu rows added in all, %zu "
+      "headline: relocation and growth: %.1f ms a reshape step (%d, %zu rows added in all, %zu "
       "primitives after), %.1f ms the others\n",
       reshape_ms / std::max(reshapes, 1), reshapes, added, step->primitive_count(),
       other_ms / std::max(others, 1));

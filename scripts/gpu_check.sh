@@ -10,7 +10,8 @@
 #
 # --no-gpu-ok carries on without a GPU, to check the script on a build machine: the tests then
 # skip with the reason, and the benchmarks are not run. CMAKE_ARGS go to the configure step, e.g.
-# -DCMAKE_CUDA_ARCHITECTURES=90. RETIMEGS_GPU_TEST_TIMEOUT (seconds, default 300) bounds the
+# -DCMAKE_CUDA_ARCHITECTURES=90. RETIMEGS_GPU_TESTS (a ctest -R regex) runs some of the gpu tests
+# only. RETIMEGS_GPU_TEST_TIMEOUT (seconds, default 300) bounds the
 # tests, RETIMEGS_GPU_BENCH_TIMEOUT (default 240) each benchmark. With RETIMEGS_GPU_SANITIZE=1,
 # each failing test runs once more under compute-sanitizer (sanitizer.log), for the access that
 # went wrong.
@@ -87,7 +88,8 @@ build_seconds=$((SECONDS - started))
 
 ctest_log="$logs/ctest.log"
 tests_ok=1
-timeout "$test_timeout" ctest --test-dir "$build" -L gpu --output-on-failure -j "$(nproc)" \
+timeout "$test_timeout" ctest --test-dir "$build" -L gpu ${RETIMEGS_GPU_TESTS:+-R "$RETIMEGS_GPU_TESTS"} \
+  --output-on-failure -j "$(nproc)" \
   > "$ctest_log" 2>&1 || tests_ok=0
 # "100% tests passed, 0 tests failed out of N", or from CMake 4 "100% tests passed out of N".
 total=$(sed -n 's/^[0-9]*% tests passed.* out of \([0-9]*\)$/\1/p' "$ctest_log")
