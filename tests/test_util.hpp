@@ -49,24 +49,29 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 struct CommandResult {
   int status = -1;
-  std::string err;  // stderr
+  std::string out, err;  // stdout, stderr
 };
 
-// Runs the retimegs binary with `args`; captures stderr and the exit status.
+// Runs the retimegs binary with `args`; captures stdout, stderr and the exit status.
 inline CommandResult run_cli(const std::string& args) {
   TempDir scratch;
-  const auto err_file = scratch / "stderr.txt";
-  const std::string command =
-      std::string(RETIMEGS_BINARY) + " " + args + " >/dev/null 2>" + err_file.string();
+  const auto out_file = scratch / "stdout.txt", err_file = scratch / "stderr.txt";
+  const std::string command = std::string(RETIMEGS_BINARY) + " " + args + " >" + out_file.string() +
+                              " 2>" + err_file.string();
   const int raw = std::system(command.c_str());
   CommandResult result;
   result.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  std::ifstream in(err_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  result.err = ss.str();
+  result.out = read_text(out_file);
+  result.err = read_text(err_file);
   return result;
 }
 
@@ -103,13 +108,6 @@ inline void expect_import_refused(const std::string& format, const std::filesyst
 inline void write_text(const std::filesystem::path& path, const std::string& text) {
   std::filesystem::create_directories(path.parent_path());
   std::ofstream(path, std::ios::binary) << text;
-}
-
-inline std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // f() must throw retimegs::Error with every one of `parts` in its message.

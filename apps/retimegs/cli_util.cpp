@@ -99,12 +99,13 @@ CLI::Option* add_near_option(CLI::App& cmd, std::optional<double>& near) {
 }
 
 CLI::Option* add_device_option(CLI::App& cmd, std::string& device) {
+  device = "auto";  // a user with a GPU computes on it
   return cmd
       .add_option("--device", device,
                   "where to compute: cpu, cuda (an NVIDIA GPU; needs a build with the CUDA "
                   "backend) or auto (cuda when the build has it and a GPU is present, else cpu); "
                   "the log names the one that ran")
-      ->default_str("cpu");
+      ->capture_default_str();
 }
 
 }  // namespace retimegs::app

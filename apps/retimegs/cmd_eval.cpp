@@ -28,7 +28,7 @@ void add_eval_command(CLI::App& app) {
     int threads = 0;
     std::optional<double> near;
     bool stability = false, force = false;
-    std::string device = "cpu";
+    std::string device;  // add_device_option's default
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(

@@ -39,7 +39,7 @@ void add_render_command(CLI::App& app) {
     bool alpha = false;
     int bit_depth = 8;
     std::string exr;
-    std::string device = "cpu";
+    std::string device;  // add_device_option's default
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(

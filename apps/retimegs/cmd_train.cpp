@@ -25,7 +25,7 @@ void add_train_command(CLI::App& app) {
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
-    std::string device = "cpu";
+    std::string device;  // add_device_option's default
     int threads = 0;
     double downscale = 1.0;
     bool resume = false, force = false;

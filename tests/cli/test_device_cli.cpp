@@ -1,4 +1,4 @@
-// `retimegs render --device` and `retimegs eval --device`: cpu (the default) and auto on a machine
+// `retimegs render --device` and `retimegs eval --device`: auto (the default) and cpu on a machine
 // without a usable GPU write the same files, byte for byte; cuda there fails with status 2 and one
 // line naming the reason and --device cpu. (GPU against CPU images: tests/playback_cuda.)
 #include <filesystem>
@@ -39,6 +39,14 @@ struct Fixture : test::MovingModelScene {
 
 bool gpu_usable() {
   return cuda::query_device().usable();
+}
+
+// A user with a GPU computes on it unless they say otherwise.
+TEST(DeviceCli, AutoIsTheDefault) {
+  for (const char* command : {"train", "render", "eval"}) {
+    const auto r = test::run_cli(std::string(command) + " --help");
+    EXPECT_NE(r.out.find("--device TEXT=auto"), std::string::npos) << command << "\n" << r.out;
+  }
 }
 
 TEST(DeviceCli, CpuAndAutoWithoutAGpuWriteTheSameFiles) {
