@@ -424,6 +424,24 @@ TEST_F(BadInputCli, ControlCharactersInQuotedNamesAreEscaped) {
   run_cases(root_->path(), cases);
 }
 
+// A NUL in any value a message quotes is escaped (retimegs::Error), not where the message ends.
+TEST_F(BadInputCli, NulsInQuotedValuesAreEscaped) {
+  const std::string nul("\0", 1);
+  const std::vector<Case> cases = {
+      {"sheet --scene {D}/nul_split --out {D}/sheet.png",
+       {"'cameras[0].split' must be \"train\" or \"test\", got \"tr\\x00ain\""},
+       [&](const fs::path& d) {
+         scene_with(d, "nul_split", "/cameras/0/split", "tr" + nul + "ain");
+       }},
+      {"sheet --scene {D}/nul_format --out {D}/sheet.png",
+       {"got \"retimegs\\x00-scene\""},
+       [&](const fs::path& d) {
+         scene_with(d, "nul_format", "/format", "retimegs" + nul + "-scene");
+       }},
+  };
+  run_cases(root_->path(), cases);
+}
+
 // Paths the system cannot look up: a name longer than the file system allows is reported with
 // the path and the system's reason, never as an "unexpected error".
 TEST_F(BadInputCli, PathsTheSystemRefusesAreNamedWithTheReason) {
