@@ -26,6 +26,7 @@ Progress::Progress(std::string label, std::size_t total, bool enabled, bool inte
       enabled_(enabled),
       interruptible_(interruptible),
       tty_(::isatty(STDERR_FILENO) != 0),
+      stream_(tty_ ? stderr : stdout),
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_) {}
 
@@ -78,8 +79,8 @@ void Progress::draw(bool final_line) {
     line = fmt::format("{} {}/{} ({:.0f}%) {} elapsed {} eta {}\n", label_, done_, total_,
                        100 * fraction, status_, format_seconds(elapsed), format_seconds(eta));
   }
-  std::fputs(line.c_str(), stderr);
-  std::fflush(stderr);
+  std::fputs(line.c_str(), stream_);
+  std::fflush(stream_);
 }
 
 }  // namespace retimegs

@@ -11,6 +11,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
 
@@ -191,8 +192,7 @@ VideoInfo probe_video(const std::filesystem::path& path) {
     fail("{}: cannot decode the first frame of the video", path.string());
   if (v.width < 1 || v.height < 1) v.width = first.cols, v.height = first.rows;
   if (v.frames < 1) fail("{}: video reports no frames", path.string());
-  if (!(v.fps > 0) || !std::isfinite(v.fps))
-    fail("{}: video reports an invalid frame rate ({})", path.string(), v.fps);
+  check_fps(v.fps, path.string() + ": the video's frame rate");
   return v;
 }
 

@@ -33,6 +33,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/colmap.hpp"
 #include "retimegs/io/json_file.hpp"
@@ -288,7 +289,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
   scene.fps = kDefaultFps;
   if (root.contains("fps")) {
     scene.fps = detail::finite_number(root["fps"], file, "fps");
-    if (!(scene.fps > 0)) fail("{}: 'fps' must be positive, got {}", file, scene.fps);
+    check_fps(scene.fps, fmt::format("{}: 'fps'", file));
   }
   std::vector<std::unique_ptr<detail::Undistorter>> undistorters;
   for (std::size_t c = 0; c < grid.size(); ++c) {

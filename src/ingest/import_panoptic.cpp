@@ -9,7 +9,6 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/ingest/import.hpp"
@@ -36,9 +35,7 @@ struct SourceCamera {
 // an empty name would be the folder itself; a NUL would cut the name short.
 void check_frame_file(const std::string& value, const std::string& file, const std::string& where) {
   const auto refuse = [&](const char* why) {
-    // escape_control_chars: a NUL would end the message's C string (what()) there.
-    fail("{}: 'fn{}' is '{}': {} (a path relative to ims/ is expected)", file, where,
-         escape_control_chars(value), why);
+    fail("{}: 'fn{}' is '{}': {} (a path relative to ims/ is expected)", file, where, value, why);
   };
   if (value.empty()) refuse("an empty name");
   if (value.find('\0') != std::string::npos) refuse("it holds a NUL byte");

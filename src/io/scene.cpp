@@ -10,7 +10,6 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
-#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/core/limits.hpp"
 #include "retimegs/io/flow_io.hpp"
@@ -133,7 +132,7 @@ void check_camera_name(const std::string& name, const std::string& where) {
     fail(
         "{}: camera name '{}' cannot be a folder name (one path component of at most {} bytes, "
         "no '/', '\\', control characters, '.' or '..')",
-        where, escape_control_chars(name), kMaxName);  // a NUL would end what() there
+        where, name, kMaxName);
 }
 
 namespace {

@@ -1,5 +1,9 @@
 #include "retimegs/media/frame_writer.hpp"
 
+#include <sys/resource.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -27,6 +31,21 @@ namespace {
 bool is_h264(const fs::path& path) {
   const std::string ext = path.extension().string();
   return ext == ".mp4" || ext == ".mov" || ext == ".mkv";
+}
+
+// OpenCV's video writer drops FFmpeg's write errors: a video cut short by a file-size limit or a
+// full disk after its first block (the probe in the constructor) would be kept as if complete.
+// Each leaves a trace: the file at the size limit (a write beyond it fails with EFBIG), or its
+// file system without a free block (root may write into the reserved ones, others may not).
+void check_video_not_cut_short(const fs::path& file, const fs::path& out) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
+      fs::file_size(file) >= limit.rlim_cur)
+    fail("{}: cannot write the video file: {}", out.string(), std::strerror(EFBIG));
+  struct statvfs disk {};
+  if (::statvfs(file.c_str(), &disk) == 0 &&
+      (disk.f_bfree == 0 || (::geteuid() != 0 && disk.f_bavail == 0)))
+    fail("{}: cannot write the video file: {}", out.string(), std::strerror(ENOSPC));
 }
 
 bool is_video(const fs::path& path) {
@@ -165,6 +184,7 @@ void FrameWriter::finish() {
     video_->writer.release();
     if (!fs::exists(file_->temp_path()) || fs::file_size(file_->temp_path()) == 0)
       fail("{}: the video encoder wrote nothing", out_.string());
+    check_video_not_cut_short(file_->temp_path(), out_);
     file_->commit();
   } else if (kind_ == Kind::kFolder) {
     if (!options_.times.empty())

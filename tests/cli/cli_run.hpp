@@ -58,18 +58,20 @@ inline std::string last_line(const std::string& err) {
   return err.substr(start == std::string::npos ? 0 : start + 1, end - start);
 }
 
-// A retimegs process started in the background: stdout to /dev/null, stderr to `err_file`.
+// A retimegs process started in the background: stderr to `err_file`, stdout (the log and, stderr
+// not being a terminal, the progress lines) to `err_file` + ".stdout".
 class CliProcess {
  public:
   CliProcess(const std::vector<std::string>& args, std::filesystem::path err_file)
-      : err_file_(std::move(err_file)) {
+      : err_file_(std::move(err_file)), out_file_(err_file_.string() + ".stdout") {
     std::vector<std::string> argv_strings = {RETIMEGS_BINARY};
     argv_strings.insert(argv_strings.end(), args.begin(), args.end());
     pid_ = ::fork();
     if (pid_ == 0) {
       const int err = ::open(err_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      const int null = ::open("/dev/null", O_RDWR);
-      ::dup2(err, 2), ::dup2(null, 1), ::dup2(null, 0);
+      const int out = ::open(out_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      const int null = ::open("/dev/null", O_RDONLY);
+      ::dup2(err, 2), ::dup2(out, 1), ::dup2(null, 0);
       std::vector<char*> argv;
       for (std::string& s : argv_strings) argv.push_back(s.data());
       argv.push_back(nullptr);
@@ -88,6 +90,7 @@ class CliProcess {
 
   pid_t pid() const { return pid_; }
   std::string err() const { return read_text(err_file_); }
+  std::string out() const { return read_text(out_file_); }
   void signal(int s) const { ::kill(pid_, s); }
 
   // Waits until `ready(stderr so far)` holds or the process ends; false after `seconds`.
@@ -112,7 +115,7 @@ class CliProcess {
   }
 
  private:
-  std::filesystem::path err_file_;
+  std::filesystem::path err_file_, out_file_;
   pid_t pid_ = -1;
   bool waited_ = false;
 };

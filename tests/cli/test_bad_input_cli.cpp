@@ -424,6 +424,41 @@ TEST_F(BadInputCli, ControlCharactersInQuotedNamesAreEscaped) {
   run_cases(root_->path(), cases);
 }
 
+// A NUL in any value a message quotes is escaped (retimegs::Error), not where the message ends.
+TEST_F(BadInputCli, NulsInQuotedValuesAreEscaped) {
+  const std::string nul("\0", 1);
+  const std::vector<Case> cases = {
+      {"sheet --scene {D}/nul_split --out {D}/sheet.png",
+       {"'cameras[0].split' must be \"train\" or \"test\", got \"tr\\x00ain\""},
+       [&](const fs::path& d) {
+         scene_with(d, "nul_split", "/cameras/0/split", "tr" + nul + "ain");
+       }},
+      {"sheet --scene {D}/nul_format --out {D}/sheet.png",
+       {"got \"retimegs\\x00-scene\""},
+       [&](const fs::path& d) {
+         scene_with(d, "nul_format", "/format", "retimegs" + nul + "-scene");
+       }},
+  };
+  run_cases(root_->path(), cases);
+}
+
+// A command that fails after printing progress (prepare's flow, its second image truncated):
+// when stderr is not a terminal, the progress lines go to stdout with the log, and stderr holds
+// the one error line alone, for a script to read.
+TEST_F(BadInputCli, AFailingCommandsStderrIsItsErrorLineAlone) {
+  const fs::path d = root_->path();
+  fs::copy(d / "scene", d / "cut_scene", fs::copy_options::recursive);
+  fs::remove_all(d / "cut_scene" / "flow");
+  const fs::path cut = d / "cut_scene" / "images" / "cam01" / "00002.png";
+  const std::string png = test::read_text(cut);
+  write(cut, png.substr(0, png.size() / 2));
+  const auto r = test::run_cli("prepare --scene " + (d / "cut_scene").string() + " --threads 1");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_TRUE(test::is_single_error_line(r.err)) << r.err;
+  EXPECT_NE(r.err.find(cut.string() + ": truncated PNG"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("flow 1/2 (50%)"), std::string::npos) << r.out;  // cam00's, before it
+}
+
 // Paths the system cannot look up: a name longer than the file system allows is reported with
 // the path and the system's reason, never as an "unexpected error".
 TEST_F(BadInputCli, PathsTheSystemRefusesAreNamedWithTheReason) {

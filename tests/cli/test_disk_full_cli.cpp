@@ -154,6 +154,35 @@ TEST_F(DiskFullCli, AFileSizeLimitFailsEveryWriterInOneLineAndLeavesNothing) {
   EXPECT_EQ(test::snapshot_diff(stopped_before, test::snapshot(stopped)), "");
 }
 
+// A video that a file-size limit or a full disk cuts short after its first block (the encoder
+// itself reports no failed write) is refused in one line, alone on stderr after the progress,
+// and not kept.
+TEST_F(DiskFullCli, AVideoCutShortIsRefused) {
+  const std::string scene = " --scene " + (dir_ / "scene").string();
+  auto r = test::run_cli_timed("train" + scene + " --out " + (dir_ / "run").string() +
+                               " --iters 2 --cap 300 --threads 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // 401 frames of 320x240: some 20 KB of H.264, past both limits below.
+  const std::string render = "render --model " + (dir_ / "run" / "model.rgs").string() + scene +
+                             " --camera cam00 --times 0:2:0.005 --size 320x240 --threads 2 --out ";
+  const auto expect_refused = [&](const fs::path& out, const std::string& limit,
+                                  const std::string& reason) {
+    fs::create_directories(out.parent_path());
+    const auto refused = test::run_cli_timed(render + out.string(), 120, limit);
+    EXPECT_EQ(refused.status, 2) << refused.err;
+    EXPECT_TRUE(test::is_single_error_line(refused.err)) << refused.err;
+    EXPECT_NE(refused.err.find(out.string() + ": cannot write the video file: " + reason),
+              std::string::npos)
+        << refused.err;
+    EXPECT_TRUE(fs::is_empty(out.parent_path())) << leftovers(out.parent_path());
+  };
+  // 8 KiB: more than the encoder's first block (4 KiB, written before it starts).
+  expect_refused(dir_ / "limited" / "v.mp4", "ulimit -f 16; ", "File too large");
+  const TmpfsMount full(dir_ / "full", "8k");
+  if (!full.mounted()) GTEST_SKIP() << "mounting a tmpfs needs root";
+  expect_refused(dir_ / "full" / "v.mp4", "", "No space left on device");
+}
+
 TEST_F(DiskFullCli, AVideoIntoAReadOnlyFolderNamesTheFolder) {
   const std::string scene = " --scene " + (dir_ / "scene").string();
   auto r = test::run_cli_timed("train" + scene + " --out " + (dir_ / "run").string() +

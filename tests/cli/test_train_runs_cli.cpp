@@ -34,10 +34,10 @@ std::vector<std::string> train_args(const fs::path& scene, const fs::path& out, 
       "--cap", "400",     "--threads",    "2"};
 }
 
-// Progress after the first steps: a plain progress line "train N/TOTAL" with N > 0.
-bool trained_some(const std::string& err) {
+// Progress after the first steps: a plain progress line "train N/TOTAL" with N > 0 on stdout.
+bool trained_some(const std::string& out) {
   static const std::regex line(R"((^|\n)train [1-9][0-9]*/)");
-  return std::regex_search(err, line);
+  return std::regex_search(out, line);
 }
 
 // The step N of "interrupted at step N; ..." in `err`, or -1.
@@ -56,7 +56,8 @@ TEST(TrainRunsCli, CtrlCWritesACheckpointAndTheResumedRunEqualsAnUninterruptedOn
     ASSERT_EQ(full.wait(), 0) << full.err();
   }
   test::CliProcess run(train_args(scene, dir / "run", kIters), dir / "run.err");
-  ASSERT_TRUE(run.wait_for_err(trained_some, 120)) << run.err();
+  ASSERT_TRUE(run.wait_for_err([&](const std::string&) { return trained_some(run.out()); }, 120))
+      << run.err();
   run.signal(SIGINT);
   const int status = run.wait();
   const std::string err = run.err();
@@ -180,8 +181,8 @@ TEST(TrainRunsCli, CtrlCStopsARenderAndRemovesItsUnfinishedFolder) {
                            scene.string(), "--camera", "cam00", "--times", "0:2:0.0002",
                            "--threads", "2", "--out", (dir / "frames").string()},
                           dir / "render.err");
-  const auto rendered_some = [](const std::string& err) {
-    return std::regex_search(err, std::regex(R"((^|\n)render [1-9][0-9]*/)"));
+  const auto rendered_some = [&](const std::string&) {
+    return std::regex_search(render.out(), std::regex(R"((^|\n)render [1-9][0-9]*/)"));
   };
   ASSERT_TRUE(render.wait_for_err(rendered_some, 120)) << render.err();
   render.signal(SIGINT);

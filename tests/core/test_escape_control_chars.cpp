@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include "retimegs/core/error.hpp"
+#include "test_util.hpp"
+
 namespace retimegs {
 namespace {
 
@@ -24,6 +27,15 @@ TEST(EscapeControlChars, ResultHasNoControlByte) {
     const auto byte = static_cast<unsigned char>(ch);
     EXPECT_TRUE(byte >= 0x20 && byte != 0x7f) << int(byte);
   }
+}
+
+// An Error quoting user text holds it whole and on one line: what() is a C string, which a raw NUL
+// would end.
+TEST(EscapeControlChars, ErrorMessagesShowTheTextAfterANul) {
+  EXPECT_STREQ(Error(std::string("f.json: 'name' is 'a\0b\nc'", 25)).what(),
+               "f.json: 'name' is 'a\\x00b\\nc'");
+  EXPECT_EQ(test::message_of([] { fail("{}: got '{}'", "scene.json", std::string("tr\0ain", 6)); }),
+            "scene.json: got 'tr\\x00ain'");
 }
 
 }  // namespace

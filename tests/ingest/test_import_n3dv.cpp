@@ -22,9 +22,9 @@ int gray(int k) {
   return 40 + 35 * k;
 }
 
-void write_video(const fs::path& path, int frames) {
+void write_video(const fs::path& path, int frames, double fps = kFps) {
   cv::VideoWriter writer(path.string(), cv::CAP_FFMPEG, cv::VideoWriter::fourcc('m', 'p', '4', 'v'),
-                         kFps, cv::Size(kWidth, kHeight));
+                         fps, cv::Size(kWidth, kHeight));
   ASSERT_TRUE(writer.isOpened()) << "OpenCV cannot encode mp4v here";
   for (int k = 0; k < frames; ++k)
     writer.write(cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(gray(k), gray(k), gray(k))));
@@ -144,6 +144,12 @@ TEST_F(N3dvBadInput, WrongNpyShape) {
 TEST_F(N3dvBadInput, UndecodableVideo) {
   test::write_text(dir_ / "src" / "cam01.mp4", "this is not a video");
   expect_error({"cam01.mp4", "video"});
+}
+
+// The scene's frame rate is the videos': one beyond core/limits.hpp's is refused naming the video.
+TEST_F(N3dvBadInput, VideoFrameRateOutsideTheLimit) {
+  write_video(dir_ / "src" / "cam00.mp4", kFrames, 50000);
+  expect_error({"cam00.mp4: the video's frame rate = 50000", "frames per second"});
 }
 
 TEST_F(N3dvBadInput, NonRigidPose) {

@@ -1,5 +1,6 @@
 #include <filesystem>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -222,6 +223,15 @@ TEST_F(NerfstudioBadInput, DeclaredImageSizeMustMatchTheImage) {
     j_["h"] = h;
     SCOPED_TRACE(j_.dump());
     expect_error({"transforms.json", "frames[0]", "declares image size", "is 40x30"});
+  }
+}
+
+// A frame rate beyond core/limits.hpp's is refused naming the key.
+TEST_F(NerfstudioBadInput, FpsOutsideTheLimit) {
+  for (const double fps : {1e-300, 1e308, -1.0}) {
+    j_["fps"] = fps;
+    SCOPED_TRACE(j_.dump());
+    expect_error({"transforms.json: 'fps' = " + fmt::format("{}", fps), "frames per second"});
   }
 }
 

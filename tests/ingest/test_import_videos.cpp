@@ -514,6 +514,19 @@ TEST_F(VideosBadInput, RigFileStructure) {
   expect_refused({"rig.txt", "COLMAP model folder or a rig file"});
 }
 
+// Frame rates beyond core/limits.hpp's, given (--fps) or read from a video, are refused naming
+// the option or the video.
+TEST_F(VideosBadInput, FrameRatesOutsideTheLimitAreRefused) {
+  for (const double fps : {1e-300, 1e308, -1.0, 0.0}) {
+    options_.fps = fps;
+    expect_refused({fmt::format("--fps = {}", fps), "frames per second"});
+  }
+  options_.fps.reset();
+  fs::remove_all(dir_ / "src");
+  write_video(dir_ / "src" / "cam00.avi", 0, 0.01, 2);  // a frame every 100 s
+  expect_refused({"cam00.avi: the video's frame rate = 0.01", "frames per second"});
+}
+
 TEST_F(VideosBadInput, FrameRatesMustAgree) {
   fs::remove_all(dir_ / "src");
   write_video(dir_ / "src" / "cam00.mkv", 0, 25, 2);
