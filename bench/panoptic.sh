@@ -16,6 +16,9 @@
 # truth | ours | flow | cross-fade at held-out frame 7).
 #
 #   bash bench/panoptic.sh                 # PRESET=fast NEAR= (the scene's) POINTS= (prepare's default)
+# scripts/gpu_panoptic.sh runs it with BIN (the retimegs to run), DEVICE (train's and eval's
+# --device), ITERS (train's --iters), METHODS (which of full, stgs, flow, crossfade, nearest to
+# score; the sheets need full, flow and crossfade) and RESULTS (the table's file).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 preset=${PRESET:-fast}
@@ -24,7 +27,10 @@ near_text=${NEAR:-"the scene's (9 % of its extent, 0.30 m)"}
 points=${POINTS:-}
 data=${DATA:-$root/../shared/data/panoptic-basketball}
 work=${WORK:-$root/bench/results/panoptic}
-bin="$root/build/apps/retimegs"
+results=${RESULTS:-$root/bench/results/panoptic.md}
+read -r -a methods <<< "${METHODS:-full stgs flow crossfade nearest}"
+device=(${DEVICE:+--device "$DEVICE"})
+bin=${BIN:-$root/build/apps/retimegs}
 [ -x "$bin" ] || "$root/scripts/setup.sh"
 source "$root/bench/eval_json.sh"
 mkdir -p "$work"
@@ -40,13 +46,13 @@ start=$(date +%s)
 # A rerun resumes a prepared scene in a second: keep the first run's time.
 [ -f "$work/prepare_seconds" ] || echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
 
-models=(full stgs)
-methods=(full stgs flow crossfade nearest)
-for v in "${models[@]}"; do
+# scored "$v": whether METHODS names it.
+scored() { [[ " ${methods[*]} " == *" $1 "* ]]; }
+for v in full stgs; do
   run="$work/$v"
-  if [ ! -f "$run/model.rgs" ]; then
-    flags=()
-    [ "$v" = stgs ] && flags=(--baseline stgs)
+  if scored "$v" && [ ! -f "$run/model.rgs" ]; then
+    flags=("${device[@]}" ${ITERS:+--iters "$ITERS"})
+    [ "$v" = stgs ] && flags+=(--baseline stgs)
     start=$(date +%s)
     mkdir -p "$run"
     "$bin" train --scene "$scene" --out "$run" --preset "$preset" "${flags[@]}" 2>&1 |
@@ -56,7 +62,7 @@ for v in "${models[@]}"; do
 done
 for v in "${methods[@]}"; do
   case "$v" in
-    full|stgs) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"}) ;;
+    full|stgs) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"} "${device[@]}") ;;
     *) source=(--baseline "$v") ;;
   esac
   for split in train test fit stability; do
@@ -79,6 +85,7 @@ for v in "${methods[@]}"; do
   done
 done
 for split in train test; do
+  if ! { scored full && scored flow && scored crossfade; }; then break; fi
   cams=5,18
   [ "$split" = test ] && cams=0,30
   "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 \
@@ -94,7 +101,7 @@ cell() {
   echo "# CMU Panoptic basketball: train even frames, score odd frames"
   echo
   echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" \
-    "with \`PRESET=$preset bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
+    "with \`PRESET=$preset${DEVICE:+ DEVICE=$DEVICE}${ITERS:+ ITERS=$ITERS} bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
   echo
   echo "Preset $preset, points: ${points:-the default of prepare}; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
   echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
@@ -123,5 +130,5 @@ cell() {
       "$(cell "$s" lpips "" 4) | $(cell "$work/${v}_stability.json" max stability 2) |" \
       "${primitives:-–} | ${rss:-–} | $seconds |"
   done
-} > "$root/bench/results/panoptic.md"
-cat "$root/bench/results/panoptic.md"
+} > "$results"
+cat "$results"

@@ -17,74 +17,21 @@
 # went wrong.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build="$root/build-gpu"
-prefix=/tmp/retimegs-gpu-deps
-logs="${OUT:-$build/logs}"
-test_timeout="${RETIMEGS_GPU_TEST_TIMEOUT:-300}"
-bench_timeout="${RETIMEGS_GPU_BENCH_TIMEOUT:-240}"
-
-die() {
-  echo "gpu_check: $*" >&2
-  exit 1
-}
-
 no_gpu_ok=0
 if [[ ${1:-} == --no-gpu-ok ]]; then
   no_gpu_ok=1
   shift
 fi
+source "$root/scripts/gpu_common.sh"
+logs="${OUT:-$build/logs}"
+test_timeout="${RETIMEGS_GPU_TEST_TIMEOUT:-300}"
+bench_timeout="${RETIMEGS_GPU_BENCH_TIMEOUT:-240}"
 
-# What the machine must have; each missing piece ends the run here with one line.
-gpu=0
-card="none"
-if listed=$(nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader \
-  2> /dev/null) && [[ -n $listed ]]; then
-  gpu=1
-  card=$(head -n 1 <<< "$listed")
-elif ((!no_gpu_ok)); then
-  die "no NVIDIA GPU: nvidia-smi is missing or lists none"
-fi
-nvcc=$(command -v nvcc || true)
-if [[ -z $nvcc && -x /usr/local/cuda/bin/nvcc ]]; then nvcc=/usr/local/cuda/bin/nvcc; fi
-[[ -n $nvcc ]] || die "no nvcc: the CUDA toolkit is missing or its bin/ is not on PATH"
-for tool in cmake ninja; do
-  command -v "$tool" > /dev/null || die "no $tool on PATH"
-done
-command -v "${CXX:-c++}" > /dev/null || command -v g++ > /dev/null ||
-  die "no C++ compiler (c++ or g++, or \$CXX) on PATH"
-debs=("$root"/.gpu/*.deb)
-[[ -e ${debs[0]} ]] ||
-  die "no .gpu/*.deb: run scripts/gpu_bundle.sh on a build machine and bring .gpu/ along"
-
-# The packages' files, under a prefix of our own: never into / (no package manager here).
-rm -rf "$prefix"
-mkdir -p "$prefix" "$logs"
-for deb in "${debs[@]}"; do
-  if command -v dpkg-deb > /dev/null; then
-    dpkg-deb -x "$deb" "$prefix"
-  else  # a .deb is an ar archive whose data.tar.* holds the files
-    unpack=$(mktemp -d)
-    (cd "$unpack" && ar x "$deb" && tar -xf data.tar.* -C "$prefix")
-    rm -rf "$unpack"
-  fi
-done
-
-started=$SECONDS
-build_log="$logs/build.log"
-# Debian puts CMake packages of architecture-specific libraries under lib/<multiarch>/cmake/,
-# which CMake searches only where it knows the multiarch name: both places are given.
-if ! cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRETIMEGS_GPU_ONLY=ON \
-  -DCMAKE_CUDA_COMPILER="$nvcc" \
-  "-DCMAKE_PREFIX_PATH=$prefix/usr;$prefix/usr/lib/x86_64-linux-gnu/cmake" "$@" \
-  > "$build_log" 2>&1; then
-  tail -n 30 "$build_log"
-  die "configuring failed (log: $build_log)"
-fi
-if ! cmake --build "$build" -j "$(nproc)" >> "$build_log" 2>&1; then
-  tail -n 30 "$build_log"
-  die "the build failed (log: $build_log)"
-fi
-build_seconds=$((SECONDS - started))
+gpu_check_machine
+gpu_unpack_bundle
+mkdir -p "$logs"
+# The GPU tests and benchmarks alone, whether or not gpu_panoptic.sh built the app here before.
+gpu_build "$logs/build.log" all -DRETIMEGS_GPU_APP=OFF "$@"
 
 ctest_log="$logs/ctest.log"
 tests_ok=1

@@ -67,13 +67,19 @@ int main(int argc, char** argv) {
   retimegs::app::add_import_command(app);
   retimegs::app::add_prepare_command(app);
   retimegs::app::add_train_command(app);
+#ifndef RETIMEGS_LEAN_APP  // the lean GPU build's app has no frame writer and no viewer
   retimegs::app::add_render_command(app);
+#endif
   retimegs::app::add_eval_command(app);
+#ifndef RETIMEGS_LEAN_APP
   retimegs::app::add_export_command(app);
+#endif
   retimegs::app::add_sheet_command(app);
   retimegs::app::add_merge_command(app);
   retimegs::app::add_slurm_command(app);
+#ifndef RETIMEGS_LEAN_APP
   retimegs::app::add_view_command(app);
+#endif
 
   try {
     app.parse(argc, argv);

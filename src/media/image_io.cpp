@@ -15,10 +15,11 @@
 
 #include <jpeglib.h>
 #include <png.h>
+#include <zlib.h>
 #include <opencv2/core/utils/logger.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "other_codecs.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
@@ -251,13 +252,7 @@ cv::Mat decode(const fs::path& path) {
     cv::Mat jpeg = decode_jpeg(bytes, path.string());
     if (!jpeg.empty()) return jpeg;
   }
-  cv::Mat m;
-  try {
-    m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    fail("{}: cannot decode image: {}", path.string(), e.err);
-  }
-  if (m.empty()) fail("{}: cannot decode image", path.string());
+  const cv::Mat m = detail::decode_other(bytes, path.string());
   if (m.depth() != CV_8U && m.depth() != CV_16U)
     fail("{}: unsupported bit depth (8- or 16-bit expected)", path.string());
   return m;
@@ -377,22 +372,55 @@ void check_writable(const fs::path& path, const Image& image, const char* format
          image.height, c);
 }
 
-// Encodes `rgb` (RGB or RGBA order; OpenCV's codecs take BGR) as `ext` in memory and writes it
-// through a checked stream: imwrite does not report a write that fails on a full disk.
-void encode_to_file(const fs::path& path, cv::Mat rgb, const char* ext, const char* format,
-                    bool replace, const std::vector<int>& params = {}) {
-  if (rgb.channels() == 3) cv::cvtColor(rgb, rgb, cv::COLOR_RGB2BGR);
-  if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_RGBA2BGRA);
-  std::vector<unsigned char> bytes;
-  bool ok = false;
-  try {
-    ok = cv::imencode(ext, rgb, bytes, params);
-  } catch (const cv::Exception& e) {
-    fail("{}: cannot encode {}: {}", path.string(), format, e.err);
+// PNG through libpng directly, as decoding, so that writing a scene's images needs no OpenCV
+// image codec (the lean GPU build has none: CMakeLists.txt). imencode's settings for speed: the
+// SUB filter, zlib's fastest level and its run-length strategy.
+void png_write_bytes(png_structp png, png_bytep data, png_size_t size) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), size);
+}
+
+void png_flush_nothing(png_structp) {}
+
+// Encodes `codes` (8- or 16-bit grey, RGB or RGBA) into `bytes`. False on a libpng error, its
+// message kept by png_on_error. `bytes` and `rows` live in the caller's frame: libpng's errors
+// return here by longjmp.
+bool write_png_pixels(png_structp png, png_infop info, const cv::Mat& codes, std::string& bytes,
+                      std::vector<png_bytep>& rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_write_fn(png, &bytes, png_write_bytes, png_flush_nothing);
+  const int color_type[] = {0, PNG_COLOR_TYPE_GRAY, 0, PNG_COLOR_TYPE_RGB,
+                            PNG_COLOR_TYPE_RGB_ALPHA};
+  const int bits = codes.depth() == CV_16U ? 16 : 8;
+  png_set_IHDR(png, info, png_uint_32(codes.cols), png_uint_32(codes.rows), bits,
+               color_type[codes.channels()], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
+  png_set_compression_level(png, Z_BEST_SPEED);
+  png_set_compression_strategy(png, Z_RLE);
+  png_write_info(png, info);
+  if (bits == 16 && std::endian::native == std::endian::little) png_set_swap(png);
+  rows.resize(std::size_t(codes.rows));
+  for (int y = 0; y < codes.rows; ++y) rows[std::size_t(y)] = const_cast<png_bytep>(codes.ptr(y));
+  png_write_image(png, rows.data());
+  png_write_end(png, nullptr);
+  return true;
+}
+
+std::string encode_png(const cv::Mat& codes, const std::string& name) {
+  PngSource errors{nullptr};  // png_on_error keeps the message here
+  png_structp png =
+      png_create_write_struct(PNG_LIBPNG_VER_STRING, &errors, png_on_error, png_on_warning);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    fail("{}: cannot encode PNG (out of memory)", name);
   }
-  if (!ok) fail("{}: cannot encode {}", path.string(), format);
-  write_text_file(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
-                  replace);
+  std::string bytes;
+  std::vector<png_bytep> rows;
+  const bool ok = write_png_pixels(png, info, codes, bytes, rows);
+  png_destroy_write_struct(&png, &info);
+  if (!ok) fail("{}: cannot encode PNG ({})", name, errors.message);
+  return bytes;
 }
 }  // namespace
 
@@ -408,11 +436,8 @@ void write_png(const fs::path& path, const Image& image, int bits, bool replace)
                        const_cast<float*>(image.data.data()));
   cv::Mat codes;  // convertTo rounds to nearest and saturates (NaN becomes 0)
   values.convertTo(codes, bits == 8 ? CV_8U : CV_16U, bits == 8 ? 255.0 : 65535.0);
-  encode_to_file(path, codes, ".png", "PNG", replace);
-}
-
-bool can_write_exr() {
-  return cv::haveImageWriter(".exr");
+  // Written through a checked stream: a write that fails on a full disk is reported.
+  write_text_file(path, encode_png(codes, path.string()), replace);
 }
 
 void check_exr_writer(const fs::path& path) {
@@ -431,9 +456,11 @@ void write_exr(const fs::path& path, const Image& image, bool float32, bool repl
   if (c == 4)  // premultiplied, as EXR defines alpha
     for (std::size_t i = 0; i < image.pixels(); ++i)
       for (int k = 0; k < 3; ++k) v[4 * i + k] *= image.data[4 * i + 3];
-  encode_to_file(
-      path, values, ".exr", "EXR", replace,
-      {cv::IMWRITE_EXR_TYPE, float32 ? cv::IMWRITE_EXR_TYPE_FLOAT : cv::IMWRITE_EXR_TYPE_HALF});
+  if (c == 3) cv::cvtColor(values, values, cv::COLOR_RGB2BGR);  // OpenCV's codecs take BGR(A)
+  if (c == 4) cv::cvtColor(values, values, cv::COLOR_RGBA2BGRA);
+  const std::vector<unsigned char> bytes = detail::encode_exr(values, float32, path.string());
+  write_text_file(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                  replace);
 }
 
 void quiet_opencv_log() {

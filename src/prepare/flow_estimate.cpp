@@ -6,9 +6,9 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/optflow.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "contrib_flow.hpp"
 #include "retimegs/core/error.hpp"
 
 namespace retimegs::prepare {
@@ -93,13 +93,10 @@ cv::Ptr<cv::DenseOpticalFlow> make_estimator(FlowMethod method) {
     case FlowMethod::kDisFastFine:
       return dis(cv::DISOpticalFlow::PRESET_FAST, true);
     case FlowMethod::kDeepFlow:
-      return cv::optflow::createOptFlow_DeepFlow();
     case FlowMethod::kTvl1:
-      return cv::optflow::DualTVL1OpticalFlow::create();
     case FlowMethod::kRlof:
-      return cv::optflow::DenseRLOFOpticalFlow::create();
     case FlowMethod::kPcaFlow:
-      return cv::optflow::createOptFlow_PCAFlow();
+      return detail::contrib_estimator(method);
     case FlowMethod::kFarneback:
       return cv::FarnebackOpticalFlow::create();
   }

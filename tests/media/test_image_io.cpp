@@ -62,6 +62,32 @@ TEST(ImageIo, SixteenBitRoundTripIsExact) {
   }
 }
 
+// Every layout write_png takes (grey and RGBA here; RGB above) at 8 and 16 bits, as OpenCV's own
+// decoder reads it back: the codes, the channel order (BGRA in OpenCV), the byte order.
+TEST(ImageIo, GreyAndRgbaPngsDecodeWithOpenCvAtBothDepths) {
+  TempDir dir;
+  for (const int channels : {1, 4})
+    for (const int bits : {8, 16}) {
+      const int max_code = bits == 8 ? 255 : 65535;
+      const Image image = coded_image(channels, max_code);
+      const auto path =
+          dir / ("x" + std::to_string(channels) + "_" + std::to_string(bits) + ".png");
+      write_png(path, image, bits);
+      const cv::Mat raw = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(raw.type(), CV_MAKETYPE(bits == 8 ? CV_8U : CV_16U, channels)) << path;
+      const int order[4] = {2, 1, 0, 3};  // stored channel of R, G, B, A
+      for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 4; ++x)
+          for (int c = 0; c < channels; ++c) {
+            const int stored = channels == 1 ? 0 : order[c];
+            const long code = bits == 8 ? long(raw.ptr<std::uint8_t>(y)[x * channels + stored])
+                                        : long(raw.ptr<std::uint16_t>(y)[x * channels + stored]);
+            EXPECT_EQ(code, std::lround(image.at(y, x, c) * float(max_code)))
+                << path << " x " << x << " y " << y << " c " << c;
+          }
+    }
+}
+
 TEST(ImageIo, WriteClampsAndRounds) {
   TempDir dir;
   Image image(4, 1, 1);

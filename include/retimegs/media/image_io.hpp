@@ -1,6 +1,6 @@
 #pragma once
 // Image files: 8/16-bit PNG and JPG in (libpng / libjpeg, silent: their warnings are dropped,
-// their errors become the Error), PNG and OpenEXR out (written atomically).
+// their errors become the Error), PNG (libpng) and EXR out, atomically (media/other_codecs.hpp).
 #include <filesystem>
 #include <optional>
 
