@@ -57,6 +57,9 @@ gpu_unpack_bundle() {
   # system links into lib/<multiarch>/: not done here.
   local lib="$prefix/usr/lib/x86_64-linux-gnu"
   export LD_LIBRARY_PATH="$lib:$lib/blas:$lib/lapack${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+  # Headers of the prefix's multiarch folder (libjpeg's jconfig.h: its version) before the
+  # machine's own, which the compiler searches by default and may belong to another version.
+  export CPATH="$prefix/usr/include/x86_64-linux-gnu${CPATH:+:$CPATH}"
 }
 
 # gpu_build LOG TARGETS [CMAKE_ARGS...]: configures the lean build and builds TARGETS (a
