@@ -345,6 +345,70 @@ void DeviceFlow::upload(const Flow& flow) {
   valid.upload(flow.valid);
 }
 
+FlowUploads::FlowUploads(const std::vector<const Flow*>& flows) {
+  check(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "flow upload stream");
+  check(cudaEventCreateWithFlags(&copied_, cudaEventDisableTiming), "flow upload event");
+  check(cudaEventCreateWithFlags(&read_, cudaEventDisableTiming), "flow upload event");
+  for (const Flow* flow : flows) {
+    if (!flow) continue;
+    lock(flow->uv.data(), flow->uv.size() * sizeof(float));
+    lock(flow->valid.data(), flow->valid.size());
+  }
+}
+
+FlowUploads::~FlowUploads() {
+  // Errors here mean a lost context, which the next call reports; a destructor cannot throw.
+  cudaStreamSynchronize(stream_);
+  for (void* host : locked_) cudaHostUnregister(host);
+  cudaEventDestroy(copied_);
+  cudaEventDestroy(read_);
+  cudaStreamDestroy(stream_);
+}
+
+void FlowUploads::lock(const void* host, std::size_t bytes) {
+  if (bytes == 0) return;
+  void* p = const_cast<void*>(host);  // registering does not write; the copies only read
+  if (cudaHostRegister(p, bytes, cudaHostRegisterDefault) == cudaSuccess) {
+    locked_.push_back(p);
+    locked_bytes_ += bytes;
+  } else {
+    cudaGetLastError();  // not sticky: this flow is copied from pageable memory
+  }
+}
+
+void FlowUploads::copy(const Flow& flow, DeviceFlow& out) {
+  out.width = flow.width, out.height = flow.height;
+  out.uv.resize(flow.uv.size());
+  out.valid.resize(flow.valid.size());
+  check(cudaMemcpyAsync(out.uv.data(), flow.uv.data(), flow.uv.size() * sizeof(float),
+                        cudaMemcpyHostToDevice, stream_),
+        "flow upload");
+  check(cudaMemcpyAsync(out.valid.data(), flow.valid.data(), flow.valid.size(),
+                        cudaMemcpyHostToDevice, stream_),
+        "flow upload");
+}
+
+void FlowUploads::start(const Flow* forward, const Flow* backward) {
+  check(cudaEventRecord(read_, 0), "flow upload: the last flows' readers");
+  check(cudaStreamWaitEvent(stream_, read_, 0), "flow upload: the last flows' readers");
+  if (forward) copy(*forward, forward_);
+  if (backward) copy(*backward, backward_);
+  check(cudaEventRecord(copied_, stream_), "flow upload");
+}
+
+const DeviceFlow& FlowUploads::ready(const DeviceFlow& flow) {
+  check(cudaStreamWaitEvent(0, copied_, 0), "flow upload: waiting for the copies");
+  return flow;
+}
+
+const DeviceFlow& FlowUploads::forward() {
+  return ready(forward_);
+}
+
+const DeviceFlow& FlowUploads::backward() {
+  return ready(backward_);
+}
+
 void DeviceSsimTarget::assign(const DevicePackedImage& packed) {
   if (packed.channels != kRgb || packed.width <= 0 || packed.height <= 0 ||
       packed.data.size() != std::size_t(packed.width) * packed.height * kRgb)

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <iterator>
+#include <optional>
+#include <vector>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/psnr.hpp"
@@ -26,17 +28,31 @@ namespace {
 // The numbers a step reads back, one slot each per render pass (device doubles).
 enum LossSlot { kImageLoss, kForwardFlowLoss, kBackwardFlowLoss, kSquaredError, kSlotsPerPass };
 
-// A stage's wall time: the device's queue drained first, so that each stage is charged its own
-// kernels (a few microseconds per stage, against milliseconds of work).
+// A stage's wall time: the default stream's queue drained first, so that each stage is charged
+// its own kernels (a few microseconds per stage, against milliseconds of work). Only that stream:
+// the flows' copies (cuda::FlowUploads) run on beside the stages until the flow loss waits.
 double lap(Stopwatch& clock) {
-  cuda::check(cudaDeviceSynchronize(), "training step");
+  cuda::check(cudaStreamSynchronize(0), "training step");
   return clock.lap();
+}
+
+// Every flow of the training set, forward and backward, null where a view has none.
+std::vector<const Flow*> all_flows(const TrainingSet& set) {
+  std::vector<const Flow*> flows;
+  for (const auto* direction : {&set.forward, &set.backward})
+    for (const auto& camera : *direction)
+      for (const std::optional<Flow>& flow : camera) flows.push_back(flow ? &*flow : nullptr);
+  return flows;
 }
 
 class CudaStep final : public TrainingStep {
  public:
   CudaStep(const TrainingSet& set, const TrainConfig& config)
-      : set_(set), config_(config), state_(set, config), strategy_(config, set.scene_extent) {
+      : set_(set),
+        config_(config),
+        state_(set, config),
+        strategy_(config, set.scene_extent),
+        flows_(all_flows(set)) {
     images_.resize(set.images.size());
     for (std::size_t c = 0; c < set.images.size(); ++c) {
       images_[c].resize(set.images[c].size());
@@ -113,7 +129,7 @@ class CudaStep final : public TrainingStep {
   cuda::DeviceBuffer<float> value_scratch_;
 
   std::vector<std::vector<cuda::DevicePackedImage>> images_;  // [camera slot][frame slot]
-  cuda::DeviceFlow forward_flow_, backward_flow_;             // the step's view's, uploaded
+  cuda::FlowUploads flows_;                                   // the step's view's
   cuda::DeviceSsimTarget target_;
   cuda::LossScratch loss_scratch_;
   cuda::DeviceBuffer<double> losses_;  // [passes, kSlotsPerPass], and the regulariser last
@@ -277,10 +293,10 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
                                       v_color_.data(), loss_scratch_);
   if (pass.flow) {
     if (set_.forward[c][i])
-      cuda::flow_loss(rgb, channels, model::kForwardFlowChannel, forward_flow_, w_flow,
+      cuda::flow_loss(rgb, channels, model::kForwardFlowChannel, flows_.forward(), w_flow,
                       v_image_.data(), losses + kForwardFlowLoss, loss_scratch_);
     if (set_.backward[c][i])
-      cuda::flow_loss(rgb, channels, model::kBackwardFlowChannel, backward_flow_, w_flow,
+      cuda::flow_loss(rgb, channels, model::kBackwardFlowChannel, flows_.backward(), w_flow,
                       v_image_.data(), losses + kBackwardFlowLoss, loss_scratch_);
   }
   if (pass.group == model::Group::kAll)
@@ -305,11 +321,13 @@ StepStats CudaStep::step_view(int c, int i) {
   const std::vector<RenderPass> passes =
       render_passes(config_, representation, i, int(set_.frames.size()), w_flow > 0);
   Stopwatch clock;
+  // The flows first: their copies run beside the kernels until the flow loss.
+  if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.flow; })) {
+    const auto& forward = set_.forward[c][i];
+    const auto& backward = set_.backward[c][i];
+    flows_.start(forward ? &*forward : nullptr, backward ? &*backward : nullptr);
+  }
   target_.assign(images_[c][i]);
-  const bool flow =
-      std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.flow; });
-  if (flow && set_.forward[c][i]) forward_flow_.upload(*set_.forward[c][i]);
-  if (flow && set_.backward[c][i]) backward_flow_.upload(*set_.backward[c][i]);
   const std::size_t slots = passes.size() * kSlotsPerPass + 1;
   losses_.resize(slots);
   losses_.fill_bytes(0);

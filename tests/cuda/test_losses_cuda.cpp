@@ -274,6 +274,52 @@ TEST(FlowLossCuda, MatchesTheCpuBitForBitInItsGradient) {
       }
 }
 
+// The views' flows as FlowUploads brings them, in an order that returns to earlier views, with a
+// flow loss launched on them before the next view's copies start: each view's flows equal the
+// host's, and so does the loss read through them. The small flows share heap pages, whose locking
+// is refused (the pageable path); the large ones, allocations of their own, are locked.
+TEST(FlowUploadsCuda, BringEachViewsFlowsAsTheHostHoldsThem) {
+  RETIMEGS_REQUIRE_GPU();
+  constexpr int kChannels = 7;
+  const Size sizes[] = {{13, 9}, {37, 23}, {640, 360}, {1024, 512}};
+  std::vector<Flow> flows;  // forward then backward, per view
+  std::uint64_t seed = 700;
+  for (const Size size : sizes)
+    for (int direction = 0; direction < 2; ++direction)
+      flows.push_back(random_flow(size, 0.7, seed++));
+  std::vector<const Flow*> pointers{nullptr};
+  for (const Flow& flow : flows) pointers.push_back(&flow);
+  FlowUploads uploads(pointers);
+  EXPECT_GE(uploads.locked_bytes(), 2 * flows.back().uv.size() * sizeof(float));
+
+  for (const int view : {2, 0, 3, 3, 1, 2}) {
+    SCOPED_TRACE(testing::Message() << "view " << view);
+    const Flow& forward = flows[2 * view];
+    const Flow& backward = flows[2 * view + 1];
+    uploads.start(&forward, &backward);
+    const Size size = sizes[view];
+    Image render(size.width, size.height, kChannels);
+    render.data = test::random_floats(render.data.size(), -5.0f, 5.0f, seed++);
+    Image cpu_v(size.width, size.height, kChannels);
+    const double cpu_loss = host_flow_loss(render, 3, forward, 0.5, cpu_v);
+    LossCall call(render, Image(size.width, size.height, kChannels));
+    flow_loss(call.render.data(), kChannels, 3, uploads.forward(), 0.5, call.v.data(),
+              call.loss.data(), call.scratch);
+    uploads.start(&flows[2 * ((view + 1) % 4)], nullptr);  // waits for that loss's kernels
+    EXPECT_NEAR(call.loss.download()[0], cpu_loss, 1e-12 * std::abs(cpu_loss));
+
+    uploads.start(&forward, &backward);
+    const DeviceFlow& f = uploads.forward();
+    const DeviceFlow& b = uploads.backward();
+    EXPECT_EQ(f.width, size.width);
+    EXPECT_EQ(b.height, size.height);
+    EXPECT_TRUE(f.uv.download() == forward.uv);
+    EXPECT_TRUE(f.valid.download() == forward.valid);
+    EXPECT_TRUE(b.uv.download() == backward.uv);
+    EXPECT_TRUE(b.valid.download() == backward.valid);
+  }
+}
+
 // A camera's colour parameters: m (log gains) then c (offsets), as the step stores them.
 std::vector<float> random_color(std::uint64_t seed) {
   std::vector<float> color = test::random_floats(6, -0.3f, 0.3f, seed);

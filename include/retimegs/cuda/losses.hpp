@@ -16,6 +16,7 @@
 //   cuda::DeviceSsimTarget target;  target.assign(packed_view);      // once per view
 //   cuda::image_loss(render.data(), C, target, lambda, 1.0, v_render.data(), C, loss.data(), s);
 #include <cstdint>
+#include <vector>
 
 #include "retimegs/core/image.hpp"
 #include "retimegs/cuda/buffer.hpp"
@@ -39,6 +40,40 @@ struct DeviceFlow {
   DeviceBuffer<std::uint8_t> valid;  // [H, W] 1 = known
 
   void upload(const Flow& flow);
+};
+
+// A view's two flows brought to the device while the step's kernels before the flow loss run
+// (shading, slicing, the first render): the training set's host flows are page-locked in place
+// once (cudaHostRegister), which lets a copy run beside the kernels at the bus's full rate, and
+// they are copied on a stream of their own. Kernels launched on the default stream after forward()
+// or backward() wait for the copies; the next start() waits for the kernels launched before it, so
+// that it never overwrites flows still being read. A flow the host will not lock (one that shares
+// a page with one locked before it, or past the host's limit) is copied from pageable memory,
+// correct but without the overlap.
+class FlowUploads {
+ public:
+  explicit FlowUploads(const std::vector<const Flow*>& flows);  // null entries are skipped
+  ~FlowUploads();
+  FlowUploads(const FlowUploads&) = delete;
+  FlowUploads& operator=(const FlowUploads&) = delete;
+
+  // Starts the copies of the view's flows; a null one is not copied (its DeviceFlow keeps the
+  // last one's contents).
+  void start(const Flow* forward, const Flow* backward);
+  const DeviceFlow& forward();
+  const DeviceFlow& backward();
+  std::size_t locked_bytes() const { return locked_bytes_; }
+
+ private:
+  void lock(const void* host, std::size_t bytes);
+  void copy(const Flow& flow, DeviceFlow& out);
+  const DeviceFlow& ready(const DeviceFlow& flow);
+
+  DeviceFlow forward_, backward_;
+  cudaStream_t stream_ = nullptr;
+  cudaEvent_t copied_ = nullptr, read_ = nullptr;
+  std::vector<void*> locked_;
+  std::size_t locked_bytes_ = 0;
 };
 
 // The target side of SSIM (core/ssim.hpp SsimTarget) on the device: the training view unpacked
