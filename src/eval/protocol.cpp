@@ -8,6 +8,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/eval/flow_interpolate.hpp"
@@ -42,36 +43,58 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
     for (int k : options.frames) jobs.push_back({c, k});
   result.per_view.resize(jobs.size());
   Progress progress("eval", jobs.size(), options.progress);
-  result.masked = true;
-  for (std::size_t j = 0; j < jobs.size(); ++j) {
-    const auto [c, k] = jobs[j];
-    const Image image = render(c, k);
-    const Image truth = media::load_image(scene, c, k);
-    std::optional<Image> mask = media::load_mask(scene, c, k);
-    // A mask without foreground (nothing of interest in view) scores the whole image.
-    if (mask &&
-        std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
-      mask.reset();
-    ViewScore& v = result.per_view[j];
-    v.camera = scene.cameras[c].name;
-    v.frame = k;
-    v.masked = mask.has_value();
-    result.masked &= v.masked;
-    v.whole.psnr = psnr(image, truth);
-    v.whole.ssim = ssim_in_box(image, truth);
-    if (lpips) v.whole.lpips = lpips->distance(image, truth);
-    if (mask) {
-      v.psnr = psnr(image, truth, &*mask);
-      v.ssim = ssim_in_box(image, truth, &*mask);
-      if (lpips) v.lpips = lpips->distance(apply_mask(image, *mask), apply_mask(truth, *mask));
-    } else {
-      v.psnr = v.whole.psnr, v.ssim = v.whole.ssim, v.lpips = v.whole.lpips;
+  // The views are rendered one after another (the renderer uses every core, or the GPU), then
+  // scored a batch at a time, one view per thread: a view's metrics (LPIPS's convolutions above
+  // all) are too small to keep many cores busy. A batch holds its views' working memory at once,
+  // about 48 floats a pixel (the render, the truth, the mask, their masked copies, and LPIPS's
+  // widest layer: conv1's 64 maps at half resolution with their inputs); it stays within 4 GB.
+  constexpr std::size_t kBatchBytes = std::size_t(4) << 30, kBytesPerPixel = 48 * sizeof(float);
+  std::size_t pixels = 1;
+  for (int c : options.cameras)
+    pixels = std::max(pixels, std::size_t(scene.cameras[c].width) * scene.cameras[c].height);
+  const std::size_t batch =
+      std::clamp<std::size_t>(kBatchBytes / (kBytesPerPixel * pixels), 1, max_threads());
+  std::vector<Image> images;
+  for (std::size_t first = 0; first < jobs.size(); first += batch) {
+    const std::size_t count = std::min(batch, jobs.size() - first);
+    images.clear();
+    for (std::size_t j = first; j < first + count; ++j)
+      images.push_back(render(jobs[j].camera, jobs[j].frame));
+    parallel_for(count, [&](std::size_t b) {
+      const auto [c, k] = jobs[first + b];
+      const Image& image = images[b];
+      const Image truth = media::load_image(scene, c, k);
+      std::optional<Image> mask = media::load_mask(scene, c, k);
+      // A mask without foreground (nothing of interest in view) scores the whole image.
+      if (mask &&
+          std::none_of(mask->data.begin(), mask->data.end(), [](float m) { return m > 0.5f; }))
+        mask.reset();
+      ViewScore& v = result.per_view[first + b];
+      v.camera = scene.cameras[c].name;
+      v.frame = k;
+      v.masked = mask.has_value();
+      v.whole.psnr = psnr(image, truth);
+      v.whole.ssim = ssim_in_box(image, truth);
+      if (lpips) v.whole.lpips = lpips->distance(image, truth);
+      if (mask) {
+        v.psnr = psnr(image, truth, &*mask);
+        v.ssim = ssim_in_box(image, truth, &*mask);
+        if (lpips) v.lpips = lpips->distance(apply_mask(image, *mask), apply_mask(truth, *mask));
+      } else {
+        v.psnr = v.whole.psnr, v.ssim = v.whole.ssim, v.lpips = v.whole.lpips;
+      }
+    });
+    for (std::size_t b = 0; b < count; ++b) {
+      const ViewScore& v = result.per_view[first + b];
+      if (renders)
+        media::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", v.frame),
+                         images[b]);
+      progress.tick();
     }
-    if (renders)
-      media::write_png(renders->temp_path() / v.camera / fmt::format("{:05d}.png", k), image);
-    progress.tick();
   }
   progress.finish();
+  result.masked = std::all_of(result.per_view.begin(), result.per_view.end(),
+                              [](const ViewScore& v) { return v.masked; });
   if (renders) renders->commit();
   Scores masked_sum, whole_sum;
   for (const ViewScore& v : result.per_view) {
