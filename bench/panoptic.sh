@@ -16,9 +16,11 @@
 # truth | ours | flow | cross-fade at held-out frame 7).
 #
 #   bash bench/panoptic.sh                 # PRESET=fast NEAR= (the scene's) POINTS= (prepare's default)
-# scripts/gpu_panoptic.sh runs it with BIN (the retimegs to run), DEVICE (train's and eval's
-# --device), ITERS (train's --iters), METHODS (which of full, stgs, flow, crossfade, nearest to
-# score; the sheets need full, flow and crossfade) and RESULTS (the table's file).
+# scripts/gpu_panoptic.sh and bench/ablations.sh run it with BIN (the retimegs to run), DEVICE
+# (train's and eval's --device), ITERS and CAP (train's --iters, --cap), METHODS (which of full,
+# stgs, the ablations no-flow-init, no-flow-loss, no-triple, no-stretch, linear (train --ablate),
+# and the baselines flow, crossfade, nearest to score; the sheets need full, flow and crossfade)
+# and RESULTS (the table's file).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 preset=${PRESET:-fast}
@@ -29,6 +31,13 @@ data=${DATA:-$root/../shared/data/panoptic-basketball}
 work=${WORK:-$root/bench/results/panoptic}
 results=${RESULTS:-$root/bench/results/panoptic.md}
 read -r -a methods <<< "${METHODS:-full stgs flow crossfade nearest}"
+# scored "$v": whether METHODS names it; trained "$v": whether it is a model this script trains.
+scored() { [[ " ${methods[*]} " == *" $1 "* ]]; }
+trained() { [[ $1 =~ ^(full|stgs|no-flow-init|no-flow-loss|no-triple|no-stretch|linear)$ ]]; }
+for v in "${methods[@]}"; do
+  trained "$v" || [[ $v =~ ^(flow|crossfade|nearest)$ ]] ||
+    { echo "panoptic.sh: unknown method '$v' in METHODS" >&2; exit 2; }
+done
 device=(${DEVICE:+--device "$DEVICE"})
 bin=${BIN:-$root/build/apps/retimegs}
 [ -x "$bin" ] || "$root/scripts/setup.sh"
@@ -46,13 +55,15 @@ start=$(date +%s)
 # A rerun resumes a prepared scene in a second: keep the first run's time.
 [ -f "$work/prepare_seconds" ] || echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
 
-# scored "$v": whether METHODS names it.
-scored() { [[ " ${methods[*]} " == *" $1 "* ]]; }
-for v in full stgs; do
+for v in "${methods[@]}"; do
   run="$work/$v"
-  if scored "$v" && [ ! -f "$run/model.rgs" ]; then
-    flags=("${device[@]}" ${ITERS:+--iters "$ITERS"})
-    [ "$v" = stgs ] && flags+=(--baseline stgs)
+  if trained "$v" && [ ! -f "$run/model.rgs" ]; then
+    flags=("${device[@]}" ${ITERS:+--iters "$ITERS"} ${CAP:+--cap "$CAP"})
+    case "$v" in
+      full) ;;
+      stgs) flags+=(--baseline stgs) ;;
+      *) flags+=(--ablate "$v") ;;
+    esac
     start=$(date +%s)
     mkdir -p "$run"
     "$bin" train --scene "$scene" --out "$run" --preset "$preset" "${flags[@]}" 2>&1 |
@@ -62,8 +73,8 @@ for v in full stgs; do
 done
 for v in "${methods[@]}"; do
   case "$v" in
-    full|stgs) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"} "${device[@]}") ;;
-    *) source=(--baseline "$v") ;;
+    flow|crossfade|nearest) source=(--baseline "$v") ;;
+    *) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"} "${device[@]}") ;;
   esac
   for split in train test fit stability; do
     flags=(--frames odd)
@@ -74,7 +85,7 @@ for v in "${methods[@]}"; do
       stability) flags+=(--cameras "$stability_cams" --stability) ;;
     esac
     # A baseline returns the training frames themselves: no fit to measure.
-    [ "$split" = fit ] && [ "$v" != full ] && [ "$v" != stgs ] && continue
+    [ "$split" = fit ] && ! trained "$v" && continue
     # --save-renders replaces its folder: one per method and split.
     case "$v-$split" in
       full-train|full-test|flow-train|flow-test|crossfade-train|crossfade-test)
@@ -101,7 +112,7 @@ cell() {
   echo "# CMU Panoptic basketball: train even frames, score odd frames"
   echo
   echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" \
-    "with \`PRESET=$preset${DEVICE:+ DEVICE=$DEVICE}${ITERS:+ ITERS=$ITERS} bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
+    "with \`PRESET=$preset${DEVICE:+ DEVICE=$DEVICE}${ITERS:+ ITERS=$ITERS}${CAP:+ CAP=$CAP} bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
   echo
   echo "Preset $preset, points: ${points:-the default of prepare}; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
   echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"

@@ -9,12 +9,15 @@
 # prepared on the build machine (COLMAP and the visual hull are not here), computes the DIS flows
 # with `retimegs prepare` (~800 MB as .flo: they are not brought either), trains, scores, and
 # prints the table last with the wall time of each step. Logs and results (build.log, steps.log,
-# panoptic.md, summary.txt) go to $OUT when it is set, else to build-gpu/panoptic/; the scene,
-# its flows (762 MB) and the model stay in build-gpu/panoptic/work/, so that a second call on the
-# same machine goes on where the first stopped (bench/panoptic.sh keeps what is done).
+# panoptic.md, summary.txt) go to $OUT when it is set, else to build-gpu/panoptic/; the scene and
+# its flows (762 MB) stay in build-gpu/panoptic/scene/, the models in build-gpu/panoptic/<preset>/,
+# so that a second call on the same machine goes on where the first stopped (bench/panoptic.sh
+# keeps what is done): the ablations of bench/ablations.sh fit a few methods to a call.
 #
-#   bash scripts/gpu_panoptic.sh [--no-gpu-ok] [--iters N] [--preset NAME] [CMAKE_ARGS...]
+#   bash scripts/gpu_panoptic.sh [--no-gpu-ok] [--iters N] [--preset NAME] [--methods "LIST"]
+#                                [CMAKE_ARGS...]
 #
+# --methods: bench/panoptic.sh's METHODS (default "full"), e.g. "full no-flow-loss linear".
 # --no-gpu-ok carries on without a GPU (train and eval then run with --device auto, i.e. on the
 # CPU), to check the script on a build machine with a small --iters. CMAKE_ARGS go to the
 # configure step, e.g. -DCMAKE_CUDA_ARCHITECTURES=90.
@@ -23,11 +26,13 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 no_gpu_ok=0
 iters=""
 preset=default
+methods=full
 while (($#)); do
   case $1 in
     --no-gpu-ok) no_gpu_ok=1 ;;
     --iters) iters=${2:?--iters N} && shift ;;
     --preset) preset=${2:?--preset NAME} && shift ;;
+    --methods) methods=${2:?--methods LIST} && shift ;;
     *) break ;;
   esac
   shift
@@ -58,8 +63,10 @@ gpu_unpack_bundle
 gpu_build "$out/build.log" retimegs -DRETIMEGS_GPU_APP=ON "$@"
 rows+=("$(printf '%-8s %5d s' build "$build_seconds")")
 bin="$build/apps/retimegs"
-work="$build/panoptic/work"
-scene="$work/scene"
+scene="$build/panoptic/scene"
+work="$build/panoptic/$preset"
+mkdir -p "$work"
+ln -sfn "$scene" "$work/scene"
 
 # The scene the points were prepared for, imported again from the same files by the same code.
 if [[ ! -f $scene/scene.json ]]; then
@@ -71,14 +78,16 @@ if [[ ! -f $scene/scene.json ]]; then
 fi
 device=cuda
 ((gpu)) || device=auto
-started=$SECONDS
 step panoptic env BIN="$bin" WORK="$work" PRESET="$preset" DEVICE="$device" ITERS="$iters" \
-  METHODS=full RESULTS="$out/panoptic.md" bash "$root/bench/panoptic.sh"
-# bench/panoptic.sh's own times of its steps: prepare (the flows here) and training.
-unset 'rows[-1]'
-flows=$(cat "$work/prepare_seconds") train=$(cat "$work/full/train_seconds")
-rows+=("$(printf '%-8s %5d s' flows "$flows")" "$(printf '%-8s %5d s' train "$train")"
-  "$(printf '%-8s %5d s' eval $((SECONDS - started - flows - train)))")
+  METHODS="$methods" RESULTS="$out/panoptic.md" bash "$root/bench/panoptic.sh"
+# bench/panoptic.sh's own times of its steps (this call's or, for what an earlier call on this
+# machine did, that one's): prepare (the flows here) and each training; the rest is scoring.
+rows+=("$(printf '  flows %14s %5d s' "" "$(cat "$work/prepare_seconds")")")
+for m in $methods; do
+  if [[ -f $work/$m/train_seconds ]]; then
+    rows+=("$(printf '  train %-14s %5d s' "$m" "$(cat "$work/$m/train_seconds")")")
+  fi
+done
 
 cpu_full=$(grep '^| full ' "$root/bench/results/panoptic.md" || echo "| full | (none recorded) |")
 {
