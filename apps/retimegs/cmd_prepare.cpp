@@ -120,9 +120,21 @@ void add_prepare_command(CLI::App& app) {
                                 : fmt::format("imported from {}", args->flow_dir);
     spdlog::info("flow: {} file{} written ({}), {} kept, {:.1f} s", r.flows_written,
                  r.flows_written == 1 ? "" : "s", how, r.flows_kept, r.flow_seconds);
-    if (r.flows_written && options.flow_dir.empty())
+    if (r.flows_written && options.flow_dir.empty()) {
       spdlog::info("flow: {:.1f} % of pixels marked unknown by the forward-backward check",
                    100 * r.unknown_fraction);
+      // The cameras to look at first: a camera far above the median has flows the estimator got
+      // wrong, not just occlusions.
+      const std::vector<prepare::CameraFlowCheck>& cams = r.flow_by_camera;
+      std::string worst;
+      for (std::size_t i = 0; i < std::min<std::size_t>(3, cams.size()); ++i)
+        worst += fmt::format("{}{} {:.1f} %", i ? ", " : "",
+                             escape_control_chars(scene.cameras[cams[i].camera].name),
+                             100 * cams[i].unknown_fraction);
+      if (cams.size() > 1)
+        spdlog::info("flow: unknown by camera, most first: {} (median camera {:.1f} %)", worst,
+                     100 * cams[cams.size() / 2].unknown_fraction);
+    }
     if (!r.points_written.empty()) {
       std::string counts;
       for (const auto& [frame, n] : r.points_written)

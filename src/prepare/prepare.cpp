@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 #include <algorithm>
+#include <array>
 #include <optional>
 #include <system_error>
 
@@ -285,7 +286,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
     Progress progress(report.flows_imported ? "flow import" : "flow", jobs.size(),
                       options.progress);
     const OpenCvThreads single(max_threads() > 1 ? 1 : cv::getNumThreads());
-    std::size_t unknown = 0, pixels = 0;
+    // Per camera: flows, unknown pixels, pixels.
+    std::vector<std::array<std::size_t, 3>> by_camera(scene.cameras.size(), {0, 0, 0});
     // After an error the flows already written stay: each file is atomic, and a re-run keeps them.
     parallel_for(jobs.size(), [&](std::size_t j) {
       const FlowJob& job = jobs[j];
@@ -307,12 +309,26 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
         for (const Flow* f : {&pair.forward, &pair.backward})
           marked += std::count(f->valid.begin(), f->valid.end(), 0);
 #pragma omp critical(prepare_stats)
-        unknown += marked, pixels += 2 * pair.forward.pixels();
+        {
+          std::array<std::size_t, 3>& counts = by_camera[job.camera];
+          counts[0] += 2, counts[1] += marked, counts[2] += 2 * pair.forward.pixels();
+        }
       }
 #pragma omp critical(prepare_stats)
       report.flows_written += job.write_forward + job.write_backward;
       progress.tick();
     });
+    std::size_t unknown = 0, pixels = 0;
+    for (std::size_t c = 0; c < by_camera.size(); ++c) {
+      const auto [flows, marked, total] = by_camera[c];
+      if (total == 0) continue;
+      report.flow_by_camera.push_back({int(c), flows, double(marked) / double(total)});
+      unknown += marked, pixels += total;
+    }
+    std::stable_sort(report.flow_by_camera.begin(), report.flow_by_camera.end(),
+                     [](const CameraFlowCheck& a, const CameraFlowCheck& b) {
+                       return a.unknown_fraction > b.unknown_fraction;
+                     });
     report.unknown_fraction = pixels ? double(unknown) / double(pixels) : 0.0;
   }
   report.flow_seconds = clock.lap();

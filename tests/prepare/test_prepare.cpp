@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <random>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -11,6 +12,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/prepare.hpp"
 #include "retimegs/synth/synth.hpp"
@@ -98,6 +100,29 @@ TEST(Prepare, WritesExactlyThePairsTrainingReadsForEvenFrames) {
       EXPECT_LT(epe(estimated, truth), 1.0) << rel;
       EXPECT_LT(epe(estimated, truth), epe(estimated, reverse)) << rel;
     }
+}
+
+// A camera whose middle frame is noise (a dropped or corrupted frame): both of its flow pairs fail
+// the forward-backward check, and the report names that camera first, far above the others.
+TEST(Prepare, ReportsTheUnknownShareOfEachCameraWorstFirst) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  Image noise(64, 48, 3);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+  for (float& v : noise.data) v = uniform(rng);
+  media::write_png(scene.image_path(1, 2), noise);
+  const PrepareReport r = prepare_scene(scene, quiet());
+  ASSERT_EQ(r.flow_by_camera.size(), 3u);
+  EXPECT_EQ(r.flow_by_camera[0].camera, 1);
+  for (const CameraFlowCheck& c : r.flow_by_camera) EXPECT_EQ(c.flows, 4u) << c.camera;
+  EXPECT_GT(r.flow_by_camera[0].unknown_fraction, 2 * r.flow_by_camera[1].unknown_fraction);
+  EXPECT_GE(r.flow_by_camera[1].unknown_fraction, r.flow_by_camera[2].unknown_fraction);
+  const double mean = (r.flow_by_camera[0].unknown_fraction +
+                       r.flow_by_camera[1].unknown_fraction +
+                       r.flow_by_camera[2].unknown_fraction) /
+                      3;
+  EXPECT_NEAR(r.unknown_fraction, mean, 1e-12);  // the cameras' flows are the same size
 }
 
 TEST(Prepare, KeepsExistingFilesAndForceRewritesThem) {

@@ -73,12 +73,24 @@ std::filesystem::path estimated_masks_marker(const io::Scene& scene);
 std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
                                          std::string& note);
 
+// One camera's flows estimated by a run, as the forward-backward check judged them: the share of
+// their pixels marked unknown. Occlusions mark some in every camera; a camera far above the others
+// has flows the estimator got wrong (motion blur, an exposure jump, a wrong frame offset), which
+// training would learn from.
+struct CameraFlowCheck {
+  int camera = 0;  // index into the scene's cameras
+  std::size_t flows = 0;
+  double unknown_fraction = 0;
+};
+
 struct PrepareReport {
   std::size_t masks_written = 0, masks_kept = 0;  // files
   double mask_coverage = 0;                       // mean foreground share of the masks written
   std::size_t flows_written = 0, flows_kept = 0;  // files
   bool flows_imported = false;
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
+  // The cameras whose flows this run estimated, the highest unknown share first.
+  std::vector<CameraFlowCheck> flow_by_camera;
   std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
                                 // nothing to do)
   std::string points_note;      // why the default points are what they are, when not as planned
