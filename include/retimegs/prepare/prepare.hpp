@@ -91,9 +91,9 @@ struct PrepareReport {
   double unknown_fraction = 0;  // of the estimated flows' pixels: marked by the consistency check
   // The cameras whose flows this run estimated, the highest unknown share first.
   std::vector<CameraFlowCheck> flow_by_camera;
-  std::string points_source;    // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
-                                // nothing to do)
-  std::string points_note;      // why the default points are what they are, when not as planned
+  std::string points_source;  // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
+                              // nothing to do)
+  std::string points_note;    // why the default points are what they are, when not as planned
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double masks_seconds = 0, flow_seconds = 0, points_seconds = 0;
