@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "retimegs/cluster/slurm.hpp"
+#include "retimegs/core/escape_control_chars.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/model_file.hpp"
@@ -265,7 +266,8 @@ TEST(Slurm, NamesThatLookLikeCommandsStayNames) {
   for (const std::string& name : {std::string("r\nx"), std::string("r\\x")}) {
     job.run = dir / name;
     test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene)); },
-                       {"--out " + job.run.string(), "line break or a backslash"});
+                       {"--out " + escape_control_chars(job.run.string()),
+                        "line break or a backslash"});
     EXPECT_FALSE(fs::exists(job.run)) << name;
   }
 }
