@@ -19,7 +19,8 @@ namespace retimegs::model {
 TimeGrid window_grid(const TimeGrid& clip, const TimeWindow& window);
 
 // The model settings a window trains with: `clip_config` with γ rescaled from the clip's length to
-// the window's, so that an edge's sharpness in frames, γ (t_T − t_1), stays the clip's.
+// the window's, so that an edge's sharpness in frames, γ (t_T − t_1), stays the clip's, and its
+// seams (a partial merge) indexed on the window's grid.
 ModelConfig window_config(const ModelConfig& clip_config, const TimeGrid& clip,
                           const TimeGrid& window);
 
