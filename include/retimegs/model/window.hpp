@@ -8,8 +8,9 @@
 // do in a whole-clip run; a window model drawn alone (render, eval, export) behaves the same. In
 // the merged model an interior seam is an ordinary training frame: the edges that end there are
 // closed sigmoids again, each side at σ_τ = 0.5 at the seam, as two adjacent intervals meet in a
-// whole-clip model, their scale the seam's fade (ModelConfig::seam_fade, model/merge.hpp). Each window's primitives at the seam were trained to explain the boundary
-// frame on their own, as the compensated group renders of triple rendering train each group.
+// whole-clip model, their scale the seam's fade (ModelConfig::seam_fade, model/merge.hpp). Each
+// window's primitives at the seam were trained to explain the boundary frame on their own, as the
+// compensated group renders of triple rendering train each group.
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/primitives.hpp"
 
