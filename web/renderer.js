@@ -20,6 +20,11 @@ uniform int u_sh_degree;
 uniform int u_representation; // 0 RetimeGS, 1 STGS
 uniform int u_linear;         // 1: the linear trajectory ablation
 uniform float u_t, u_step, u_first, u_last, u_gamma, u_epsilon, u_min_opacity;
+// A merged model's seams (times, four to a vector: core/limits.hpp kMaxSeams = 255 fit in 64) and
+// their edge scale: time_model.js edgeScale.
+uniform vec4 u_seams[64];
+uniform int u_seam_count;
+uniform float u_seam_scale;
 uniform mat3 u_rotation;      // world to camera (OpenCV), column-major as GLSL stores it
 uniform vec3 u_translation;
 uniform vec4 u_intrinsics;    // fx, fy, cx, cy (pixels)
@@ -38,6 +43,11 @@ out vec4 f_color;   // RGB through the camera's colour map, unused
 
 ivec2 texel(int k) { return ivec2(k % u_width_texels, k / u_width_texels); }
 float sigmoid(float x) { return 1.0 / (1.0 + exp(-x)); }
+float edge_scale(float edge) {
+  for (int k = 0; k < u_seam_count; ++k)
+    if (abs(edge - u_seams[k / 4][k % 4]) <= u_epsilon) return u_seam_scale;
+  return u_gamma;
+}
 
 const float SH_C0 = 0.28209479177387814;
 const float SH_C1 = 0.4886025119029199;
@@ -123,10 +133,11 @@ void main() {
     float d = (t - mu_tau) * exp(-v3.w);
     window = exp(-d * d);
   } else {
-    bool open_left = mu_tau - v1.w <= u_first + u_epsilon;
-    bool open_right = mu_tau + v2.w >= u_last - u_epsilon;
-    float left = open_left ? 1.0 : sigmoid((t - (mu_tau - v1.w)) / u_gamma);
-    float right = open_right ? 1.0 : sigmoid(((mu_tau + v2.w) - t) / u_gamma);
+    float a = mu_tau - v1.w, b = mu_tau + v2.w;
+    bool open_left = a <= u_first + u_epsilon;
+    bool open_right = b >= u_last - u_epsilon;
+    float left = open_left ? 1.0 : sigmoid((t - a) / edge_scale(a));
+    float right = open_right ? 1.0 : sigmoid((b - t) / edge_scale(b));
     window = left * right;
   }
   float opacity = sigmoid(shape.w) * window;
@@ -349,6 +360,12 @@ export class Renderer {
     gl.uniform1f(u.u_last, manifest.time.last);
     gl.uniform1f(u.u_gamma, manifest.gamma_frames);
     gl.uniform1f(u.u_epsilon, manifest.epsilon);
+    const seams = manifest.seams ?? [];
+    const packed = new Float32Array(4 * 64);
+    packed.set(seams);
+    gl.uniform4fv(u.u_seams, packed);
+    gl.uniform1i(u.u_seam_count, seams.length);
+    gl.uniform1f(u.u_seam_scale, manifest.seam_scale_frames ?? manifest.gamma_frames);
     gl.uniform1f(u.u_min_opacity, manifest.min_opacity);
     gl.uniform1f(u.u_low_pass, 0.3);      // render::RenderOptions::low_pass, px²
     gl.uniform1f(u.u_fov_guard, 0.3);     // render/constants.hpp kFovGuard

@@ -13,13 +13,24 @@ export function timeSettings(manifest) {
     step: manifest.time.step,
     gamma: manifest.gamma_frames,
     epsilon: manifest.epsilon,
+    seams: manifest.seams ?? [],  // a merged model's seams, times (frames)
+    seamScale: manifest.seam_scale_frames ?? manifest.gamma_frames,
   };
+}
+
+// The sigmoid scale of a closed edge at time `edge` (RetimeWindow::edge_scale): the seam's at a
+// seam (within ε), γ elsewhere.
+export function edgeScale(s, edge) {
+  for (const seam of s.seams)
+    if (Math.abs(edge - seam) <= s.epsilon) return s.seamScale;
+  return s.gamma;
 }
 
 const sigmoid = (x) => 1 / (1 + Math.exp(-x));
 
-// σ_τ(t): RetimeWindow (a sigmoid edge of width γ on each side of [μ_τ - τ_l, μ_τ + τ_r], an
-// edge within ε of the clip's first / last training time open), or the STGS Gaussian.
+// σ_τ(t): RetimeWindow (a sigmoid edge of width γ, or a seam's own scale, on each side of
+// [μ_τ - τ_l, μ_τ + τ_r], an edge within ε of the clip's first / last training time open), or the
+// STGS Gaussian.
 export function temporalOpacity(s, muTau, tauL, tauR, temporalLogScale, t) {
   if (s.stgs) {
     const d = (t - muTau) * Math.exp(-temporalLogScale);
@@ -27,8 +38,9 @@ export function temporalOpacity(s, muTau, tauL, tauR, temporalLogScale, t) {
   }
   const openLeft = Math.fround(muTau - tauL) <= Math.fround(s.first + s.epsilon);
   const openRight = Math.fround(muTau + tauR) >= Math.fround(s.last - s.epsilon);
-  const left = openLeft ? 1 : sigmoid((t - (muTau - tauL)) / s.gamma);
-  const right = openRight ? 1 : sigmoid((muTau + tauR - t) / s.gamma);
+  const a = muTau - tauL, b = muTau + tauR;
+  const left = openLeft ? 1 : sigmoid((t - a) / edgeScale(s, a));
+  const right = openRight ? 1 : sigmoid((b - t) / edgeScale(s, b));
   return left * right;
 }
 

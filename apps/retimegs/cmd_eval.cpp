@@ -110,7 +110,7 @@ void add_eval_command(CLI::App& app) {
     } else {
       playback::LoadedModel loaded = playback::load_model(args->model);
       if (const auto* m = std::get_if<model::Model>(&loaded))
-        for (const int seam : m->seams) options.seams.push_back(m->grid.at(seam));
+        for (const int seam : m->config.seams) options.seams.push_back(m->grid.at(seam));
       renderer = eval::model_renderer(scene, std::move(loaded),
                                       playback::near_render_options(near_plane), device);
     }

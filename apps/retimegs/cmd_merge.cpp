@@ -18,6 +18,7 @@ void add_merge_command(CLI::App& app) {
     std::string out;
     std::vector<std::string> models;
     bool force = false;
+    double seam_fade = model::kDefaultSeamFade;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
@@ -29,6 +30,10 @@ void add_merge_command(CLI::App& app) {
       ->required()
       ->expected(1, -1)
       ->check(input_file("a model"));
+  cmd->add_option("--seam-fade", args->seam_fade,
+                  "cross-fade at each seam: the sigmoid scale of the edges there, in training "
+                  "intervals (0: gamma, a jump within a tenth of a frame)")
+      ->capture_default_str();
   cmd->add_flag("--force", args->force, "replace an existing --out");
   cmd->callback([args] {
     std::vector<InputPath> inputs;
@@ -38,7 +43,7 @@ void add_merge_command(CLI::App& app) {
     check_output_free(args->out, args->force);
     std::vector<model::Model> windows;
     for (const std::string& path : args->models) windows.push_back(model::read_model(path));
-    const model::Model merged = model::merge_models(windows, args->models);
+    const model::Model merged = model::merge_models(windows, args->models, args->seam_fade);
     model::write_model(args->out, merged, /*replace=*/args->force);
     const model::TimeWindow span =
         merged.window.value_or(model::TimeWindow{0, merged.grid.count - 1});

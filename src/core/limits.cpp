@@ -40,4 +40,9 @@ void check_coordinate(double value, const std::string& field) {
     fail("{} = {} lies beyond {:g} scene units of the origin", field, value, kMaxCoordinate);
 }
 
+void check_seam_fade(double intervals, const std::string& field) {
+  if (!(intervals >= 0 && intervals <= kMaxSeamFade))
+    fail("{} = {} must lie in [0, {}] training intervals", field, intervals, kMaxSeamFade);
+}
+
 }  // namespace retimegs

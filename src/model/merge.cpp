@@ -7,6 +7,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/interrupt.hpp"
+#include "retimegs/core/limits.hpp"
 
 namespace retimegs::model {
 
@@ -27,8 +28,10 @@ bool same_config(const ModelConfig& a, const ModelConfig& b) {
 
 }  // namespace
 
-Model merge_models(const std::vector<Model>& windows, const std::vector<std::string>& names) {
+Model merge_models(const std::vector<Model>& windows, const std::vector<std::string>& names,
+                   double seam_fade) {
   if (windows.empty()) fail("merge: no models given");
+  check_seam_fade(seam_fade, "merge: seam fade");
   if (names.size() != windows.size())
     fail("merge: {} models but {} names", windows.size(), names.size());
   for (std::size_t k = 0; k < windows.size(); ++k) {
@@ -69,6 +72,8 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   const Model& first = windows[order.front()];
   merged.grid = grid;
   merged.config = first.config;
+  merged.config.seams.clear();
+  merged.config.seam_fade = seam_fade;
   merged.training_config = first.training_config;
   std::size_t total = 0;
   for (const Model& m : windows) total += m.primitives.size();
@@ -105,9 +110,13 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   // Seams: each window's own (a merged model merged again) and where consecutive windows meet.
   for (std::size_t k = 0; k < order.size(); ++k) {
     const Model& m = windows[order[k]];
-    if (k > 0) merged.seams.push_back(window_of(m).first);
-    merged.seams.insert(merged.seams.end(), m.seams.begin(), m.seams.end());
+    if (k > 0) merged.config.seams.push_back(window_of(m).first);
+    merged.config.seams.insert(merged.config.seams.end(), m.config.seams.begin(),
+                               m.config.seams.end());
   }
+  if (merged.config.seams.size() > std::size_t(kMaxSeams))
+    fail("merge: {} seams, more than {} (at most {} windows)", merged.config.seams.size(),
+         kMaxSeams, kMaxSeams + 1);
   const TimeWindow span{window_of(first).first, window_of(windows[order.back()]).last};
   if (span.first > 0 || span.last < grid.count - 1) merged.window = span;
   return merged;

@@ -15,6 +15,7 @@
 #include "retimegs/core/fnv1a.hpp"
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/core/interrupt.hpp"
+#include "retimegs/core/limits.hpp"
 
 namespace retimegs::model {
 namespace fs = std::filesystem;
@@ -147,15 +148,16 @@ void write_model(const fs::path& path, const Model& model, bool replace) {
            w->last, model.grid.count);
     header["window"] = {{"first", model.grid.at(w->first)}, {"last", model.grid.at(w->last)}};
   }
-  if (!model.seams.empty()) {
+  if (!model.config.seams.empty()) {
     json seams = json::array();
-    for (const int s : model.seams) {
+    for (const int s : model.config.seams) {
       if (!(s > 0 && s < model.grid.count - 1))
         fail("{}: seam {} is not an interior training frame of the {}", path.string(), s,
              model.grid.count);
       seams.push_back(model.grid.at(s));
     }
     header["seams"] = seams;
+    if (model.config.seam_fade > 0) header["seam_fade"] = model.config.seam_fade;
   }
   for (const auto& [camera, color] : model.camera_colors) {
     for (int k = 0; k < 3; ++k)
@@ -250,11 +252,17 @@ Model read_model(const fs::path& path) {
     for (const json& t : header.value("seams", json::array())) {
       const int seam = grid_index(model.grid, t.get<double>(), file, "seam");
       if (seam == 0 || seam == model.grid.count - 1 ||
-          (!model.seams.empty() && seam <= model.seams.back()))
+          (!model.config.seams.empty() && seam <= model.config.seams.back()))
         fail("{}: seams {} are not ascending interior training times", file,
              header.at("seams").dump());
-      model.seams.push_back(seam);
+      model.config.seams.push_back(seam);
     }
+    if (header.contains("seam_fade")) {
+      model.config.seam_fade = number(header.at("seam_fade"), "seam_fade");
+      check_seam_fade(model.config.seam_fade, file + ": seam_fade");
+    }
+    if (model.config.seams.size() > std::size_t(kMaxSeams))
+      fail("{}: {} seams, more than {}", file, model.config.seams.size(), kMaxSeams);
   } catch (const json::exception& e) {
     fail("{}: malformed model header: {}", file, e.what());
   }

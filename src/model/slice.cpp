@@ -70,6 +70,11 @@ SliceParams<T> slice_params(const ModelConfig& config, const TimeGrid& grid, dou
   s.t = T(t_in), s.step = T(grid.step);
   s.t_first = T(grid.first), s.t_last = T(grid.last());
   s.gamma = T(grid.to_frames(config.gamma)), s.epsilon = T(config.epsilon);
+  if (config.seams.size() > std::size_t(kMaxSeams))
+    fail("slice: {} seams, more than {}", config.seams.size(), kMaxSeams);
+  std::copy(config.seams.begin(), config.seams.end(), s.seams);
+  s.seam_count = int(config.seams.size());
+  s.seam_scale = T(seam_scale_frames(config, grid));
   set_eye(camera, s.eye);
   s.pinhole = PinholeT<T>(camera);
   s.group = group;

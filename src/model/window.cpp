@@ -17,6 +17,9 @@ ModelConfig window_config(const ModelConfig& clip_config, const TimeGrid& clip,
                           const TimeGrid& window) {
   ModelConfig config = clip_config;
   config.gamma = clip_config.gamma * (clip.last() - clip.first) / (window.last() - window.first);
+  // Seams index training frames: the window's grid starts `offset` frames into the clip's.
+  const int offset = int(std::lround((window.first - clip.first) / clip.step));
+  for (int& seam : config.seams) seam -= offset;
   return config;
 }
 

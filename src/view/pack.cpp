@@ -11,6 +11,7 @@
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/media/scene_images.hpp"
 #include "retimegs/model/sh.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/playback/render_model.hpp"
 
 namespace retimegs::view {
@@ -172,6 +173,10 @@ Packed pack(const model::Model& model, const PackScene& pack_scene) {
   m["training_frames"] = training;
   m["gamma_frames"] = model.grid.to_frames(model.config.gamma);
   m["epsilon"] = model.config.epsilon;
+  json seams = json::array();
+  for (const int seam : model.config.seams) seams.push_back(model.grid.at(seam));
+  m["seams"] = seams;
+  m["seam_scale_frames"] = model::seam_scale_frames(model.config, model.grid);
   m["sh_degree"] = degree;
   m["min_opacity"] = 1.0 / 255.0;
   double centre[3], radius;

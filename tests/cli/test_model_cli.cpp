@@ -233,7 +233,7 @@ TEST(ModelCli, EvalStabilityReportsAMergedModelsSeams) {
       const Camera& cam = f.scene.cameras[c];
       media::write_png(f.scene.image_path(c, k), Image(cam.width, cam.height, 3, 0.5f));
     }
-  f.model.seams = {2};  // training time 4
+  f.model.config.seams = {2};  // training time 4
   model::write_model(f.model_path, f.model);
   const fs::path out = dir / "metrics.json";
   run("eval --model " + f.model_path.string() + " --scene " + f.scene.root.string() +

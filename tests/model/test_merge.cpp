@@ -93,8 +93,10 @@ std::vector<double> seam_times() {
 
 TEST(Merge, SeamDrawsLikeTheUnsplitModel) {
   const Fixture f = fixture();
-  // As render and eval draw it (playback::load_model): a window model as trained.
-  const Model merged = window_view(merge_models({f.right, f.left}, {"right.rgs", "left.rgs"}));
+  // As render and eval draw it (playback::load_model): a window model as trained. Without a fade
+  // (seam fade 0) the seam's edges are γ's, as every edge of the unsplit model.
+  const Model merged =
+      window_view(merge_models({f.right, f.left}, {"right.rgs", "left.rgs"}, /*seam_fade=*/0));
   ASSERT_EQ(merged.primitives.size(), f.whole.primitives.size());
   for (const double t : seam_times())
     EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(f.whole, t), 1e-5) << "t = " << t;
@@ -110,6 +112,73 @@ TEST(Merge, SeamDrawsLikeTheUnsplitModel) {
     EXPECT_NEAR(temporal_sum(window_view(f.left), t), temporal_sum(f.whole, t), 1e-5) << t;
   for (const double t : {8.1, 9.0, 12.0, 16.0})
     EXPECT_NEAR(temporal_sum(window_view(f.right), t), temporal_sum(f.whole, t), 1e-5) << t;
+}
+
+// The rows of the fixture's primitives over [6, 8] (window 0's last) and [8, 10] (window 1's
+// first).
+std::pair<std::size_t, std::size_t> seam_rows(const Model& m) {
+  std::size_t before = 0, after = 0;
+  for (std::size_t i = 0; i < m.primitives.size(); ++i) {
+    if (m.primitives.mu_tau[i] == 7 && m.primitives.tau_r[i] == 1) before = i;
+    if (m.primitives.mu_tau[i] == 9 && m.primitives.tau_r[i] == 1) after = i;
+  }
+  return {before, after};
+}
+
+TEST(Merge, SeamCrossFadesOverItsOwnScale) {
+  const Fixture f = fixture();
+  const double fade = 0.25, scale = fade * kClip.step;  // frames
+  for (const Model& merged :
+       {merge_models({f.left, f.right}, {"a", "b"}, fade),
+        // A partial merge, drawn on its own grid (window_view): the seam moves with the grid.
+        window_view(merge_models({f.left, f.right}, {"a", "b"}, fade))}) {
+    EXPECT_EQ(merged.config.seam_fade, fade);
+    const auto [before, after] = seam_rows(merged);
+    for (double t = 7; t <= 9 + 1e-9; t += 0.125) {
+      const double a = temporal_opacity(merged.primitives, before, merged.config, merged.grid, t);
+      const double b = temporal_opacity(merged.primitives, after, merged.config, merged.grid, t);
+      // Each side follows the seam's sigmoid, not γ's, and the two sum to one: at the seam each
+      // is 0.5, as without a fade.
+      EXPECT_NEAR(a, 1 / (1 + std::exp((t - kSeam) / scale)), 1e-4) << "t = " << t;
+      EXPECT_NEAR(a + b, 1.0, 1e-4) << "t = " << t;
+      // As slice draws it (SliceParams: the CPU and CUDA slices' settings).
+      EXPECT_NEAR(temporal_sum(merged, t), 1.0, 1e-4) << "t = " << t;
+    }
+    // Edges away from the seam keep γ: the primitive over [6, 8] is at 0.5 at t = 6.
+    EXPECT_NEAR(temporal_opacity(merged.primitives, before, merged.config, merged.grid, 6.0), 0.5,
+                0.02);
+  }
+}
+
+TEST(Merge, SeamFadeIsStoredAndKeptByASecondMerge) {
+  const Fixture f = fixture();
+  const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_fade";
+  fs::create_directories(dir);
+  Model m = merge_models({f.left, f.right}, {"a", "b"}, 0.4);
+  write_model(dir / "merged.rgs", m);
+  EXPECT_EQ(read_model(dir / "merged.rgs").config.seam_fade, 0.4);
+  // merge's default when none is given.
+  EXPECT_EQ(merge_models({f.left, f.right}, {"a", "b"}).config.seam_fade, kDefaultSeamFade);
+  // A merged model merged again: one fade for all its seams, the new merge's.
+  Model left = f.left, right = f.right;
+  left.window = TimeWindow{0, 2};
+  left.config.seams = {1};
+  left.config.seam_fade = 0.4;
+  right.window = TimeWindow{2, 8};
+  const Model again = merge_models({left, right}, {"a", "b"}, 0.3);
+  EXPECT_EQ(again.config.seams, (std::vector<int>{1, 2}));
+  EXPECT_EQ(again.config.seam_fade, 0.3);
+  // Without a fade (a file from before the fade, or --seam-fade 0) the key is absent and the
+  // seams' edges read as γ's.
+  m.config.seam_fade = 0;
+  write_model(dir / "plain.rgs", m);
+  const Model plain = read_model(dir / "plain.rgs");
+  EXPECT_EQ(plain.config.seam_fade, 0);
+  EXPECT_EQ(plain.config.seams, m.config.seams);
+  EXPECT_EQ(seam_scale_frames(plain.config, plain.grid), plain.grid.to_frames(plain.config.gamma));
+  // A fade beyond core/limits.hpp's range is refused, naming it.
+  test::expect_error([&] { merge_models({f.left, f.right}, {"a", "b"}, 1.5); }, {"seam fade"});
+  fs::remove_all(dir);
 }
 
 TEST(Merge, WindowViewKeepsTheEdgeSharpnessInFrames) {
@@ -147,24 +216,24 @@ TEST(Merge, WindowIsStoredInTheModelFile) {
 
 TEST(Merge, RecordsItsSeamsAndStoresThem) {
   const Fixture f = fixture();
-  EXPECT_TRUE(f.left.seams.empty());
+  EXPECT_TRUE(f.left.config.seams.empty());
   // Given in either order, the windows meet at training frame 4 (t = 8).
   const Model m = merge_models({f.right, f.left}, {"b", "a"});
-  EXPECT_EQ(m.seams, (std::vector<int>{4}));
+  EXPECT_EQ(m.config.seams, (std::vector<int>{4}));
   const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_seams";
   fs::create_directories(dir);
   write_model(dir / "merged.rgs", m);
-  EXPECT_EQ(read_model(dir / "merged.rgs").seams, m.seams);
+  EXPECT_EQ(read_model(dir / "merged.rgs").config.seams, m.config.seams);
   // A merged model merged again keeps its seams beside the new one.
   Model left = f.left, right = f.right;
   left.window = TimeWindow{0, 2};
-  left.seams = {1};
+  left.config.seams = {1};
   right.window = TimeWindow{2, 8};
-  right.seams = {4, 6};
-  EXPECT_EQ(merge_models({left, right}, {"a", "b"}).seams, (std::vector<int>{1, 2, 4, 6}));
+  right.config.seams = {4, 6};
+  EXPECT_EQ(merge_models({left, right}, {"a", "b"}).config.seams, (std::vector<int>{1, 2, 4, 6}));
   // A seam at the clip's end is no seam: refused when written.
   Model bad = m;
-  bad.seams = {8};
+  bad.config.seams = {8};
   EXPECT_THROW(write_model(dir / "bad.rgs", bad), Error);
   fs::remove_all(dir);
 }

@@ -151,12 +151,16 @@ TEST(TemporalOpacity, ShortTailedWindowWithOpenClipEnds) {
   EXPECT_TRUE(stretched.covers(4.0, 6.0));
 }
 
+constexpr int kSeam[] = {3};
+
 TEST(TemporalOpacity, DerivativeMatchesFiniteDifferencesInBothBoundaryCases) {
   const double gamma = 0.08, eps = 1e-3;
   const RetimeWindow<double> windows[] = {
       {5.0, 1.0, 1.0, 0.0, 16.0, gamma, eps},   // both edges soft
       {1.0, 1.0, 1.0, 0.0, 16.0, gamma, eps},   // left edge open
       {15.0, 1.0, 1.0, 0.0, 16.0, gamma, eps},  // right edge open
+      // right edge at a merged model's seam (t = 6, training frame 3 of step 2): its own scale
+      {5.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5},
   };
   for (const auto& w : windows)
     for (double t : {w.mu_tau - 1.05, w.mu_tau - 1.0, w.mu_tau - 0.97, w.mu_tau, w.mu_tau + 0.98,

@@ -112,6 +112,20 @@ std::vector<CaseModel> case_models() {
                               model::TrajectoryKind::kCatmullRom, even, 0.005, windows, 11));
   models.push_back(case_model("linear", model::Representation::kRetime,
                               model::TrajectoryKind::kLinear, unit, 0.01, linear_windows, 12));
+  // A merged model: windows meeting at t = 8 (training frame 4), cross-faded over 0.3 intervals.
+  const std::vector<RowTime> merged_windows = {
+      {7, 1, 1, no_scale},     // [6, 8]: the first window's, its right edge at the seam
+      {9, 1, 1, no_scale},     // [8, 10]: the second's, its left edge at the seam
+      {5, 3, 3, no_scale},     // stretched over [2, 8]
+      {9, 1, 0.5f, no_scale},  // an edge at 9.5: γ
+      {8.5f, 1, 1, no_scale},  // edges at 7.5 and 9.5, off the seam: γ
+  };
+  CaseModel merged =
+      case_model("merged", model::Representation::kRetime, model::TrajectoryKind::kCatmullRom, even,
+                 0.005, merged_windows, 14);
+  merged.model.config.seams = {4};
+  merged.model.config.seam_fade = 0.3;
+  models.push_back(std::move(merged));
   models.push_back(case_model("stgs", model::Representation::kStgs,
                               model::TrajectoryKind::kCatmullRom, even, 0.005, stgs_rows, 13));
   return models;

@@ -20,6 +20,13 @@ constexpr double kMinFocalPerSide = 1e-3, kMaxFocalPerSide = 1e3;
 // Coordinates of a camera centre, in scene units: 10 000 km in metres, far beyond any capture;
 // more leaves too few digits of float precision for the scene itself.
 constexpr double kMaxCoordinate = 1e7;
+// Seams of a merged model (merge): 256 windows. The slice's settings carry them by value into the
+// CUDA kernels, whose parameters are limited to a few KiB.
+constexpr int kMaxSeams = 255;
+// A merged model's seam fade (merge --seam-fade), in training intervals: 0 keeps γ; beyond one
+// interval each side's weight at the neighbouring training frames, which it never saw, passes
+// a quarter.
+constexpr double kMaxSeamFade = 1.0;
 
 // Each throws Error "<field> = <value> ..." naming the range when the value is outside it.
 void check_image_side(double side, const std::string& field);  // a double: any number read
@@ -31,5 +38,6 @@ void check_frame_count(long frames, const std::string& field);
 void check_fps(double fps, const std::string& field);
 void check_focal(double focal, int side, const std::string& field);  // side: the image's, pixels
 void check_coordinate(double value, const std::string& field);
+void check_seam_fade(double intervals, const std::string& field);
 
 }  // namespace retimegs

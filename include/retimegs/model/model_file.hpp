@@ -11,7 +11,9 @@
 //                 without the key, as earlier builds wrote them, load with none) and, for a
 //                 window model (train --window), "window": {"first", "last"}, its first and last
 //                 training times (files without it hold the whole clip), and, for a merged
-//                 model (merge), "seams": [times], the training times where two of its windows met
+//                 model (merge), "seams": [times], the training times where two of its windows met,
+//                 and "seam_fade": the edge scale there in training intervals (files without it
+//                 use γ there, as at every other edge)
 //   ...           the fields' raw float32 arrays, row-major, in table order
 //   u64           FNV-1a 64 checksum of every preceding byte
 //
@@ -39,9 +41,7 @@ struct Model {
   // A window model (train --window): the training frames of `grid` it was trained on. `grid` stays
   // the whole clip's, so that windows share one grid; model/window.hpp draws such a model alone.
   std::optional<TimeWindow> window;
-  // A merged model (model/merge.hpp): the training frames of `grid` where one window's primitives
-  // hand over to the next's, ascending. Empty for a model trained in one run.
-  std::vector<int> seams;
+  // A merged model's seams and their fade are in `config` (ModelConfig::seams, seam_fade).
 };
 
 // The stored correction of the camera named `camera`, or nullptr when the model has none for it.

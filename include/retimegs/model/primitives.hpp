@@ -44,6 +44,12 @@ struct ModelConfig {
   double gamma = 0.005;   // temporal-opacity sharpness, normalised clip time (paper §A)
   double epsilon = 1e-3;  // frames: a window edge within ε of the clip end is "open"
   int sh_degree = 3;      // active SH degree (training raises it gradually)
+  // A merged model (model/merge.hpp): the training frames where one window's primitives hand over
+  // to the next's, ascending (empty for a model trained in one run), and the sigmoid scale of a
+  // closed edge at a seam, in training intervals (0: γ, as at every other edge). Settings, not
+  // provenance: σ_τ reads them (RetimeWindow::edge_scale).
+  std::vector<int> seams;
+  double seam_fade = 0;
 };
 
 // Rows of `width` values of `values` in the order old_from_new (new row k is old row

@@ -8,6 +8,7 @@
 #include <cstddef>
 
 #include "retimegs/core/hd.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/core/pinhole.hpp"
 #include "retimegs/model/primitives.hpp"
 #include "retimegs/model/sh.hpp"  // sh_formulas.hpp, and the host's out-of-line instances
@@ -86,8 +87,11 @@ struct SliceParams {
   T t = 0, step = 1;          // the time and the grid step Δt
   T t_first = 0, t_last = 0;  // the clip's first and last training times (RetimeWindow)
   T gamma = 1, epsilon = 0;   // γ in frames, ε
-  T eye[3] = {0, 0, 0};       // the camera centre: the view directions start there
-  PinholeT<T> pinhole;        // projects the flow features' control points
+  int seams[kMaxSeams] = {};  // [seam_count] ModelConfig::seams, by value for the kernels
+  int seam_count = 0;
+  T seam_scale = 1;      // frames (seam_scale_frames)
+  T eye[3] = {0, 0, 0};  // the camera centre: the view directions start there
+  PinholeT<T> pinhole;   // projects the flow features' control points
   Group group = Group::kAll;
   T group_from = 0, group_to = 0;  // kLeft / kRight: the window must cover [from, to]
   bool compensate = false, flow_features = false;
@@ -99,7 +103,8 @@ struct SliceParams {
 template <typename T>
 RETIMEGS_HD inline RetimeWindow<T> window_of(const SliceParams<T>& s, const PrimitiveArrays<T>& p,
                                              std::size_t i) {
-  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i], s.t_first, s.t_last, s.gamma, s.epsilon};
+  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i], s.t_first,    s.t_last,    s.gamma,
+          s.epsilon,   s.step,     s.seams,    s.seam_count, s.seam_scale};
 }
 
 // σ_τ(t) of primitive i: the STGS Gaussian or the RetimeGS window.

@@ -8,8 +8,9 @@
 // do in a whole-clip run; a window model drawn alone (render, eval, export) behaves the same. In
 // the merged model an interior seam is an ordinary training frame: the edges that end there are
 // closed sigmoids again, each side at σ_τ = 0.5 at the seam, as two adjacent intervals meet in a
-// whole-clip model. Each window's primitives at the seam were trained to explain the boundary
-// frame on their own, as the compensated group renders of triple rendering train each group.
+// whole-clip model, their scale the seam's fade (ModelConfig::seam_fade, model/merge.hpp). Each
+// window's primitives at the seam were trained to explain the boundary frame on their own, as the
+// compensated group renders of triple rendering train each group.
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/primitives.hpp"
 
@@ -19,7 +20,8 @@ namespace retimegs::model {
 TimeGrid window_grid(const TimeGrid& clip, const TimeWindow& window);
 
 // The model settings a window trains with: `clip_config` with γ rescaled from the clip's length to
-// the window's, so that an edge's sharpness in frames, γ (t_T − t_1), stays the clip's.
+// the window's, so that an edge's sharpness in frames, γ (t_T − t_1), stays the clip's, and its
+// seams (a partial merge) indexed on the window's grid.
 ModelConfig window_config(const ModelConfig& clip_config, const TimeGrid& clip,
                           const TimeGrid& window);
 
