@@ -122,24 +122,25 @@ cell() {
   echo "other views, is not drawn in its render)."
   echo "Stability: largest mean absolute change between consecutive frames of the 8x slow motion over"
   echo "static pixels (outside the dilated masks) of cameras $stability_cams, in 8-bit levels."
-  echo "Peak RSS and primitives from the train log."
+  echo "Peak RSS and primitives from the train log (on a GPU also the most its buffers held)."
   echo
-  echo "| method | train cams PSNR | SSIM | LPIPS | whole PSNR | whole SSIM | whole LPIPS | fit PSNR | test cams PSNR | SSIM | LPIPS | stability | primitives | peak RSS (MB) | train time (s) |"
+  echo "| method | train cams PSNR | SSIM | LPIPS | whole PSNR | whole SSIM | whole LPIPS | fit PSNR | test cams PSNR | SSIM | LPIPS | stability | primitives | peak RSS (MB) (GPU) | train time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
   for v in "${methods[@]}"; do
-    seconds=– primitives=– rss=–
+    seconds=– primitives=– rss=– gpu=
     [ -f "$work/$v/train_seconds" ] && seconds=$(cat "$work/$v/train_seconds")
     if [ -f "$work/$v/train.log" ]; then
       primitives=$(grep -o '([0-9]* primitives); peak memory' "$work/$v/train.log" | tail -1 |
         grep -o '[0-9]*' | head -1)
       rss=$(grep -o 'peak memory [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*')
+      gpu=$(grep -o ', GPU [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*' || true)
     fi
     t="$work/${v}_train.json" s="$work/${v}_test.json"
     echo "| $v | $(cell "$t" psnr "" 2) | $(cell "$t" ssim "" 4) | $(cell "$t" lpips "" 4) |" \
       "$(cell "$t" psnr whole 2) | $(cell "$t" ssim whole 4) | $(cell "$t" lpips whole 4) |" \
       "$(cell "$work/${v}_fit.json" psnr "" 2) | $(cell "$s" psnr "" 2) | $(cell "$s" ssim "" 4) |" \
       "$(cell "$s" lpips "" 4) | $(cell "$work/${v}_stability.json" max stability 2) |" \
-      "${primitives:-–} | ${rss:-–} | $seconds |"
+      "${primitives:-–} | ${rss:-–}${gpu:+ ($gpu)} | $seconds |"
   done
 } > "$results"
 cat "$results"

@@ -12,6 +12,7 @@
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/cuda/adam.hpp"
+#include "retimegs/cuda/buffer.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/cuda/losses.hpp"
 #include "retimegs/cuda/primitives.hpp"
@@ -83,6 +84,7 @@ class CudaStep final : public TrainingStep {
 
   int iteration() const override { return state_.iteration; }
   std::size_t primitive_count() const override { return primitives_.size(); }
+  std::size_t device_memory_peak() const override { return cuda::device_memory_use().peak; }
   model::Model host_model() const override {
     download();
     return state_.model;

@@ -310,9 +310,11 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
       set.clip_grid ? model::with_window(step.host_model(), *set.clip_grid, config.model_config())
                     : step.host_model();
   model::write_model(folder.file("model.rgs"), model);
-  spdlog::info("model: {} ({} primitives); peak memory {:.0f} MB",
+  const std::size_t gpu_peak = step.device_memory_peak();
+  spdlog::info("model: {} ({} primitives); peak memory {:.0f} MB{}",
                folder.file("model.rgs").string(), model.primitives.size(),
-               double(peak_rss_bytes()) / 1e6);
+               double(peak_rss_bytes()) / 1e6,
+               gpu_peak ? fmt::format(", GPU {:.0f} MB (the step's buffers)", gpu_peak / 1e6) : "");
   return model;
 }
 

@@ -1,4 +1,5 @@
-// The device query and the error check of CUDA calls (include/retimegs/cuda/).
+// The device query, the error check of CUDA calls and the device buffers' memory count
+// (include/retimegs/cuda/).
 #include <cstdlib>
 #include <numeric>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include "cuda/require_gpu.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/cuda/buffer.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/cuda/device.hpp"
 
@@ -83,6 +85,25 @@ TEST(Check, AFailedCallThrowsAndTheDeviceStaysUsable) {
   EXPECT_EQ(cudaGetLastError(), cudaSuccess);
   check(cudaMalloc(&device, 4096), "cudaMalloc(4096 bytes)");  // the failure is not sticky
   check(cudaFree(device), "cudaFree");
+}
+
+TEST(DeviceBuffer, CountsWhatItHoldsAndTheMostItHeld) {
+  RETIMEGS_REQUIRE_GPU();
+  const DeviceMemoryUse before = device_memory_use();
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  {
+    DeviceBuffer<float> a(kMiB / 4);
+    EXPECT_EQ(device_memory_use().held, before.held + kMiB);
+    a.resize(kMiB / 8);  // fits: the allocation stays
+    EXPECT_EQ(device_memory_use().held, before.held + kMiB);
+    a.resize_keep(kMiB / 2);  // the old and the new allocation both exist during the copy
+    EXPECT_EQ(device_memory_use().held, before.held + 2 * kMiB);
+    EXPECT_GE(device_memory_use().peak, before.held + 3 * kMiB);
+    DeviceBuffer<float> b = std::move(a);  // a move is no new allocation
+    EXPECT_EQ(device_memory_use().held, before.held + 2 * kMiB);
+  }
+  EXPECT_EQ(device_memory_use().held, before.held);
+  EXPECT_GE(device_memory_use().peak, before.held + 3 * kMiB);
 }
 
 }  // namespace

@@ -2,8 +2,11 @@
 // An array in GPU memory that owns its allocation (cudaMalloc / cudaFree), with copies to and from
 // the host. resize() keeps the allocation while it is large enough, so that a loop that renders
 // every step allocates only until its sizes settle; resize_keep() also keeps the contents.
+// Every buffer's bytes count towards the process's device memory (device_memory_use): what
+// training reports as the GPU memory it needed.
 #include <cuda_runtime_api.h>
 
+#include <atomic>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -12,6 +15,30 @@
 #include "retimegs/cuda/check.hpp"
 
 namespace retimegs::cuda {
+
+// Bytes held by all DeviceBuffers of the process: now, and the most at any time so far. The CUDA
+// context and allocations outside DeviceBuffer are not counted.
+struct DeviceMemoryUse {
+  std::size_t held = 0, peak = 0;
+};
+
+namespace detail {
+inline std::atomic<std::size_t> device_bytes_held{0}, device_bytes_peak{0};
+
+inline void count_allocation(std::size_t bytes) {
+  const std::size_t held = device_bytes_held.fetch_add(bytes) + bytes;
+  std::size_t peak = device_bytes_peak.load();
+  while (held > peak && !device_bytes_peak.compare_exchange_weak(peak, held)) {
+  }
+}
+inline void count_release(std::size_t bytes) {
+  device_bytes_held.fetch_sub(bytes);
+}
+}  // namespace detail
+
+inline DeviceMemoryUse device_memory_use() {
+  return {detail::device_bytes_held.load(), detail::device_bytes_peak.load()};
+}
 
 template <typename T>
 class DeviceBuffer {
@@ -33,6 +60,7 @@ class DeviceBuffer {
       release();
       const std::string what = "cudaMalloc(" + std::to_string(n * sizeof(T)) + " bytes)";
       check(cudaMalloc(reinterpret_cast<void**>(&data_), n * sizeof(T)), what.c_str());
+      detail::count_allocation(n * sizeof(T));
       capacity_ = n;
     }
     size_ = n;
@@ -45,10 +73,14 @@ class DeviceBuffer {
       T* grown = nullptr;
       const std::string what = "cudaMalloc(" + std::to_string(n * sizeof(T)) + " bytes)";
       check(cudaMalloc(reinterpret_cast<void**>(&grown), n * sizeof(T)), what.c_str());
+      detail::count_allocation(n * sizeof(T));
       if (size_ > 0) {
         const cudaError_t copied =
             cudaMemcpy(grown, data_, size_ * sizeof(T), cudaMemcpyDeviceToDevice);
-        if (copied != cudaSuccess) cudaFree(grown);
+        if (copied != cudaSuccess) {
+          cudaFree(grown);
+          detail::count_release(n * sizeof(T));
+        }
         check(copied, "resize_keep copy");
       }
       const std::size_t kept = size_;
@@ -99,7 +131,10 @@ class DeviceBuffer {
 
  private:
   void release() {
-    if (data_) cudaFree(data_);  // only fails on a corrupted context, which the next call reports
+    if (data_) {
+      cudaFree(data_);  // only fails on a corrupted context, which the next call reports
+      detail::count_release(capacity_ * sizeof(T));
+    }
     data_ = nullptr;
     size_ = capacity_ = 0;
   }

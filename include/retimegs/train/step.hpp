@@ -69,6 +69,8 @@ class TrainingStep {
 
   virtual int iteration() const = 0;
   virtual std::size_t primitive_count() const = 0;
+  // The most device memory the step's buffers held at once, bytes (0 for a step on the host).
+  virtual std::size_t device_memory_peak() const { return 0; }
   // A host copy of the model (with the camera colours).
   virtual model::Model host_model() const = 0;
 
