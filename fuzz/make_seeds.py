@@ -102,6 +102,8 @@ put("camera_path", "timed_seconds.json", json.dumps(
 
 put("retime_csv", "ramp.csv", "output_frame,t\n0,0\n10,2.5\n20,3 # hold\n")
 put("retime_csv", "plain.csv", "# comment\n0 1\n3 1.5\n\n4,-2\n")
+# Found by fuzzing: a keyframe far beyond the output-frame limit (refused where it is read).
+put("retime_csv", "far_keyframe.csv", "9-9\n9992992 5\n")
 
 # COLMAP models: cameras, images, points3D, as text and as binary.
 cams = [(1, "PINHOLE", 4, 3, [5, 5, 2, 1.5]), (2, "OPENCV", 4, 3, [5, 5, 2, 1.5, 0.1, 0, 0, 0])]

@@ -15,6 +15,7 @@
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/core/limits.hpp"
 #include "retimegs/media/image_io.hpp"
 
 namespace retimegs::media {
@@ -220,9 +221,9 @@ std::vector<RetimeKey> read_retime_csv(const fs::path& path) {
       fail("{}:{}: expected 'output_frame,t'", path.string(), number);
     }
     if (fields >> rest) fail("{}:{}: more than two columns", path.string(), number);
-    if (!std::isfinite(t) || frame < 0 || frame != std::floor(frame) || frame > 1e7)
-      fail("{}:{}: output_frame must be a non-negative integer and t finite", path.string(),
-           number);
+    if (!std::isfinite(t) || frame < 0 || frame != std::floor(frame) || frame >= kMaxOutputFrames)
+      fail("{}:{}: output_frame must be an integer in [0, {}) and t finite", path.string(), number,
+           kMaxOutputFrames);
     if (!keys.empty() && int(frame) <= keys.back().output_frame)
       fail("{}:{}: output frame {} after {}: rows must be in increasing output_frame order",
            path.string(), number, int(frame), keys.back().output_frame);

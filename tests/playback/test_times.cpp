@@ -1,5 +1,5 @@
 // The times of a render's frames: a range A:B:STEP, slow motion over a clip, a speed ramp; more
-// frames than one command renders are refused naming the flag.
+// frames than one command renders are refused naming the flag (or, for a ramp, the file's line).
 #include <gtest/gtest.h>
 
 #include "retimegs/playback/times.hpp"
@@ -62,6 +62,17 @@ TEST(Times, RampInterpolatesBetweenKeyframes) {
   EXPECT_EQ(ramp_times({{3, 8.0}, {5, 7.0}}), (std::vector<double>{8, 7.5, 7}));
   EXPECT_EQ(ramp_times({{2, 1.25}}), (std::vector<double>{1.25}));
   EXPECT_TRUE(ramp_times({}).empty());
+}
+
+// Found by fuzzing: a 14-byte file with a keyframe at output frame 9992992 made ten million times
+// (seconds of work and 80 MB before any check) for a render that the frame limit refuses anyway.
+TEST(Times, RampKeyframesBeyondTheOutputLimitAreRefusedWhereTheFileIsRead) {
+  test::TempDir dir;
+  const std::filesystem::path csv = dir / "ramp.csv";
+  test::write_text(csv, "9-9\n9992992 5\n");
+  expect_error([&] { media::read_retime_csv(csv); }, {"ramp.csv:2", "[0, 1000000)"});
+  test::write_text(csv, "output_frame,t\n0,0\n999999,1\n");
+  EXPECT_EQ(ramp_times(media::read_retime_csv(csv)).size(), std::size_t(kMaxOutputFrames));
 }
 
 }  // namespace

@@ -13,6 +13,10 @@ constexpr int kMaxImageSide = 16384;
 constexpr int kMinOutputSide = 8;
 // Frames of a clip or of a rendered sequence: an hour at 25 fps and more.
 constexpr long kMaxFrames = 100000;
+// Frames one render or export command writes (a slow motion of a long clip): a typo such as
+// --slowmo 1000000000 or a retime keyframe at frame 9992992 would otherwise allocate and render
+// for hours.
+constexpr long kMaxOutputFrames = 1'000'000;
 // Frame rates: a frame a minute to a high-speed camera's.
 constexpr double kMinFps = 1.0 / 60, kMaxFps = 10000;
 // Focal length over the image side: from a 179.9° to a 0.06° field of view.

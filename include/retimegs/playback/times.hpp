@@ -4,15 +4,12 @@
 #include <string>
 #include <vector>
 
+#include "retimegs/core/limits.hpp"
 #include "retimegs/media/frame_writer.hpp"
 
 namespace retimegs::playback {
 
-// Renders and exports of more frames than this are refused up front (a typo such as
-// --slowmo 1000000000 would otherwise end in an allocation failure naming nothing).
-constexpr long kMaxOutputFrames = 1'000'000;
-
-// Throws Error naming `flag` when `frames` is more than kMaxOutputFrames.
+// Throws Error naming `flag` when `frames` is more than core/limits.hpp's kMaxOutputFrames.
 void check_frame_count(double frames, const std::string& flag);
 
 // --times A:B:STEP.
