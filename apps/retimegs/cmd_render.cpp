@@ -2,9 +2,10 @@
 //                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
 // retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
 //   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--exr half|float]
-//   [--force]
+//   [--depth] [--force]
 //   [--device cpu|cuda|auto] [--threads T]
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <optional>
 
@@ -36,7 +37,7 @@ void add_render_command(CLI::App& app) {
     std::string camera_path;  // nerfstudio camera_path.json
     std::string size;         // --size WxH
     std::optional<double> scale, fps;
-    bool alpha = false;
+    bool alpha = false, depth = false;
     int bit_depth = 8;
     std::string exr;
     std::string device;  // add_device_option's default
@@ -107,6 +108,11 @@ void add_render_command(CLI::App& app) {
                   "OpenEXR frames, half or 32-bit float per channel, unclamped (alpha "
                   "premultiplied): a folder of EXRs, or x.exr (half by default)")
       ->check(CLI::IsMember({"half", "float"}));
+  cmd->add_flag(
+      "--depth", args->depth,
+      "EXR outputs: also a depth pass per frame, the expected camera z of what each pixel "
+      "shows in scene units (1e10 where nothing is drawn), one 32-bit float channel "
+      "beside the frame: x.depth.exr, <frame>.depth.exr in a folder");
   cmd->add_option("--background", args->background, "background colour R,G,B in [0, 1]")
       ->capture_default_str();
   add_near_option(*cmd, args->near);
@@ -121,6 +127,9 @@ void add_render_command(CLI::App& app) {
     inputs.push_back({args->camera_path, "camera path file"});
     inputs.push_back({args->retime, "retime file"});
     check_output_overlap(args->out, "--out", inputs);
+    // A one-frame output's depth pass is a second file beside it (a folder's are inside it).
+    if (args->depth && std::filesystem::path(args->out).has_extension())
+      check_output_overlap(media::depth_path(args->out), "--out", inputs);
     const std::vector<float> background = parse_float_list(args->background, "--background", 3);
     const cuda::Device device = cuda::resolve_device(args->device);
     const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
@@ -149,6 +158,7 @@ void add_render_command(CLI::App& app) {
     if (!args->exr.empty())
       writer_options.exr =
           args->exr == "float" ? media::ExrPrecision::kFloat : media::ExrPrecision::kHalf;
+    writer_options.depth = args->depth;
     writer_options.times = shot.times;
     writer_options.force = args->force;
     const std::size_t frames = shot.times.size();

@@ -1,4 +1,5 @@
-// retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST] [--renders DIRS]
+// retimegs sheet --scene SCENE --out SHEET.png [--cameras LIST] [--frames LIST] [--stride K]
+//                [--renders DIRS]
 #include <filesystem>
 #include <memory>
 
@@ -18,7 +19,7 @@ namespace fs = std::filesystem;
 void add_sheet_command(CLI::App& app) {
   struct Args {
     std::string scene, out, cameras, frames, renders;
-    int tile_width = 256;
+    int tile_width = 256, stride = 0;
     bool force = false;
   };
   auto args = std::make_shared<Args>();
@@ -30,6 +31,11 @@ void add_sheet_command(CLI::App& app) {
   cmd->add_option("--cameras", args->cameras, "camera names, comma-separated (default: up to 4)");
   cmd->add_option("--frames", args->frames,
                   "frame numbers, comma-separated (default: first, middle, last)");
+  cmd->add_option("--stride", args->stride,
+                  "the flow column shows the first frame's flow K frames on (default: 2, the "
+                  "stride train reads with --train-frames even, where it exists, else the "
+                  "shortest that does)")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--renders", args->renders,
                   "render folders (eval --save-renders), comma-separated: each frame's ground "
                   "truth is followed by DIR/<camera>/<frame:05d>.png of each");
@@ -49,6 +55,7 @@ void add_sheet_command(CLI::App& app) {
     const io::Scene scene = media::read_scene(args->scene, media::SceneCheck::kJson);
     eval::SheetOptions options;
     options.tile_width = args->tile_width;
+    options.flow_stride = args->stride;
     if (!args->cameras.empty())
       for (const auto& name : split_list(args->cameras, "--cameras"))
         options.cameras.push_back(scene.camera_index(name));

@@ -1,5 +1,6 @@
 // retimegs slurm --scene S --out RUN --windows N [--train-frames even|all] [--iters N]
-//                [--preset P] [--config FILE] [--cap N] [--seed S] [--sbatch-arg ARG ...]
+//                [--preset P] [--config FILE] [--cap N] [--seed S] [--downscale F]
+//                [--sbatch-arg ARG ...]
 //                [--merge-sbatch-arg ARG ...] [--submit] [--force]
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include "commands.hpp"
 #include "retimegs/cluster/slurm.hpp"
 #include "retimegs/core/atomic_file.hpp"
+#include "retimegs/core/camera.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -27,6 +29,7 @@ void add_slurm_command(CLI::App& app) {
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
+    std::optional<double> downscale;
     std::vector<std::string> sbatch_args, merge_sbatch_args;
     bool submit = false, force = false;
   };
@@ -52,6 +55,8 @@ void add_slurm_command(CLI::App& app) {
       ->check(input_file("a config"));
   cmd->add_option("--cap", args->cap, "primitive budget of each window");
   cmd->add_option("--seed", args->seed, "random seed of each window")->check(whole_number());
+  cmd->add_option("--downscale", args->downscale,
+                  "each window trains on the images at 1/F of their size (as for train)");
   cmd->add_option("--sbatch-arg", args->sbatch_args,
                   "an sbatch option for the window jobs (train.sbatch), repeatable: "
                   "--sbatch-arg=--partition=gpu --sbatch-arg=--gres=gpu:1");
@@ -81,6 +86,7 @@ void add_slurm_command(CLI::App& app) {
     // is refused now rather than by every array task on the cluster.
     training_config(args->preset.empty() ? "default" : args->preset, args->config, args->iters,
                     args->cap, args->seed);
+    if (args->downscale) check_downscale(*args->downscale);
     cluster::SlurmJob job;
     job.force = args->force;
     job.binary = std::filesystem::read_symlink("/proc/self/exe");
@@ -101,6 +107,9 @@ void add_slurm_command(CLI::App& app) {
       job.train_args.insert(job.train_args.end(), {"--cap", std::to_string(*args->cap)});
     if (args->seed)
       job.train_args.insert(job.train_args.end(), {"--seed", std::to_string(*args->seed)});
+    if (args->downscale)  // {}: the shortest form that reads back as the same double
+      job.train_args.insert(job.train_args.end(),
+                            {"--downscale", fmt::format("{}", *args->downscale)});
     const io::Scene scene = media::read_scene(args->scene);
     const cluster::SlurmScripts scripts = cluster::write_slurm_scripts(job, scene);
     std::string windows;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <string>
 
@@ -11,6 +12,7 @@
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/limits.hpp"
+#include "retimegs/io/training_views.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
 
@@ -80,6 +82,24 @@ Image flow_to_color(const Flow& flow, float max_magnitude) {
   return out;
 }
 
+namespace {
+// The stride of camera c's flow from frame `from` that the sheet shows: `stride`, or when 0 that
+// of the default training (--train-frames even) when the camera has its file, else the shortest
+// one it has (1 when none, which shows no flow).
+int flow_stride(const io::Scene& scene, int c, int from, int stride) {
+  if (stride > 0) return stride;
+  const auto has = [&](int k) {
+    return from + k < scene.num_frames &&
+           std::filesystem::exists(scene.flow_path(c, from, from + k));
+  };
+  const int trained = io::frame_step(io::FrameSelection::kEven);
+  if (has(trained)) return trained;
+  for (int k = 1; from + k < scene.num_frames; ++k)
+    if (has(k)) return k;
+  return 1;
+}
+}  // namespace
+
 Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
   if (options.tile_width < kMinOutputSide || options.tile_width > kMaxImageSide)
     fail("--tile-width: {} must lie in [{}, {}] pixels", options.tile_width, kMinOutputSide,
@@ -95,6 +115,8 @@ Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
   }
   for (int c : cameras)
     if (c < 0 || c >= int(scene.cameras.size())) fail("contact sheet: no camera index {}", c);
+  if (options.flow_stride < 0)
+    fail("--stride: must be a whole number >= 1, got {}", options.flow_stride);
   for (int k : frames)
     if (k < 0 || k >= scene.num_frames)
       fail("contact sheet: frame {} is outside 0..{}", k, scene.num_frames - 1);
@@ -127,9 +149,10 @@ Image contact_sheet(const io::Scene& scene, const SheetOptions& options) {
     }
     if (auto mask = media::load_mask(scene, c, frames[0]))
       add(*mask, fmt::format("frame {}: mask", frames[0]));
-    if (frames[0] + 1 < scene.num_frames)
-      if (auto flow = io::load_flow(scene, c, frames[0], frames[0] + 1))
-        add(flow_to_color(*flow), fmt::format("flow {} to {}", frames[0], frames[0] + 1));
+    const int to = frames[0] + flow_stride(scene, c, frames[0], options.flow_stride);
+    if (to < scene.num_frames)
+      if (auto flow = io::load_flow(scene, c, frames[0], to))
+        add(flow_to_color(*flow), fmt::format("flow {} to {}", frames[0], to));
     rows.push_back(std::move(row));
   }
   std::size_t columns = 0;

@@ -47,9 +47,13 @@ std::vector<int> training_cameras(const Scene& scene) {
   return cameras;
 }
 
+int frame_step(FrameSelection which) {
+  return which == FrameSelection::kEven ? 2 : 1;
+}
+
 std::vector<int> training_frames(int num_frames, FrameSelection which) {
   std::vector<int> frames;
-  for (int k = 0; k < num_frames; k += which == FrameSelection::kEven ? 2 : 1) frames.push_back(k);
+  for (int k = 0; k < num_frames; k += frame_step(which)) frames.push_back(k);
   return frames;
 }
 
@@ -64,7 +68,7 @@ std::vector<int> held_out_frames(int num_frames, FrameSelection which) {
 TrainingViews training_views(const Scene& scene, FrameSelection which) {
   TrainingViews views;
   views.cameras = training_cameras(scene);
-  views.step = which == FrameSelection::kEven ? 2 : 1;
+  views.step = frame_step(which);
   views.frames = training_frames(scene.num_frames, which);
   for (std::size_t i = 0; i + 1 < views.frames.size(); ++i)
     views.flow_pairs.emplace_back(views.frames[i], views.frames[i + 1]);

@@ -75,7 +75,14 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
   const std::string ext = out_.extension().string();
   if (ext == ".exr" && !options_.exr) options_.exr = ExrPrecision::kHalf;
   if (options_.exr) check_exr_writer(out_);
-  if (!out.has_filename() || ext.empty()) {  // `x/` is a folder whatever its name
+  if (options_.depth && !options_.exr)
+    fail(
+        "{}: a depth pass (--depth) is float EXR beside EXR frames: give x.exr or a folder with "
+        "--exr",
+        out_.string());
+  const bool folder = !out.has_filename() || ext.empty();  // `x/` is a folder whatever its name
+  if (options_.depth && !folder) check_output_free(depth_path(out_), options.force);
+  if (folder) {
     kind_ = Kind::kFolder;
     folder_ = std::make_unique<AtomicDirectory>(out_, options.force);
   } else if (ext == ".png" || ext == ".exr") {
@@ -122,21 +129,27 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
 
 FrameWriter::~FrameWriter() = default;
 
-void FrameWriter::write(const Image& image) {
+void FrameWriter::write(const Image& image, const Image* depth) {
   if (written_ >= frames_) fail("{}: more frames than announced ({})", out_.string(), frames_);
   const int channels = options_.alpha ? 4 : 3;
   if (image.channels != channels || image.width <= 0 || image.height <= 0 ||
       image.data.size() != image.pixels() * channels)
     fail("{}: frame {} is {}x{}x{}, expected {} channels", out_.string(), written_, image.width,
          image.height, image.channels, channels);
+  if ((depth != nullptr) != options_.depth)
+    fail("{}: frame {} {} a depth pass", out_.string(), written_, options_.depth ? "lacks" : "has");
+  if (depth && (depth->width != image.width || depth->height != image.height ||
+                depth->channels != 1 || depth->data.size() != depth->pixels()))
+    fail("{}: frame {} is {}x{} but its depth pass {}x{}x{}", out_.string(), written_, image.width,
+         image.height, depth->width, depth->height, depth->channels);
   switch (kind_) {
     case Kind::kImage:
-      write_image(out_, image, /*replace=*/options_.force);
+      write_image(out_, image, depth, /*replace=*/options_.force);
       break;
     case Kind::kFolder:
       write_image(
           folder_->temp_path() / fmt::format("{:05d}.{}", written_, options_.exr ? "exr" : "png"),
-          image, /*replace=*/true);
+          image, depth, /*replace=*/true);
       break;
     case Kind::kVideo: {
       if (!video_->writer.isOpened()) {
@@ -171,7 +184,11 @@ void FrameWriter::write(const Image& image) {
   ++written_;
 }
 
-void FrameWriter::write_image(const fs::path& path, const Image& image, bool replace) const {
+void FrameWriter::write_image(const fs::path& path, const Image& image, const Image* depth,
+                              bool replace) const {
+  // Float, whatever the frames' precision: half's 11-bit mantissa would step by 1/1024 of the
+  // depth, and kNoDepth is beyond its range.
+  if (depth) write_exr(depth_path(path), *depth, /*float32=*/true, replace);
   if (options_.exr)
     write_exr(path, image, *options_.exr == ExrPrecision::kFloat, replace);
   else
@@ -192,6 +209,10 @@ void FrameWriter::finish() {
       write_times_csv(folder_->temp_path() / "times.csv", options_.times);
     folder_->commit();
   }
+}
+
+fs::path depth_path(const fs::path& frame) {
+  return fs::path(frame).replace_extension(".depth.exr");
 }
 
 void write_times_csv(const fs::path& path, const std::vector<double>& times) {

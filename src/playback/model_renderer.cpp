@@ -6,6 +6,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/model/slice.hpp"
 #include "retimegs/model/static_splats.hpp"
+#include "retimegs/render/depth.hpp"
 #include "retimegs/render/rasterize.hpp"
 
 #if RETIMEGS_HAS_CUDA
@@ -67,41 +68,52 @@ ModelRenderer::ModelRenderer(ModelRenderer&&) noexcept = default;
 ModelRenderer& ModelRenderer::operator=(ModelRenderer&&) noexcept = default;
 
 Image ModelRenderer::draw(const Camera& camera, double t, const float* background,
-                          const render::RenderOptions& options, UninitVector<float>* alpha) const {
+                          const render::RenderOptions& options, UninitVector<float>* alpha,
+                          Image* depth) const {
+  render::RenderOptions draw_options = options;
+  draw_options.render_depth = depth != nullptr;
+  UninitVector<float> own_alpha, composited_depth;
+  if (depth && !alpha) alpha = &own_alpha;  // the depth pass divides by it
+  Image image;
 #if RETIMEGS_HAS_CUDA
-  if (gpu_) return gpu_->draw(model_, camera, t, background, options, alpha);
+  if (gpu_)
+    image = gpu_->draw(model_, camera, t, background, draw_options, alpha,
+                       depth ? &composited_depth : nullptr);
 #endif
-  render::RenderOutput out;
-  if (const auto* splats = std::get_if<Splats>(&model_)) {
-    render::rasterize_forward(model::splats_to_gaussians(*splats, camera), camera, background,
-                              options, out);
-  } else {
-    const model::Model& m = std::get<model::Model>(model_);
-    const model::TimeSlice sliced = model::slice(m.primitives, m.config, m.grid, t, camera, {});
-    render::rasterize_forward(sliced.gaussians, camera, background, options, out);
+  if (!gpu_) {
+    render::RenderOutput out;
+    if (const auto* splats = std::get_if<Splats>(&model_)) {
+      render::rasterize_forward(model::splats_to_gaussians(*splats, camera), camera, background,
+                                draw_options, out);
+    } else {
+      const model::Model& m = std::get<model::Model>(model_);
+      const model::TimeSlice sliced = model::slice(m.primitives, m.config, m.grid, t, camera, {});
+      render::rasterize_forward(sliced.gaussians, camera, background, draw_options, out);
+    }
+    if (alpha) *alpha = std::move(out.blend.alpha);
+    composited_depth = std::move(out.blend.depth);
+    image = std::move(out.blend.image);
   }
-  if (alpha) *alpha = std::move(out.blend.alpha);
-  return std::move(out.blend.image);
+  if (depth)
+    *depth = render::depth_pass(composited_depth.data(), alpha->data(), image.width, image.height);
+  return image;
 }
 
 Image ModelRenderer::render(const Camera& camera, double t, const float* background,
-                            const render::RenderOptions& options, Colors colors) const {
-  if (device_ == cuda::Device::kCpu) {
-    if (const auto* splats = std::get_if<Splats>(&model_))
-      return render_splats(*splats, camera, background, options);
-    return render_model(std::get<model::Model>(model_), camera, t, background, options, colors);
-  }
-  Image image = draw(camera, t, background, options, nullptr);
+                            const render::RenderOptions& options, Colors colors,
+                            Image* depth) const {
+  Image image = draw(camera, t, background, options, nullptr, depth);
   if (const model::CameraColor* color = colour_map(model_, camera, colors))
     model::apply_camera_color(image, *color, image);
   return image;
 }
 
 Image ModelRenderer::render_rgba(const Camera& camera, double t,
-                                 const render::RenderOptions& options, Colors colors) const {
+                                 const render::RenderOptions& options, Colors colors,
+                                 Image* depth) const {
   const float black[3] = {0, 0, 0};
   UninitVector<float> alpha;
-  Image rgb = draw(camera, t, black, options, &alpha);
+  Image rgb = draw(camera, t, black, options, &alpha, depth);
   return straight_rgba(std::move(rgb), alpha, colour_map(model_, camera, colors));
 }
 

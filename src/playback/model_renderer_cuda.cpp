@@ -12,7 +12,7 @@ ModelRenderer::Gpu::Gpu(const LoadedModel& model) {
 
 Image ModelRenderer::Gpu::draw(const LoadedModel& model, const Camera& camera, double t,
                                const float* background, const render::RenderOptions& options,
-                               UninitVector<float>* alpha) {
+                               UninitVector<float>* alpha, UninitVector<float>* composited_depth) {
   const cuda::DeviceGaussians* gaussians = &splats;
   if (const auto* m = std::get_if<model::Model>(&model)) {
     cuda::slice(primitives, m->config, m->grid, t, camera, {}, sliced);
@@ -26,6 +26,10 @@ Image ModelRenderer::Gpu::draw(const LoadedModel& model, const Camera& camera, d
   if (alpha) {
     alpha->resize(out.blend.alpha.size());
     out.blend.alpha.download(alpha->data());
+  }
+  if (composited_depth) {
+    composited_depth->resize(out.blend.depth.size());
+    out.blend.depth.download(composited_depth->data());
   }
   return image;
 }

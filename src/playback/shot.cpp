@@ -73,12 +73,13 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 }
 
 namespace {
-// One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`.
+// One frame as `writer` takes it: straight RGBA when it writes alpha, else RGB over `background`;
+// its depth pass into `depth` when the writer takes one.
 Image frame_for(const media::FrameWriter& writer, const ModelRenderer& renderer,
                 const Camera& camera, double t, const float* background,
-                const render::RenderOptions& options, Colors colors) {
-  if (writer.alpha()) return renderer.render_rgba(camera, t, options, colors);
-  return renderer.render(camera, t, background, options, colors);
+                const render::RenderOptions& options, Colors colors, Image* depth) {
+  if (writer.alpha()) return renderer.render_rgba(camera, t, options, colors, depth);
+  return renderer.render(camera, t, background, options, colors, depth);
 }
 }  // namespace
 
@@ -90,8 +91,11 @@ void render_shot(const ModelRenderer& renderer, const Shot& shot, const float* b
   const Colors colors = shot_colors(shot);
   Progress progress("render", frames, frames > 1);
   for (int f = 0; f < frames; ++f) {
-    writer.write(frame_for(writer, renderer, shot_camera(shot, f), shot.times[f], background,
-                           options, colors));
+    Image depth;
+    Image* depth_out = writer.depth() ? &depth : nullptr;
+    const Image image = frame_for(writer, renderer, shot_camera(shot, f), shot.times[f], background,
+                                  options, colors, depth_out);
+    writer.write(image, depth_out);
     progress.tick();
   }
   progress.finish();

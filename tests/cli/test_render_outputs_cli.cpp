@@ -1,7 +1,8 @@
 // `retimegs render` outputs for a VFX pipeline: --size / --scale render at another size (the
 // camera's intrinsics scaled, not a resampled image), --alpha writes straight RGBA PNGs,
 // --bit-depth 16 16-bit PNGs, --fps the video's rate (the scene's by default), a folder gets
-// times.csv; options that do not fit the output are refused with one line and status 2.
+// times.csv, --depth a float depth pass beside each EXR frame; options that do not fit the output
+// are refused with one line and status 2.
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -13,10 +14,13 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/io/scene.hpp"
+#include "retimegs/io/splat_ply.hpp"
 #include "retimegs/media/image_io.hpp"
+#include "retimegs/model/export.hpp"
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/playback/render_model.hpp"
+#include "retimegs/render/depth.hpp"
 #include "soft_cloud.hpp"
 #include "test_util.hpp"
 
@@ -153,6 +157,75 @@ TEST(RenderOutputsCli, AFolderGetsTimesCsv) {
   EXPECT_EQ(test::read_text(dir / "frames" / "times.csv"),
             "frame,time\n0,0\n1,0.5\n2,1\n3,1.5\n4,2\n");
   EXPECT_TRUE(fs::exists(dir / "frames" / "00004.png"));
+}
+
+// The depth pass file `path`: one 32-bit float channel at the camera's size.
+std::vector<float> read_depth(const fs::path& path) {
+  const cv::Mat read = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(read.type(), CV_32FC1) << path;
+  EXPECT_EQ(read.cols, 64) << path;
+  EXPECT_EQ(read.rows, 48) << path;
+  if (read.type() != CV_32FC1) return {};
+  return {read.ptr<float>(), read.ptr<float>() + read.total()};
+}
+
+// --depth writes ModelRenderer's depth pass, as it is, beside each EXR frame: x.depth.exr, and
+// <frame>.depth.exr in a folder; a static .ply gets the same pass. PNGs and videos cannot carry
+// one: refused with one line, nothing written.
+TEST(RenderOutputsCli, DepthWritesTheFloatPassBesideEachExrFrame) {
+  if (!media::can_write_exr()) GTEST_SKIP() << "this OpenCV build writes no OpenEXR";
+  ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);  // OpenCV reads EXR only when asked to
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const Camera& cam = f.scene.cameras[0];
+  const float black[3] = {0, 0, 0};
+  const auto expected = [&](const playback::ModelRenderer& renderer, double t) {
+    Image depth;
+    renderer.render(cam, t, black, near_001(), playback::Colors::kModel, &depth);
+    return depth.data;
+  };
+  const playback::ModelRenderer model(f.model);
+  ASSERT_EQ(f.render("--depth --time 1 --out " + (dir / "plate.exr").string()).status, 0);
+  EXPECT_EQ(read_depth(dir / "plate.depth.exr"), expected(model, 1.0));
+  ASSERT_EQ(
+      f.render("--depth --alpha --exr float --times 0:1:0.5 --out " + (dir / "frames/").string())
+          .status,
+      0);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(read_depth(dir / "frames" / ("0000" + std::to_string(k) + ".depth.exr")),
+              expected(model, 0.5 * k))
+        << k;
+  EXPECT_TRUE(fs::exists(dir / "frames" / "00002.exr"));
+
+  const Splats splats = model::export_splats(f.model, 1.0);
+  io::write_splat_ply(dir / "splats.ply", splats);
+  ASSERT_EQ(test::run_cli("render --model " + (dir / "splats.ply").string() + " --scene " +
+                          f.scene.root.string() + " --camera cam00 --near 0.01 --depth --out " +
+                          (dir / "static.exr").string())
+                .status,
+            0);
+  const std::vector<float> depth = read_depth(dir / "static.depth.exr");
+  EXPECT_EQ(depth, expected(playback::ModelRenderer(splats), 0));
+  int empty = 0, drawn = 0;  // the cloud around the origin, 4 units away, in an empty border
+  for (const float z : depth) {
+    empty += z == render::kNoDepth;
+    drawn += z > 3 && z < 5;
+  }
+  EXPECT_EQ(empty + drawn, int(depth.size()));
+  EXPECT_GT(empty, 100);
+  EXPECT_GT(drawn, 100);
+
+  for (const std::string out : {"v.mp4", "v.png", "pngs/"}) {
+    const auto r = f.render("--depth --times 0:1:1 --out " + (dir / out).string());
+    const auto one = f.render("--depth --time 1 --out " + (dir / out).string());
+    for (const auto& result : {r, one}) {
+      EXPECT_EQ(result.status, 2) << out;
+      EXPECT_NE(result.err.find("--depth"), std::string::npos) << out << ": " << result.err;
+      EXPECT_TRUE(test::is_one_error_line(result.err)) << out << ": " << result.err;
+    }
+    EXPECT_FALSE(fs::exists(dir / out)) << out;
+  }
+  EXPECT_FALSE(fs::exists(dir / "v.depth.exr"));
 }
 
 TEST(RenderOutputsCli, OptionsThatDoNotFitExitTwoWithOneLine) {

@@ -265,9 +265,9 @@ TEST(Slurm, NamesThatLookLikeCommandsStayNames) {
   // A run folder sbatch cannot write logs under is refused before anything is written.
   for (const std::string& name : {std::string("r\nx"), std::string("r\\x")}) {
     job.run = dir / name;
-    test::expect_error([&] { write_slurm_scripts(job, media::read_scene(scene)); },
-                       {"--out " + escape_control_chars(job.run.string()),
-                        "line break or a backslash"});
+    test::expect_error(
+        [&] { write_slurm_scripts(job, media::read_scene(scene)); },
+        {"--out " + escape_control_chars(job.run.string()), "line break or a backslash"});
     EXPECT_FALSE(fs::exists(job.run)) << name;
   }
 }
@@ -307,6 +307,44 @@ TEST(Slurm, SubmitMakesTheMergeWaitForTheArray) {
                    "#!/bin/sh\necho 'sbatch: error: invalid partition' >&2\nexit 1\n");
   PathFirst path(dir.path());
   test::expect_error([&] { submit(s); }, {"invalid partition", "exit 1"});
+}
+
+// `slurm --downscale F` reaches every window's train, not its prepare (flows are made at the
+// images' size; train scales them with the images), and a factor train would refuse is refused
+// now, in one line, before any script is written.
+TEST(Slurm, DownscaleReachesEveryWindowsTrain) {
+  test::TempDir dir;
+  const fs::path scene = small_scene(dir, 5);
+  const std::string slurm = "slurm --scene " + scene.string() + " --windows 2 --out ";
+  const auto r = test::run_cli(slurm + (dir / "run").string() + " --downscale 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string window = test::read_text(dir / "run" / "slurm" / "window.sh");
+  // One command a line: join the lines a backslash continues.
+  for (std::size_t at; (at = window.find("\\\n")) != std::string::npos;) window.replace(at, 2, " ");
+  int train = 0, prepare = 0;
+  std::size_t start = 0;
+  for (std::size_t end; (end = window.find('\n', start)) != std::string::npos; start = end + 1) {
+    const std::string line = window.substr(start, end - start);
+    const bool downscaled =
+        line.find(" --downscale 2 ") != std::string::npos || line.ends_with(" --downscale 2");
+    if (line.find(" train --scene ") != std::string::npos) {
+      ++train;
+      EXPECT_TRUE(downscaled) << line;
+    } else if (line.find(" prepare --scene ") != std::string::npos) {
+      ++prepare;
+      EXPECT_FALSE(downscaled) << line;
+    }
+  }
+  EXPECT_GE(train, 1) << window;
+  EXPECT_GE(prepare, 1) << window;
+  for (const char* factor : {"0.5", "nan"}) {
+    const auto refused =
+        test::run_cli(slurm + (dir / "refused").string() + " --downscale " + factor);
+    EXPECT_EQ(refused.status, 2) << factor;
+    EXPECT_NE(refused.err.find("--downscale"), std::string::npos) << refused.err;
+    EXPECT_TRUE(test::is_one_error_line(refused.err)) << refused.err;
+    EXPECT_FALSE(fs::exists(dir / "refused")) << factor;
+  }
 }
 
 TEST(Slurm, RunLocalTrainsTheWindowsMergesAndResumes) {

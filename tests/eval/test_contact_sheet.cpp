@@ -1,9 +1,11 @@
 #include <filesystem>
+#include <string>
 
 #include <gtest/gtest.h>
 
 #include "io/small_scene.hpp"
 #include "retimegs/eval/contact_sheet.hpp"
+#include "retimegs/io/flow_io.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -38,6 +40,46 @@ TEST(ContactSheet, RendersFollowTheirGroundTruth) {
   }
   options.frames = {2};  // no render of frame 2
   test::expect_error([&] { contact_sheet(scene, options); }, {"7/00002.png"});
+}
+
+// The flow column shows the flow training reads: by default stride 2, that of the default
+// --train-frames even, where it exists (synth writes strides 1 and 2, prepare with even frames 2
+// only), else the shortest stride there is (prepare --train-frames all: 1); or --stride K's.
+TEST(ContactSheet, FlowColumnShowsTheStrideTrainingReads) {
+  test::TempDir dir;
+  const io::Scene scene = test::write_small_scene(dir / "s");  // cam00: masks, flow 0 to 1
+  Flow right(12, 8), down(12, 8);
+  for (std::size_t p = 0; p < right.pixels(); ++p)
+    right.uv[2 * p] = 1.0f, down.uv[2 * p + 1] = 1.0f + float(p % 3);
+  io::write_flo(scene.flow_path(0, 0, 1), right);
+  SheetOptions options;
+  options.cameras = {0};
+  options.frames = {0};
+  options.tile_width = 12;
+  options.gap = 2;
+  options.labels = false;
+  // The third tile (frame, mask, flow) against the colour coding of `flow`.
+  const auto expect_flow_column = [&](const Flow& flow, const std::string& what) {
+    const Image sheet = contact_sheet(scene, options);
+    ASSERT_EQ(sheet.width, 2 + 3 * (12 + 2)) << what;
+    const Image expected = flow_to_color(flow);
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 12; ++x)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_NEAR(sheet.at(2 + y, 2 + 2 * 14 + x, c), expected.at(y, x, c), 1e-6)
+              << what << " " << x << "," << y << "," << c;
+  };
+  expect_flow_column(right, "stride 1 where only it exists");
+  io::write_flo(scene.flow_path(0, 0, 2), down);
+  expect_flow_column(down, "stride 2 where both exist");
+  options.flow_stride = 1;
+  expect_flow_column(right, "--stride 1");
+  fs::remove(scene.flow_path(0, 0, 1));  // as prepare leaves it with even training frames
+  EXPECT_EQ(contact_sheet(scene, options).width, 2 + 2 * (12 + 2)) << "no stride-1 flow";
+  options.flow_stride = 0;
+  expect_flow_column(down, "stride 2 where only it exists");
+  options.flow_stride = -1;
+  test::expect_error([&] { contact_sheet(scene, options); }, {"--stride", "-1"});
 }
 
 // A caption strip above every tile: white with dark text, the tile's pixels below it unchanged;

@@ -304,6 +304,42 @@ TEST(FrameWriter, ExrHoldsUnclampedPremultipliedRgbaAtTheAskedPrecision) {
   EXPECT_TRUE(fs::exists(dir / "plates" / "times.csv"));
 }
 
+// A depth pass beside each EXR frame, named by depth_path: one 32-bit float channel whatever the
+// frames' precision (a half would round 1/3 and overflow at 1e10), values as given.
+TEST(FrameWriter, DepthPassIsOneFloatChannelBesideEachExrFrame) {
+  if (!can_write_exr()) GTEST_SKIP() << "this OpenCV build writes no OpenEXR";
+  ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);  // OpenCV reads EXR only when asked to
+  TempDir dir;
+  Image depth(4, 3, 1, 1.0f / 3.0f);
+  depth.at(2, 3) = 1e10f;
+  const auto expect_depth = [&](const fs::path& path) {
+    const cv::Mat read = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(read.type(), CV_32FC1) << path;
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 4; ++x) EXPECT_EQ(read.at<float>(y, x), depth.at(y, x)) << path;
+  };
+  EXPECT_EQ(depth_path("a/00012.exr"), fs::path("a/00012.depth.exr"));
+  FrameWriterOptions o = options(0, true);
+  o.depth = true;
+  FrameWriter one(dir / "plate.exr", 1, o);  // half frames
+  one.write(Image(4, 3, 4, 0.5f), &depth);
+  one.finish();
+  expect_depth(dir / "plate.depth.exr");
+  EXPECT_EQ(cv::imread((dir / "plate.exr").string(), cv::IMREAD_UNCHANGED).type(), CV_32FC4);
+  o.alpha = false;
+  o.exr = ExrPrecision::kHalf;
+  FrameWriter folder(dir / "plates", 2, o);
+  folder.write(Image(4, 3, 3), &depth);
+  folder.write(Image(4, 3, 3), &depth);
+  folder.finish();
+  expect_depth(dir / "plates" / "00000.depth.exr");
+  expect_depth(dir / "plates" / "00001.depth.exr");
+  EXPECT_TRUE(fs::exists(dir / "plates" / "00001.exr"));
+  // An existing x.depth.exr is an output like x.exr: replaced only with force.
+  fs::remove(dir / "plate.exr");
+  expect_error([&] { FrameWriter(dir / "plate.exr", 1, o); }, {"plate.depth.exr"});
+}
+
 TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
   TempDir dir;
   expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(24, true)); },
@@ -319,11 +355,28 @@ TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
   exr.exr = ExrPrecision::kHalf;
   expect_error([&] { FrameWriter(dir / "v.mp4", 2, exr); }, {"v.mp4", "not EXR"});
   expect_error([&] { FrameWriter(dir / "v.png", 1, exr); }, {"v.png", "x.exr"});
+  FrameWriterOptions depth = options(24);
+  depth.depth = true;
+  for (const std::string name : {"v.mp4", "v.png", "pngs/"})
+    expect_error([&] { FrameWriter(dir / name, name == "v.png" ? 1 : 2, depth); },
+                 {name.substr(0, 4), "--depth", "x.exr"});
+  exr.depth = true;
+  expect_error([&] { FrameWriter(dir / "v.avi", 2, exr); }, {"v.avi", "not EXR"});
   {
     FrameWriter rgba(dir / "a.png", 1, options(0, true));
     expect_error([&] { rgba.write(moving_frame(4, 4, 0)); }, {"a.png", "4 channels"});
     FrameWriter rgb(dir / "b.png", 1, options());
     expect_error([&] { rgb.write(Image(4, 4, 4)); }, {"b.png", "3 channels"});
+  }
+  if (can_write_exr()) {
+    FrameWriterOptions o = options();
+    o.depth = true;
+    FrameWriter with(dir / "c.exr", 1, o);
+    expect_error([&] { with.write(Image(4, 4, 3)); }, {"c.exr", "lacks a depth pass"});
+    const Image wrong(4, 3, 1);
+    expect_error([&] { with.write(Image(4, 4, 3), &wrong); }, {"c.exr", "depth pass 4x3x1"});
+    FrameWriter without(dir / "d.exr", 1, options());
+    expect_error([&] { without.write(Image(4, 4, 3), &wrong); }, {"d.exr", "has a depth pass"});
   }
   EXPECT_TRUE(fs::is_empty(dir.path()));
 }

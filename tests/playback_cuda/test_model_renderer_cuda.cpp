@@ -12,6 +12,9 @@
 // may differ by up to 1/255 + 1e-4. Straight RGBA divides by alpha, which scales a colour's error
 // by 1 / alpha: the straight colour is compared premultiplied (alpha * colour, the image over
 // black), alpha within 1e-4 like the image.
+// The depth pass divides the composited depth sum_i z_i w_i by alpha on the host for both
+// devices: it is compared as that composited depth (alpha * depth) over the views' farthest
+// depth, a value in [0, 1] whose rounding and cut outliers are bounded like a colour's.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -58,6 +61,18 @@ std::vector<float> premultiplied(const Image& rgba) {
     const float a = rgba.data[4 * i + 3];
     for (int c = 0; c < 3; ++c) out[4 * i + c] = a * rgba.data[4 * i + c];
     out[4 * i + 3] = a;
+  }
+  return out;
+}
+
+// The depth pass as the composited depth it came from, over kFarDepth: alpha * depth / kFarDepth
+// (0 where nothing is drawn), with the alpha of the straight RGBA drawn with it.
+constexpr float kFarDepth = 5.0f;  // the views stand 3.7 to 4.1 from the cloud (spread 0.8)
+std::vector<float> composited_depth(const Image& depth, const Image& rgba) {
+  std::vector<float> out(depth.pixels());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const float a = rgba.data[4 * i + 3];
+    out[i] = a > 0 ? a * depth.data[i] / kFarDepth : 0.0f;
   }
   return out;
 }
@@ -142,6 +157,32 @@ TEST(ModelRendererCuda, StaticSplatsMatchTheCpu) {
                  cpu.render(v.camera, 0, background).data);
     expect_close(what + " rgba", premultiplied(gpu.render_rgba(v.camera, 0)),
                  premultiplied(cpu.render_rgba(v.camera, 0)));
+  }
+}
+
+TEST(ModelRendererCuda, DepthPassMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const model::Model model = cloud();
+  const Splats splats = model::export_splats(model, 1.0);
+  const float black[3] = {0, 0, 0};
+  for (const bool is_static : {false, true}) {
+    const LoadedModel loaded = is_static ? LoadedModel(splats) : LoadedModel(model);
+    const ModelRenderer cpu(loaded, cuda::Device::kCpu), gpu(loaded, cuda::Device::kCuda);
+    for (const View& v : kViews) {
+      const std::string what = std::string(is_static ? "splats " : "4D ") + v.camera.name + " " +
+                               std::to_string(v.camera.width) + " depth";
+      Image depth_cpu, depth_gpu, depth_rgb;
+      const Image rgba_cpu = cpu.render_rgba(v.camera, v.t, {}, Colors::kModel, &depth_cpu);
+      const Image rgba_gpu = gpu.render_rgba(v.camera, v.t, {}, Colors::kModel, &depth_gpu);
+      ASSERT_EQ(depth_gpu.channels, 1) << what;
+      expect_close(what, composited_depth(depth_gpu, rgba_gpu),
+                   composited_depth(depth_cpu, rgba_cpu));
+      gpu.render(v.camera, v.t, black, {}, Colors::kModel, &depth_rgb);
+      EXPECT_EQ(depth_rgb.data, depth_gpu.data) << what << ": render's pass is render_rgba's";
+      int drawn = 0;  // the view sees the cloud at its depth
+      for (const float z : depth_gpu.data) drawn += z > 3.0f && z < kFarDepth;
+      EXPECT_GT(drawn, 100) << what;
+    }
   }
 }
 

@@ -1,6 +1,8 @@
 #pragma once
 // A contact sheet of a scene: one row per camera; columns are frames, then the mask and a
-// colour-coded flow (hue = direction, saturation = speed, black = unknown) of the first frame.
+// colour-coded flow (hue = direction, saturation = speed, black = unknown) from the first frame
+// to the one `flow_stride` frames later: the flow training reads (stride 2 for --train-frames
+// even, which is all prepare writes then).
 // With render folders (eval --save-renders): per frame the ground truth, then each folder's
 // DIR/<camera>/<frame:05d>.png beside it (no mask / flow columns) — ground truth vs renders.
 // Each tile has a caption above it: camera, frame and what it shows ("ground truth", the render
@@ -20,6 +22,10 @@ struct SheetOptions {
   int gap = 4;               // pixels between tiles (white)
   std::vector<std::filesystem::path> renders;  // folders of renders to compare, in column order
   bool labels = true;                          // a caption strip above each tile
+  // Frames from the first frame to its flow's other end; 0: the stride the default training
+  // reads (--train-frames even: 2) when the camera has that flow, else the shortest it has.
+  // Throws Error naming --stride when negative.
+  int flow_stride = 0;
 };
 
 Image contact_sheet(const io::Scene& scene, const SheetOptions& options);

@@ -62,7 +62,11 @@ constexpr double kNearPlaneFraction = 0.09;
 // default of eval's and render's.
 double scene_near_plane(const Scene& scene);
 
-// Frames 0, step, 2 step, ... < num_frames (step 2 for kEven, 1 for kAll), and the others:
+// Frames between consecutive training frames, the stride of the flows training reads: 2 for
+// kEven, 1 for kAll.
+int frame_step(FrameSelection which);
+
+// Frames 0, step, 2 step, ... < num_frames (step: frame_step), and the others:
 // what evaluation scores by default (`eval --frames odd` is held_out_frames of kEven).
 std::vector<int> training_frames(int num_frames, FrameSelection which);
 std::vector<int> held_out_frames(int num_frames, FrameSelection which);

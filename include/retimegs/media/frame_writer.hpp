@@ -15,6 +15,8 @@
 // Any other extension (x.jpg) is an error rather than a folder of that name. PNG outputs hold 8- or
 // 16-bit RGB, or RGBA with straight (unassociated) alpha as PNG defines it; EXR outputs RGB or RGBA
 // with premultiplied alpha as EXR defines it; videos hold 8-bit RGB.
+// EXR outputs may carry a depth pass (render/depth.hpp): one 32-bit float channel per frame,
+// written beside it as depth_path(frame) (x.depth.exr, 00012.depth.exr); PNGs and videos cannot.
 // Every kind appears atomically when finish() is called; an unfinished writer leaves nothing
 // behind.
 #include <filesystem>
@@ -39,14 +41,17 @@ struct FrameWriterOptions {
   // output without it is half.
   std::optional<ExrPrecision> exr;
   std::vector<double> times;  // scene time of each frame (empty: unknown): a folder's times.csv
-  bool force = false;         // replace an existing output folder or file
+  // EXR outputs only: write() also takes each frame's depth pass, written as float EXR at
+  // depth_path(frame) (so an x.exr output also claims x.depth.exr, --force and all).
+  bool depth = false;
+  bool force = false;  // replace an existing output folder or file
 };
 
 class FrameWriter {
  public:
   // `frames`: how many will be written (checked; so is times.size() when times are given). Throws
   // Error naming the output when the options do not fit its kind (alpha or 16 bits for a video,
-  // EXR where this build cannot write it).
+  // EXR where this build cannot write it, a depth pass for PNGs or a video).
   FrameWriter(std::filesystem::path out, int frames, const FrameWriterOptions& options);
   FrameWriter(std::filesystem::path out, int frames, double fps, bool force = false);
   ~FrameWriter();
@@ -55,15 +60,20 @@ class FrameWriter {
 
   // Whether write() takes RGBA (options.alpha) rather than RGB.
   bool alpha() const { return options_.alpha; }
+  // Whether write() takes a depth pass (options.depth).
+  bool depth() const { return options_.depth; }
   // Values in [0, 1], clamped: RGB, or RGBA with straight alpha when alpha(). Every frame of a
-  // video has the first one's size.
-  void write(const Image& image);
+  // video has the first one's size. `depth` [H, W, 1], the image's size, given exactly when
+  // depth(); written as it is.
+  void write(const Image& image, const Image* depth = nullptr);
   void finish();
 
  private:
   enum class Kind { kImage, kVideo, kFolder };
-  // An image file (PNG or EXR by the options); an existing `path` replaced only with `replace`.
-  void write_image(const std::filesystem::path& path, const Image& image, bool replace) const;
+  // An image file (PNG or EXR by the options), and its depth pass when given; an existing `path`
+  // replaced only with `replace`.
+  void write_image(const std::filesystem::path& path, const Image& image, const Image* depth,
+                   bool replace) const;
   struct Video;
   std::filesystem::path out_;
   Kind kind_;
@@ -73,6 +83,9 @@ class FrameWriter {
   std::unique_ptr<AtomicDirectory> folder_;
   std::unique_ptr<Video> video_;
 };
+
+// Where the depth pass of the frame file `frame` goes: beside it, `<stem>.depth.exr`.
+std::filesystem::path depth_path(const std::filesystem::path& frame);
 
 // The times of a sequence of frames, as render (a folder output) and export (--times) write them
 // beside the frames: CSV with the header `frame,time`, then per frame its index k (the k of the

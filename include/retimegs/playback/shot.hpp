@@ -66,8 +66,9 @@ Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double
 
 // Renders the frames of `shot` with `renderer` and shot_colors(shot) to `writer`, which is then
 // finished; a writer that writes alpha gets ModelRenderer::render_rgba, any other
-// ModelRenderer::render over `background` (3 values, RGB). Every frame renders with `options`; a
-// progress bar is shown when there is more than one frame.
+// ModelRenderer::render over `background` (3 values, RGB), and a writer that takes a depth pass
+// each frame's too. Every frame renders with `options`; a progress bar is shown when there is more
+// than one frame.
 void render_shot(const ModelRenderer& renderer, const Shot& shot, const float* background,
                  media::FrameWriter& writer, const render::RenderOptions& options = {});
 
