@@ -43,7 +43,10 @@ void add_train_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option(
          "--preset", args->preset,
-         "preset: " + train::describe_presets() + "; --config, --iters and --cap override it")
+         "preset: " + train::describe_presets() +
+             "; --config, --iters and --cap override it. Every preset trains over a random "
+             "background colour per step on a capture without masks (a matte for render "
+             "--alpha), over black on one with masks; the config's random_background chooses")
       ->capture_default_str();
   cmd->add_option("--iters", args->iters,
                   "iterations (milestones scale with it); with --resume, the new total to "

@@ -89,14 +89,22 @@ __device__ void filter_y(const Window& w, const float (&rows)[M][kSpan][kTile], 
   }
 }
 
-// The target: unpacked (unpack_code) into image, and its window moments μ_b, E[b²].
+// A colour passed to a kernel by value.
+struct Rgb {
+  float v[kRgb];
+};
+
+// The target: unpacked (unpack_code) into image, the pixels `foreground` (when given) marks 0 set
+// to `background`, and its window moments μ_b, E[b²].
 __global__ void __launch_bounds__(kTile* kTile)
-    ssim_target_kernel(const std::uint16_t* packed, int width, int height, Window w, float* image,
-                       float* mu, float* e_sq) {
+    ssim_target_kernel(const std::uint16_t* packed, const std::uint8_t* foreground, Rgb background,
+                       int width, int height, Window w, float* image, float* mu, float* e_sq) {
   __shared__ float b[kSpan][kSpan];
   __shared__ float rows[2][kSpan][kTile];
   const int ch = blockIdx.z;
-  stage(b, width, height, [&](std::size_t p) { return unpack_code(packed[p * kRgb + ch]); });
+  stage(b, width, height, [&](std::size_t p) {
+    return foreground && !foreground[p] ? background.v[ch] : unpack_code(packed[p * kRgb + ch]);
+  });
   __syncthreads();
   filter_x<2>(w, rows, [&](int y, int x, float(&v)[2]) {
     v[0] = b[y][x];
@@ -409,7 +417,8 @@ const DeviceFlow& FlowUploads::backward() {
   return ready(backward_);
 }
 
-void DeviceSsimTarget::assign(const DevicePackedImage& packed) {
+void DeviceSsimTarget::assign(const DevicePackedImage& packed, const std::uint8_t* foreground,
+                              const std::array<float, 3>& background) {
   if (packed.channels != kRgb || packed.width <= 0 || packed.height <= 0 ||
       packed.data.size() != std::size_t(packed.width) * packed.height * kRgb)
     fail("SSIM target on the device: the view is {}x{}x{} ({} values), an RGB image is needed",
@@ -419,8 +428,10 @@ void DeviceSsimTarget::assign(const DevicePackedImage& packed) {
   image.resize(n);
   mu.resize(n);
   e_sq.resize(n);
+  const Rgb colour{{background[0], background[1], background[2]}};
   ssim_target_kernel<<<tile_grid(width, height), dim3(kTile, kTile)>>>(
-      packed.data.data(), width, height, float_window(), image.data(), mu.data(), e_sq.data());
+      packed.data.data(), foreground, colour, width, height, float_window(), image.data(),
+      mu.data(), e_sq.data());
   check(cudaGetLastError(), "ssim_target_kernel launch");
 }
 

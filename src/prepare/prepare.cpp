@@ -185,16 +185,12 @@ void write_masks(const io::Scene& scene, const std::vector<int>& train_frames,
     progress.tick();
   });
   if (report.masks_written > 0)
-    write_text_file(estimated_masks_marker(scene),
+    write_text_file(scene.estimated_masks_marker(),
                     "{\"written_by\": \"retimegs prepare --masks\", \"approximate\": true}\n");
   report.mask_coverage = report.masks_written ? foreground / double(report.masks_written) : 0.0;
 }
 
 }  // namespace
-
-fs::path estimated_masks_marker(const io::Scene& scene) {
-  return scene.root / "masks" / "estimated.json";
-}
 
 std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
                                          std::string& note) {
@@ -247,7 +243,7 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   if (sources.empty() && !point_frames.empty())
     // Masks made by --masks, now or earlier, miss what moves little over the clip: no hull from
     // them unless asked.
-    sources = default_points(!options.masks && !fs::exists(estimated_masks_marker(scene)) &&
+    sources = default_points(!options.masks && !fs::exists(scene.estimated_masks_marker()) &&
                                  has_every_mask(scene, cameras, frames),
                              colmap_available(options.colmap), report.points_note);
 

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <iterator>
 #include <limits>
+#include <optional>
 #include <string_view>
 #include <type_traits>
 #include <utility>
@@ -124,6 +125,10 @@ constexpr ConfigKey kKeys[] = {
      "weight of the mean opacity regulariser"},
     {"scale_reg", &TrainConfig::scale_reg, kWeight, kLosses,
      "weight of the mean scale regulariser"},
+    {"random_background", &TrainConfig::random_background, std::nullopt, kLosses,
+     "each step composites its renders over a random colour, which the target takes where its "
+     "mask says background, so that alpha is coverage (`render --alpha` a matte); `null`: on for "
+     "a capture without masks (the run records the value it used)"},
     // An edge wider than the clip makes every primitive's opacity follow the edge alone.
     {"gamma", &TrainConfig::gamma, Range{0, 1, true}, kLosses,
      "sharpness of the temporal-opacity edges, in normalised clip time (stored in the model)"},
@@ -214,7 +219,11 @@ void set_key(const ConfigKey& key, const json& value, TrainConfig& config,
       [&](auto member) {
         auto& target = field(config, member);
         using T = std::remove_reference_t<decltype(target)>;
-        if constexpr (std::is_same_v<T, bool>) {
+        if constexpr (std::is_same_v<T, std::optional<bool>>) {
+          if (!value.is_boolean() && !value.is_null())
+            fail("{}: '{}' must be true, false or null, got {}", what, path(key), value.dump());
+          target = value.is_null() ? std::nullopt : std::optional<bool>(value.get<bool>());
+        } else if constexpr (std::is_same_v<T, bool>) {
           if (!value.is_boolean())
             fail("{}: '{}' must be true or false, got {}", what, path(key), value.dump());
         } else if constexpr (std::is_integral_v<T>) {
@@ -232,7 +241,7 @@ void set_key(const ConfigKey& key, const json& value, TrainConfig& config,
           if (!value.is_number())
             fail("{}: '{}' must be a number, got {}", what, path(key), value.dump());
         }
-        target = value.get<T>();
+        if constexpr (!std::is_same_v<T, std::optional<bool>>) target = value.get<T>();
       },
       key.member);
 }
@@ -367,7 +376,12 @@ std::string to_json(const TrainConfig& config) {
   for (const ConfigKey& key : kKeys)
     std::visit(
         [&](auto member) {
-          (key.is_ablation() ? j["ablate"] : j)[std::string(key.name)] = field(config, member);
+          json& value = (key.is_ablation() ? j["ablate"] : j)[std::string(key.name)];
+          const auto& v = field(config, member);
+          if constexpr (std::is_same_v<std::remove_cvref_t<decltype(v)>, std::optional<bool>>)
+            value = v ? json(*v) : json(nullptr);
+          else
+            value = v;
         },
         key.member);
   return j.dump(2);
@@ -388,8 +402,15 @@ TrainConfig config_from_json(const std::string& text, TrainConfig config, const 
 void check_config(const TrainConfig& config, const std::string& what) {
   for (const ConfigKey& key : kKeys) {
     if (!key.range) continue;
-    const double value =
-        std::visit([&](auto member) { return double(field(config, member)); }, key.member);
+    const double value = std::visit(
+        [&](auto member) {
+          const auto& v = field(config, member);
+          if constexpr (std::is_arithmetic_v<std::remove_cvref_t<decltype(v)>>)
+            return double(v);
+          else
+            return 0.0;  // a key of another type has no range
+        },
+        key.member);
     if (!key.range->contains(value))
       fail("{}: '{}' = {} must lie in {}", what, path(key), value, to_string(*key.range));
   }

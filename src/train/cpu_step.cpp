@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
@@ -50,7 +51,10 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
                &shaded_);
   stats.seconds.slice += clock.lap();
   const int channels = e.gaussians.channels;
-  const std::vector<float> background(channels, 0.0f);
+  // RGB over the step's background, the flow channels over 0.
+  std::vector<float> background(channels, 0.0f);
+  if (const std::optional<Rgb> colour = state_.background())
+    std::copy(colour->begin(), colour->end(), background.begin());
   render::RenderOptions render_options;
   render_options.near_plane = set_.near_plane;
   render::RenderOutput& out = render_;
@@ -111,6 +115,9 @@ StepStats CpuStep::step_view(int c, int i) {
   const std::vector<RenderPass> passes =
       render_passes(config_, representation, i, int(set_.frames.size()), w_flow > 0);
   unpack(set_.images[c][i], target_);
+  if (const std::optional<Rgb> colour = state_.background())
+    if (const std::optional<Image>& mask = set_.masks[c][i])
+      replace_background(target_, *mask, state_.seen_by(c, *colour));
   Stopwatch target_clock;
   ssim_target_.assign(target_);
   stats.seconds.losses += target_clock.lap();  // the SSIM loss's target side, for all renders

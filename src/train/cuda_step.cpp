@@ -55,9 +55,15 @@ class CudaStep final : public TrainingStep {
         strategy_(config, set.scene_extent),
         flows_(all_flows(set)) {
     images_.resize(set.images.size());
+    foreground_.resize(set.images.size());
     for (std::size_t c = 0; c < set.images.size(); ++c) {
       images_[c].resize(set.images[c].size());
-      for (std::size_t i = 0; i < set.images[c].size(); ++i) images_[c][i].upload(set.images[c][i]);
+      foreground_[c].resize(set.images[c].size());
+      for (std::size_t i = 0; i < set.images[c].size(); ++i) {
+        images_[c][i].upload(set.images[c][i]);
+        if (state_.random_background() && set.masks[c][i])
+          foreground_[c][i].upload(foreground_flags(*set.masks[c][i]));
+      }
     }
   }
 
@@ -131,7 +137,9 @@ class CudaStep final : public TrainingStep {
   cuda::DeviceBuffer<float> value_scratch_;
 
   std::vector<std::vector<cuda::DevicePackedImage>> images_;  // [camera slot][frame slot]
-  cuda::FlowUploads flows_;                                   // the step's view's
+  // With random backgrounds, each view's mask as foreground_flags (empty where it has none).
+  std::vector<std::vector<cuda::DeviceBuffer<std::uint8_t>>> foreground_;
+  cuda::FlowUploads flows_;  // the step's view's
   cuda::DeviceSsimTarget target_;
   cuda::LossScratch loss_scratch_;
   cuda::DeviceBuffer<double> losses_;  // [passes, kSlotsPerPass], and the regulariser last
@@ -269,9 +277,14 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
   cuda::slice(primitives_, m.config, m.grid, t, camera, options, slice, &shaded_);
   stats.seconds.slice += lap(clock);
   const int channels = slice.gaussians.channels;
+  // RGB over the step's background, the flow channels over 0 (none: all black).
+  std::vector<float> background(channels, 0.0f);
+  const std::optional<Rgb> colour = state_.background();
+  if (colour) std::copy(colour->begin(), colour->end(), background.begin());
+  const float* backdrop = colour ? background.data() : nullptr;
   render::RenderOptions render_options;
   render_options.near_plane = set_.near_plane;
-  cuda::rasterize_forward(slice.gaussians, camera, nullptr, render_options, render_);
+  cuda::rasterize_forward(slice.gaussians, camera, backdrop, render_options, render_);
   stats.seconds.render_forward += lap(clock);
 
   const int w = camera.width, h = camera.height;
@@ -304,7 +317,7 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
   if (pass.group == model::Group::kAll)
     cuda::squared_error(seen, seen_channels, target_, losses + kSquaredError, loss_scratch_);
   stats.seconds.losses += lap(clock);
-  cuda::rasterize_backward(slice.gaussians, camera, nullptr, render_options, render_,
+  cuda::rasterize_backward(slice.gaussians, camera, backdrop, render_options, render_,
                            v_image_.data(), nullptr, nullptr, v_gaussians_);
   stats.seconds.render_backward += lap(clock);
   cuda::slice_backward(primitives_, m.config, m.grid, t, camera, options, slice, v_gaussians_,
@@ -329,7 +342,11 @@ StepStats CudaStep::step_view(int c, int i) {
     const auto& backward = set_.backward[c][i];
     flows_.start(forward ? &*forward : nullptr, backward ? &*backward : nullptr);
   }
-  target_.assign(images_[c][i]);
+  const std::optional<Rgb> colour = state_.background();
+  if (colour && set_.masks[c][i])
+    target_.assign(images_[c][i], foreground_[c][i].data(), state_.seen_by(c, *colour));
+  else
+    target_.assign(images_[c][i]);
   const std::size_t slots = passes.size() * kSlotsPerPass + 1;
   losses_.resize(slots);
   losses_.fill_bytes(0);

@@ -16,11 +16,12 @@ namespace fs = std::filesystem;
 
 StepState::StepState(const TrainingSet& set, const TrainConfig& config)
     : rng(config.seed), set_(set), config_(config) {
+  config_.random_background = train::random_background(config, set);
   model.grid = set.grid;
   model.config = config.model_config();
   // A window trains as a clip of its own, its ends open (model/window.hpp).
   if (set.clip_grid) model.config = model::window_config(model.config, *set.clip_grid, set.grid);
-  model.training_config = to_json(config);
+  model.training_config = to_json(config_);
   if (camera_color()) {
     const std::size_t cameras = set.cameras.size();
     colors_.assign(cameras * kColorWidth, 0.0f);  // the identity: gain 1, offset 0
@@ -56,6 +57,15 @@ void StepState::step_camera_color(int c, double decay) {
   }
   for (std::size_t j = 0; j < cameras; ++j)
     model.camera_colors[set_.scene.cameras[set_.cameras[j]].name] = color_of(int(j));
+}
+
+std::optional<Rgb> StepState::background() const {
+  if (!random_background()) return std::nullopt;
+  return step_background(config_.seed, iteration);
+}
+
+Rgb StepState::seen_by(int c, const Rgb& background) const {
+  return camera_color() ? seen_background(background, color_of(c)) : background;
 }
 
 std::optional<model::EndTie<float>> StepState::end_tie() const {

@@ -1,5 +1,7 @@
 #include "retimegs/train_run/load_training_set.hpp"
 
+#include <filesystem>
+
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/media/resize.hpp"
@@ -22,13 +24,14 @@ TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
   if (window)
     set.clip_grid = model::TimeGrid{0.0, double(views.step), int(views.clip_frames.size())};
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
+  const bool own_masks = !std::filesystem::exists(scene.estimated_masks_marker());
   parallel_for(nc * nf, [&](std::size_t job) {
     const std::size_t c = job / nf, i = job % nf;
     const int cam = set.cameras[c], k = set.frames[i];
     const int width = scaled.cameras[cam].width, height = scaled.cameras[cam].height;
     set.images[c][i] = pack(media::resize_area(media::load_image(scene, cam, k), width, height),
                             scene.image_path(cam, k).string());
-    if (auto mask = media::load_mask(scene, cam, k))
+    if (auto mask = own_masks ? media::load_mask(scene, cam, k) : std::nullopt)
       set.masks[c][i] = media::resize_area(*mask, width, height);
     auto load_flow = [&](int from, int to) -> std::optional<Flow> {
       if (auto flow = io::load_flow(scene, cam, from, to))

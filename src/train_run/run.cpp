@@ -15,6 +15,7 @@
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/progress.hpp"
 #include "retimegs/model/window.hpp"
+#include "retimegs/train/background.hpp"
 #include "retimegs/train/dataset.hpp"
 #include "retimegs/train/step.hpp"
 #include "retimegs/train_run/load_training_set.hpp"
@@ -100,8 +101,11 @@ class RunFolder {
     remove_stale_temporaries(checkpoints());
     config = run.config;
     if (run.resume && fs::exists(out_ / "config.json")) {
-      config = config_from_json(read_text_file(out_ / "config.json", "run config"), TrainConfig{},
-                                (out_ / "config.json").string());
+      // A config.json without random_background predates the key: its run trained over black.
+      TrainConfig before_random_background;
+      before_random_background.random_background = false;
+      config = config_from_json(read_text_file(out_ / "config.json", "run config"),
+                                before_random_background, (out_ / "config.json").string());
       if (const auto found = checkpoint_folders(checkpoints()); !found.empty())
         latest = found.back();
       if (run.iters) {
@@ -220,6 +224,16 @@ class TrainingLog {
   int steps_ = 0;
 };
 
+// The log's word on the run's background: which, and why (`config` as given, before the run
+// settles random_background).
+std::string describe_background(const TrainConfig& config, const TrainingSet& set) {
+  const bool random = random_background(config, set);
+  const char* why = config.random_background ? "as the config's random_background sets"
+                    : random ? "the capture has no masks; the config's random_background chooses"
+                             : "the capture has masks; the config's random_background chooses";
+  return fmt::format("{} ({})", random ? "a random colour per step" : "black", why);
+}
+
 // The progress line's smoothed loss and PSNR (exponential moving average).
 struct Smoothed {
   double loss = 0, psnr = 0;
@@ -243,6 +257,9 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   // Every input is read before the run folder is created or changed: a bad scene leaves nothing.
   const TrainingSet set = load_training_set(scene, run.frames, run.window, run.downscale);
   RunFolder folder(run);
+  const std::string background = describe_background(folder.config, set);
+  // Settled here, so that config.json records what the run does whatever the capture becomes.
+  folder.config.random_background = random_background(folder.config, set);
   const TrainConfig& config = folder.config;
 
   const std::unique_ptr<TrainingStep> owned_step = make_step(set, config, run.device);
@@ -265,9 +282,10 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   folder.commit();
   spdlog::info(
       "training {} primitives (cap {}) on {} cameras x {} frames ({:.0f} MB of images), {} flow "
-      "files, {} iterations, on {}",
+      "files, {} iterations, on {}; background: {}",
       step.primitive_count(), config.cap, set.cameras.size(), set.frames.size(),
-      double(set.image_bytes()) / 1e6, set.flow_files(), config.iters, cuda::describe(run.device));
+      double(set.image_bytes()) / 1e6, set.flow_files(), config.iters, cuda::describe(run.device),
+      background);
 
   TrainingLog log(folder.file("log.jsonl"));
   // The loop handles Ctrl-C itself (below): its bar must not throw.

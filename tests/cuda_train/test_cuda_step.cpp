@@ -9,6 +9,7 @@
 // atomics land. A first step from the same parameters therefore gives losses equal to ~1e-6
 // relative; its Adam update is lr · sign(g) for every value whose gradient is well above rounding,
 // so the updates agree in sign except where a gradient is within rounding of zero.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -111,6 +112,34 @@ TEST(CudaStep, FirstStepLossesMatchTheCpu) {
     EXPECT_NEAR(g.psnr, h.psnr, 1e-3);
     EXPECT_EQ(g.lr_means, h.lr_means);
   }
+}
+
+// Over random backgrounds, with the tiny scene's masks (the target's background pixels take the
+// step's colour as the camera sees it) and without (the target stays the image): both devices
+// composite the renders over the same colour, so their first steps' losses agree, and differ
+// from a step over black.
+TEST(CudaStep, RandomBackgroundStepMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet masked = flow_scene();
+  TrainingSet unmasked = masked;
+  for (auto& camera : unmasked.masks) std::fill(camera.begin(), camera.end(), std::nullopt);
+  TrainConfig random = tiny_config(200), black = random;
+  random.random_background = true;
+  black.random_background = false;
+  const int views[][2] = {{0, 0}, {1, 2}};
+  for (const TrainingSet* set : {&masked, static_cast<const TrainingSet*>(&unmasked)})
+    for (const auto& [c, i] : views) {
+      SCOPED_TRACE(
+          fmt::format("view camera {} frame {}, {}", c, i, set == &masked ? "masked" : "unmasked"));
+      Pair pair(*set, random);
+      const StepStats g = pair.gpu->step_view(c, i), h = pair.cpu.step_view(c, i);
+      EXPECT_LT(relative(g.image_loss, h.image_loss), 1e-4)
+          << g.image_loss << " vs " << h.image_loss;
+      EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
+      EXPECT_NEAR(g.psnr, h.psnr, 1e-3);
+      Pair over_black(*set, black);
+      EXPECT_GT(relative(over_black.gpu->step_view(c, i).image_loss, g.image_loss), 1e-2);
+    }
 }
 
 // After one step from the same parameters, every optimised value moved as the CPU's did: the same

@@ -7,10 +7,11 @@
 // looking at it, and `frames` scene frames, all of them training frames (io::FrameSelection::kAll).
 // A ball of radius 0.5 moves along x at 0.1 per frame in front of a black background; each image is
 // the ball's projection drawn as a disc of its colour, with a one-pixel soft edge. Each frame slot
-// has the ball's surface as a point cloud (the flow-aware initialisation's seeds); there are no
-// masks and no flows. The fields the loader derives from a scene (frames, grid, extent, near plane)
-// come from the function load_training_set calls, train::unloaded_training_set of the scene's
-// io::training_views.
+// has the ball's surface as a point cloud (the flow-aware initialisation's seeds) and the ball's
+// disc as its mask, so that the black is the capture's background and training stays over black
+// by default (train/background.hpp) on both devices; there are no flows. The fields the loader
+// derives from a scene (frames, grid, extent, near plane) come from the function load_training_set
+// calls, train::unloaded_training_set of the scene's io::training_views.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -80,9 +81,13 @@ inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
   for (std::size_t i = 0; i < nf; ++i) {
     const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i]);
-    for (std::size_t c = 0; c < nc; ++c)
-      set.images[c][i] = pack(tiny_ball_image(scene.cameras[set.cameras[c]], set.frames[i]),
-                              fmt::format("tiny scene camera {} frame {}", c, i));
+    for (std::size_t c = 0; c < nc; ++c) {
+      const Image image = tiny_ball_image(scene.cameras[set.cameras[c]], set.frames[i]);
+      set.images[c][i] = pack(image, fmt::format("tiny scene camera {} frame {}", c, i));
+      Image mask(image.width, image.height, 1);
+      for (std::size_t p = 0; p < mask.pixels(); ++p) mask.data[p] = image.data[3 * p];
+      set.masks[c][i] = mask;  // coverage times the ball's red 0.9: foreground where over half
+    }
     io::PointCloud cloud;
     const int n = options.points_per_frame;
     for (int k = 0; k < n; ++k) {  // Fibonacci sphere: evenly spread, deterministic

@@ -171,7 +171,7 @@ TEST(PrepareMasks, WritesMasksForEveryFrameAndThePointsUseThem) {
 
   // A plain prepare afterwards keeps the default of a scene without masks: what --masks wrote is
   // marked approximate, so the default does not depend on what an earlier run wrote.
-  EXPECT_TRUE(fs::is_regular_file(estimated_masks_marker(scene)));
+  EXPECT_TRUE(fs::is_regular_file(scene.estimated_masks_marker()));
   fs::remove_all(scene.root / "points");
   options.masks.reset();
   EXPECT_EQ(prepare_scene(scene, options).points_source, "random");

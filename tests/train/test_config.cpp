@@ -177,6 +177,7 @@ constexpr const char* kDefaultJson = R"json({
   "max_sh_degree": 3,
   "min_opacity": 0.01,
   "opacity_reg": 0.01,
+  "random_background": null,
   "relocate_every": 100,
   "relocate_per_duration": false,
   "relocate_start": 500,
@@ -258,6 +259,7 @@ std::string quoted_path(const ConfigKey& key) {
 // A value of `key` other than `default_value`, of its type and inside its range.
 json other_value(const ConfigKey& key, const json& default_value) {
   if (default_value.is_boolean()) return !default_value.get<bool>();
+  if (default_value.is_null()) return true;  // a flag whose default depends on the capture
   const double d = default_value.get<double>();
   for (double v : {d + 1, d - 1, d / 2}) {
     if (key.range && !key.range->contains(v)) continue;
@@ -315,8 +317,9 @@ TEST(ConfigKeys, EveryKeyRefusesAWrongTypeAndValuesOutsideItsRange) {
   const json defaults = json::parse(to_json(TrainConfig{}));
   for (const ConfigKey& key : config_keys()) {
     const json& d = value_in(defaults, key);
-    std::vector<std::string> bad = {"null", "[]"};
-    if (d.is_boolean()) bad.insert(bad.end(), {"1", "\"true\""});
+    std::vector<std::string> bad = {"[]"};
+    if (!d.is_null()) bad.push_back("null");
+    if (d.is_boolean() || d.is_null()) bad.insert(bad.end(), {"1", "\"true\""});
     if (d.is_number_integer()) bad.insert(bad.end(), {"2.5", "\"1\"", "true", "1e20"});
     if (d.is_number_unsigned()) bad.push_back("-1");
     if (d.is_number_float()) bad.insert(bad.end(), {"\"1\"", "true"});
@@ -354,6 +357,7 @@ std::string key_tables() {
     const json& d = value_in(defaults, key);
     const std::string values = key.range        ? to_string(*key.range)
                                : d.is_boolean() ? "true, false"
+                               : d.is_null()    ? "true, false, null"
                                                 : "any 64-bit unsigned integer";
     text += fmt::format("| `{}` | {} | {} | {} |\n", key.name, d.dump(), values, key.help);
   }

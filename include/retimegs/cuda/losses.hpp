@@ -15,6 +15,7 @@
 //
 //   cuda::DeviceSsimTarget target;  target.assign(packed_view);      // once per view
 //   cuda::image_loss(render.data(), C, target, lambda, 1.0, v_render.data(), C, loss.data(), s);
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -83,8 +84,11 @@ struct DeviceSsimTarget {
   int width = 0, height = 0;
   DeviceBuffer<float> image, mu, e_sq;  // [H, W, 3] each
 
-  // Throws Error unless `packed` is an RGB image (3 channels), not empty.
-  void assign(const DevicePackedImage& packed);
+  // Throws Error unless `packed` is an RGB image (3 channels), not empty. With `foreground` [H, W]
+  // (device; train::foreground_flags of the view's mask), the pixels it marks 0 take `background`
+  // (RGB) instead of the image's: train::replace_background's target.
+  void assign(const DevicePackedImage& packed, const std::uint8_t* foreground = nullptr,
+              const std::array<float, 3>& background = {});
 };
 
 // Scratch of the losses, kept across calls (its allocations settle after the first step).

@@ -47,6 +47,10 @@ struct Scene {
   std::filesystem::path mask_path(int camera, int frame) const;
   std::filesystem::path flow_path(int camera, int from, int to) const;
   std::filesystem::path points_path(int frame) const;
+  // masks/estimated.json, written by `prepare --masks` beside the masks it writes: they are
+  // approximate (they mark what moves, not all that is foreground), and the default points and
+  // training treat a scene holding it as one without masks.
+  std::filesystem::path estimated_masks_marker() const { return root / "masks" / "estimated.json"; }
 };
 
 // A camera name becomes a folder name: it must be one path component of at most 255 bytes, not

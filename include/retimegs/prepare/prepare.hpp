@@ -44,7 +44,8 @@ struct PrepareOptions {
   HullOptions hull;
   // Set: background-model masks for the cameras missing one, learnt from the training frames.
   // They are approximate (they miss what moves little over the clip), so the default points then
-  // and in every later run stay those of a scene without masks (estimated_masks_marker());
+  // and in every later run stay those of a scene without masks
+  // (io::Scene::estimated_masks_marker());
   // --points hull,... uses them.
   std::optional<MaskOptions> masks;
   // kRandom's points in all, spread over the training frames (at least kMinRandomPointsPerFrame
@@ -60,10 +61,6 @@ struct PrepareOptions {
 };
 
 constexpr std::size_t kMinRandomPointsPerFrame = 1000;
-
-// SCENE/masks/estimated.json, written when --masks writes masks: they are approximate, and the
-// default points treat a scene holding it as one without masks, whichever run asks.
-std::filesystem::path estimated_masks_marker(const io::Scene& scene);
 
 // The points of the whole scene when --points is not given: the visual hull for the foreground
 // when every training camera has a mask at every training frame, plus COLMAP for the background

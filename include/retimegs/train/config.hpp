@@ -67,6 +67,9 @@ struct TrainConfig {
   double ssim_lambda = 0.2;
   double flow_weight_start = 0.5, flow_weight_end = 1e-6;
   double opacity_reg = 0.01, scale_reg = 0.1;
+  // Every step's renders over a random colour of its own (train/background.hpp); unset: on for a
+  // capture without masks (train::random_background, which the run writes into its config).
+  std::optional<bool> random_background;
 
   // Model.
   double gamma = 0.005;
@@ -112,8 +115,10 @@ std::string to_string(const Range& range);
 // line in the documentation.
 struct ConfigKey {
   // A member of TrainConfig, or of its `ablate` object (written inside "ablate").
-  using Member = std::variant<bool TrainConfig::*, int TrainConfig::*, std::uint64_t TrainConfig::*,
-                              double TrainConfig::*, bool Ablations::*>;
+  // A std::optional<bool> is a flag whose default depends on the capture (JSON null: unset).
+  using Member =
+      std::variant<bool TrainConfig::*, int TrainConfig::*, std::uint64_t TrainConfig::*,
+                   double TrainConfig::*, std::optional<bool> TrainConfig::*, bool Ablations::*>;
   std::string_view name;
   Member member;
   std::optional<Range> range;  // none: any value of its type (flags, the seed)

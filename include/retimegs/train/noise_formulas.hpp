@@ -16,6 +16,7 @@
 #include <numbers>
 
 #include "retimegs/core/hd.hpp"
+#include "retimegs/core/splitmix64.hpp"
 #include "retimegs/model/temporal_opacity.hpp"
 
 namespace retimegs::train {
@@ -24,15 +25,6 @@ constexpr double kNoiseScale = 5e5;        // 3DGS-MCMC noise_lr
 constexpr double kNoiseSharpness = 100.0;  // sigmoid(-k (σ - x0)): noise only on faint splats
 constexpr double kNoiseThreshold = 0.005;
 constexpr double kNoiseMinGate = 1e-12;  // rows gated below this are left alone
-
-// splitmix64's finaliser: a bijection of 64-bit words whose outputs pass as independent uniform
-// bits for consecutive inputs.
-RETIMEGS_HD inline std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 // Uniform k (0 to 3) of row `row` under `key`: 53 bits of splitmix64 of (key, row, k), in (0, 1],
 // never 0 (Box–Muller takes its log). Integer arithmetic and an exact conversion: the same double

@@ -18,6 +18,7 @@
 #include "retimegs/model/temporal_index.hpp"
 #include "retimegs/model/trajectory.hpp"
 #include "retimegs/train/adam.hpp"
+#include "retimegs/train/background.hpp"
 #include "retimegs/train/config.hpp"
 #include "retimegs/train/dataset.hpp"
 #include "retimegs/train/step.hpp"
@@ -59,6 +60,14 @@ class StepState {
   // Adam step of slot c's correction on its gradient (then zeroed), then the gauge rule; writes
   // every correction into the model.
   void step_camera_color(int c, double decay);
+  // Whether the steps draw random backgrounds: config.random_background, or its default for the
+  // training set (train::random_background).
+  bool random_background() const { return *config_.random_background; }
+  // The current step's background colour (train/background.hpp); none without random
+  // backgrounds.
+  std::optional<Rgb> background() const;
+  // What camera slot c records of `background`: through its colour map, unless ablated.
+  Rgb seen_by(int c, const Rgb& background) const;
   // The clip's ends for model::tie_end_velocities, which each step applies to its active rows
   // after the optimiser step; none without tie_end_velocities and for STGS. Nothing supervises v1
   // of the clip's first interval nor v3 of its last (no flow leads out of the clip), so without

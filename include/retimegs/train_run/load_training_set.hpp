@@ -16,6 +16,9 @@ namespace retimegs::train {
 // With downscale F > 1 (train --downscale, gsplat's data_factor) the set is that scene at 1/F of
 // its size, scaled here once: its cameras (downscaled()), images and masks (media::resize_area) and
 // flows (media::resize_flow); the points stay. Throws Error naming --downscale unless F >= 1.
+// Masks that `prepare --masks` estimated (io::Scene::estimated_masks_marker) are not read: they
+// mark what moves, not the capture's foreground, and training treats the scene as one without
+// masks (train/background.hpp).
 TrainingSet load_training_set(const io::Scene& scene, io::FrameSelection which,
                               const std::optional<io::FrameWindow>& window = std::nullopt,
                               double downscale = 1.0);
