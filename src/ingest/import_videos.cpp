@@ -8,7 +8,6 @@
 #include <memory>
 
 #include <fmt/format.h>
-#include <opencv2/videoio.hpp>
 
 #include "calibration.hpp"
 #include "import_common.hpp"
@@ -116,29 +115,15 @@ Image folder_frame(const Footage& f, int k) {
   return image;
 }
 
-// Decodes a video's frames up to `last`, passing frames first..last to `use(image, k)`.
-template <class Use>
-void decode_video(const Footage& f, int first, int last, Use&& use) {
-  cv::VideoCapture cap(f.path.string(), cv::CAP_FFMPEG);
-  if (!cap.isOpened()) fail("{}: cannot open video", f.path.string());
-  cv::Mat frame;
-  for (int k = 0; k <= last; ++k) {
-    const bool ok = k < first ? cap.grab() : cap.read(frame) && !frame.empty();
-    if (!ok)
-      fail("{}: cannot decode frame {} (the video ends early or is corrupt)", f.path.string(), k);
-    if (k < first) continue;
-    if (frame.cols != f.width || frame.rows != f.height)
-      fail("{}: frame {} is {}x{} but the video header says {}x{}", f.path.string(), k, frame.cols,
-           frame.rows, f.width, f.height);
-    use(detail::from_bgr8(frame), k);
-  }
+detail::VideoInfo video_info(const Footage& f) {
+  return {f.path, f.width, f.height, f.frames, f.fps};
 }
 
 // Source frame k of a camera.
 Image footage_frame(const Footage& f, int k) {
   if (!f.video()) return folder_frame(f, k);
   Image out;
-  decode_video(f, k, k, [&](Image image, int) { out = std::move(image); });
+  detail::decode_video(video_info(f), k, k, [&](const Image& image, int) { out = image; });
   return out;
 }
 
@@ -386,8 +371,8 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
           for (int j = 0; j < scene.num_frames; ++j) store(folder_frame(f, source_first + j), j);
           return;
         }
-        decode_video(f, source_first, source_first + scene.num_frames - 1,
-                     [&](const Image& image, int k) { store(image, k - source_first); });
+        detail::decode_video(video_info(f), source_first, source_first + scene.num_frames - 1,
+                             [&](const Image& image, int k) { store(image, k - source_first); });
       });
   io::write_scene_json(scene);
   dir.commit();

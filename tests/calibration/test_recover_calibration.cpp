@@ -19,10 +19,6 @@ namespace retimegs::ingest {
 namespace {
 namespace fs = std::filesystem;
 
-bool have_colmap() {
-  return std::system("command -v colmap >/dev/null 2>&1") == 0;
-}
-
 // A ring of 24 cameras (15 degrees apart) around the textured synthetic scene, at 320x240: SIFT
 // finds ~1000 features per view. With 16 (22.5 degrees), neighbours share 100-180 verified
 // matches but cameras two apart only ~30, and the poses drift to 2.6 % of the ring; with 24 they
@@ -43,7 +39,7 @@ io::Scene textured_rig(const fs::path& root) {
 // recovered calibration is written to SCENE/calibration, from which a second import (--calib)
 // gives the same cameras.
 TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
-  if (!have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;
   const io::Scene truth = textured_rig(dir / "rig");
   ImportOptions options;
@@ -81,7 +77,7 @@ TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
 // the mapper's log, exit status 2; no scene and no temporary folder, only the logs, which the
 // next import replaces without --force.
 TEST(RecoverCalibration, FewerThanTwoRegisteredIsRefusedInOneLine) {
-  if (!have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;
   for (const char* camera : {"a", "b", "c"})
     for (int k = 0; k < 2; ++k) {

@@ -25,8 +25,7 @@ namespace fs = std::filesystem;
 TEST(PanopticCalibration, DISABLED_CentresWithinTwoPercentOfTheCalibration) {
   const fs::path data = fs::path(RETIMEGS_SHARED_DATA) / "panoptic-basketball";
   if (!fs::is_directory(data / "ims")) GTEST_SKIP() << data << " not present";
-  if (std::system("command -v colmap >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;
   ImportOptions options;
   options.progress = false;
