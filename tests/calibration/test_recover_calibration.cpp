@@ -1,8 +1,12 @@
 // `import videos` without a calibration: COLMAP's mapper recovers the cameras from one frame of
 // every camera (ingest/recover_calibration.cpp).
+#include <signal.h>
+
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <thread>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -116,6 +120,41 @@ TEST(RecoverCalibration, FewerThanTwoRegisteredIsRefusedInOneLine) {
   for (const auto& entry : fs::directory_iterator(dir.path()))
     EXPECT_EQ(entry.path().filename().string().find(".scene"), std::string::npos)
         << "temporary left behind: " << entry.path();
+}
+
+// A SIGTERM while COLMAP runs ends it and the import: exit status 143, no scene, no temporary
+// folder. A stand-in `colmap` on PATH records its process id and sleeps.
+TEST(RecoverCalibration, SigtermEndsColmapAndRemovesTheTemporaryFolders) {
+  test::TempDir dir;
+  Image grey(32, 24, 3);
+  for (const char* camera : {"a", "b"}) media::write_png(dir / "src" / camera / "0000.png", grey);
+  test::write_text(dir / "bin" / "colmap",
+                   "#!/bin/sh\necho $$ > " + (dir / "colmap.pid").string() + "\nexec sleep 60\n");
+  fs::permissions(dir / "bin" / "colmap", fs::perms::owner_all);
+  fs::create_directories(dir / "tmp");
+  const std::string command =
+      "TMPDIR=" + (dir / "tmp").string() + " PATH=" + (dir / "bin").string() + ":$PATH " +
+      RETIMEGS_BINARY + " import videos --in " + (dir / "src").string() + " --out " +
+      (dir / "scene").string() + " 2>" + (dir / "err.txt").string() + " & echo $! > " +
+      (dir / "retimegs.pid").string() + "; wait $!; echo $? > " + (dir / "status.txt").string();
+  std::thread run([&] { std::system(("sh -c '" + command + "'").c_str()); });
+  for (int i = 0; i < 600 && !fs::exists(dir / "colmap.pid"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_TRUE(fs::exists(dir / "colmap.pid")) << "the stand-in colmap never started";
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // its pid written whole
+  const pid_t retimegs = std::stoi(test::read_text(dir / "retimegs.pid"));
+  const pid_t colmap = std::stoi(test::read_text(dir / "colmap.pid"));
+  const auto start = std::chrono::steady_clock::now();
+  ::kill(retimegs, SIGTERM);
+  run.join();
+  // Not the stand-in's 60 s: the import ends it.
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+  EXPECT_EQ(test::read_text(dir / "status.txt"), "143\n") << test::read_text(dir / "err.txt");
+  EXPECT_NE(test::read_text(dir / "err.txt").find("interrupted by SIGTERM"), std::string::npos);
+  EXPECT_NE(::kill(colmap, 0), 0) << "colmap still runs";
+  EXPECT_FALSE(fs::exists(dir / "scene"));
+  for (const auto& entry : fs::directory_iterator(dir / "tmp"))
+    ADD_FAILURE() << "temporary left behind: " << entry.path();
 }
 
 }  // namespace
