@@ -6,14 +6,23 @@
 #   approximate masks for the scores) -> train --preset fast on the even frames -> render an 8x
 #   slow motion of test camera 0 -> eval on the odd frames of the training cameras (masked by the
 #   approximate masks, and the whole image) and of the test cameras.
-# Writes bench/results/own_capture.md: each step's wall time and the scores.
+# Writes bench/results/own_capture.md: each step's wall time and the scores. CALIB=none runs the
+# same without the rig file (COLMAP recovers the calibration from frame 8 of every camera; issue
+# 43's "Done when" compares the two) and writes bench/results/own_capture_nocalib.md.
 #
-#   bash bench/own_capture.sh            # PRESET=fast DATA=../shared/data/panoptic-basketball
+#   bash bench/own_capture.sh      # PRESET=fast CALIB=rig DATA=../shared/data/panoptic-basketball
+#   CALIB=none bash bench/own_capture.sh
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 preset=${PRESET:-fast}
 data=${DATA:-$root/../shared/data/panoptic-basketball}
-work=${WORK:-$root/bench/results/own_capture}
+calib=${CALIB:-rig}
+case $calib in
+  rig) name=own_capture ;;
+  none) name=own_capture_nocalib ;;
+  *) echo "CALIB must be rig or none, got '$calib'" >&2; exit 2 ;;
+esac
+work=${WORK:-$root/bench/results/$name}
 bin="$root/build/apps/retimegs"
 [ -x "$bin" ] || "$root/scripts/setup.sh"
 source "$root/bench/eval_json.sh"
@@ -44,13 +53,23 @@ step() {  # step NAME COMMAND...: runs and times one step
 }
 scene="$work/scene"
 run="$work/run"
-step import "$bin" import videos --in "$data/ims" --calib "$work/rig.json" --out "$scene" \
-  --test-cameras 0,10,15,30
+calib_args=(--calib "$work/rig.json")
+calib_text="--calib rig.json"
+if [ "$calib" = none ]; then
+  calib_args=()
+  calib_text="(no --calib: COLMAP)"
+fi
+# ${a[@]+"${a[@]}"}: an empty array under set -u aborts bash < 4.4.
+step import "$bin" import videos --in "$data/ims" ${calib_args[@]+"${calib_args[@]}"} \
+  --out "$scene" --test-cameras 0,10,15,30
 step prepare "$bin" prepare --scene "$scene" --masks
 step train "$bin" train --scene "$scene" --out "$run" --preset "$preset"
 step render "$bin" render --model "$run/model.rgs" --scene "$scene" --camera 0 --slowmo 8 \
   --out "$work/cam0_slowmo_8x.mp4"
-train_cams=$(seq -s, 1 29 | tr , '\n' | grep -vxE '10|15' | paste -sd,)
+# The scene's training cameras (without --calib, those COLMAP could not place are left out).
+train_cams=$(python3 -c 'import json, sys
+print(",".join(c["name"] for c in json.load(open(sys.argv[1]))["cameras"] if c["split"] == "train"))' \
+  "$scene/scene.json")
 step eval "$bin" eval --model "$run/model.rgs" --scene "$scene" --cameras "$train_cams" \
   --out "$work/heldout.json"
 "$bin" eval --model "$run/model.rgs" --scene "$scene" --cameras 0,10,15,30 --out "$work/test.json"
@@ -65,14 +84,14 @@ fmt() {  # seconds -> "M min SS s"
   printf '%d min %02d s' $((s / 60)) $((s % 60))
 }
 {
-  echo "# Your own capture: footage + rig file to a slow-motion shot"
+  echo "# Your own capture: footage + $calib_text to a slow-motion shot"
   echo
   echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD) with"
-  echo "\`PRESET=$preset bash bench/own_capture.sh\` on $(nproc) cores."
+  echo "\`PRESET=$preset CALIB=$calib bash bench/own_capture.sh\` on $(nproc) cores."
   echo
   echo "| step | command | time |"
   echo "|---|---|---|"
-  echo "| import | \`import videos --in ims --calib rig.json --test-cameras 0,10,15,30\` | $(fmt "${seconds[import]}") |"
+  echo "| import | \`import videos --in ims $calib_text --test-cameras 0,10,15,30\` | $(fmt "${seconds[import]}") |"
   echo "| prepare | \`prepare --masks\` (DIS flow, COLMAP points, approximate masks) | $(fmt "${seconds[prepare]}") |"
   echo "| train | \`train --preset $preset\` (even frames) | $(fmt "${seconds[train]}") |"
   echo "| render | \`render --camera 0 --slowmo 8\` (test camera, 129 frames, H.264) | $(fmt "${seconds[render]}") |"
@@ -89,5 +108,5 @@ fmt() {  # seconds -> "M min SS s"
       "$(fmt_metric "$(metric "$work/$train.json" psnr whole)" 2) |" \
       "$(fmt_metric "$(metric "$work/$test.json" psnr whole)" 2) |"
   done
-} > "$root/bench/results/own_capture.md"
-cat "$root/bench/results/own_capture.md"
+} > "$root/bench/results/$name.md"
+cat "$root/bench/results/$name.md"

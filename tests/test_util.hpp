@@ -56,6 +56,11 @@ inline std::string read_text(const std::filesystem::path& path) {
   return ss.str();
 }
 
+// Whether COLMAP (the Debian package colmap) is on PATH; its tests skip without it.
+inline bool have_colmap() {
+  return std::system("command -v colmap >/dev/null 2>&1") == 0;
+}
+
 struct CommandResult {
   int status = -1;
   std::string out, err;  // stdout, stderr

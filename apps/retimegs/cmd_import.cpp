@@ -1,5 +1,6 @@
 // retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
-// retimegs import videos --in DIR --calib PATH --out SCENE [--test-cameras ...] [--offsets ...]
+// retimegs import videos --in DIR [--calib PATH | --calib-frame N] --out SCENE [--test-cameras ...]
+//                        [--offsets ...]
 #include <charconv>
 #include <map>
 #include <memory>
@@ -84,19 +85,25 @@ void add_videos_command(CLI::App* cmd) {
   struct VideoArgs : Args {
     std::string calib, test_cameras, offsets;
     std::optional<double> fps;
+    std::optional<int> calib_frame;
   };
   auto args = std::make_shared<VideoArgs>();
   CLI::App* sub = cmd->add_subcommand(
       "videos",
       "Your own capture: DIR/<camera>.mp4 (.mov, .mkv, .avi) or DIR/<camera>/ image folders, "
-      "calibrated by a COLMAP model or an OpenCV-style rig file (docs/cli.md).");
+      "calibrated by a COLMAP model, an OpenCV-style rig file, or without either by COLMAP from "
+      "one frame of every camera (docs/cli.md).");
   add_common_options(sub, *args,
                      "folder of <camera>.mp4 / .mov / .mkv / .avi videos or <camera>/ folders of "
                      "PNG / JPEG images (sorted by name)");
-  sub->add_option("--calib", args->calib,
-                  "COLMAP sparse model folder (image stem = camera), or a rig file .yaml / .yml / "
-                  ".json (per camera K, dist, R, t world-to-camera)")
-      ->required();
+  sub->add_option(
+      "--calib", args->calib,
+      "COLMAP sparse model folder (image stem = camera), or a rig file .yaml / .yml / "
+      ".json (per camera K, dist, R, t world-to-camera); without it COLMAP recovers the "
+      "calibration from the footage and writes it to SCENE/calibration");
+  sub->add_option("--calib-frame", args->calib_frame,
+                  "without --calib: the scene frame COLMAP calibrates from (default: the middle "
+                  "one)");
   sub->add_option("--test-cameras", args->test_cameras,
                   "comma-separated cameras held out for evaluation (split test)");
   sub->add_option("--offsets", args->offsets,
@@ -113,6 +120,7 @@ void add_videos_command(CLI::App* cmd) {
       videos.test_cameras = split_list(args->test_cameras, "--test-cameras");
     if (!args->offsets.empty()) videos.offsets = parse_offsets(args->offsets);
     videos.fps = args->fps;
+    videos.calibration_frame = args->calib_frame;
     const ingest::VideosReport r = ingest::import_videos(args->in, args->out, options, videos);
     const std::string start =
         videos.offsets.empty() && r.first_frame == 0
@@ -126,6 +134,19 @@ void add_videos_command(CLI::App* cmd) {
         "calibration: {}; {} camera{} undistorted to pinhole; no masks (prepare works without "
         "them)",
         r.calibration, r.undistorted, r.undistorted == 1 ? "" : "s");
+    if (r.recovered) {
+      const std::size_t total = std::size_t(r.registered) + r.unregistered.size();
+      spdlog::info(
+          "COLMAP registered {} of {} cameras, {} points, mean reprojection error {:.2f} px; "
+          "the cameras keep these poses and intrinsics over the whole clip",
+          r.registered, total, r.points, r.reprojection_error);
+      if (!r.unregistered.empty())
+        spdlog::warn(
+            "{} camera{} not registered, left out: {} (more texture in view, another "
+            "--calib-frame, or a rig file with --calib)",
+            r.unregistered.size(), r.unregistered.size() == 1 ? "" : "s",
+            escape_control_chars(fmt::format("{}", fmt::join(r.unregistered, ", "))));
+    }
     if (!r.without_footage.empty()) {
       constexpr std::size_t kListed = 10;
       const std::size_t n = r.without_footage.size();

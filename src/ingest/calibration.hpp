@@ -1,6 +1,7 @@
 #pragma once
 // The calibration of `import videos` (--calib): a COLMAP sparse model or an OpenCV-style rig file
-// (YAML / JSON, docs/cli.md "retimegs import videos"). Both become COLMAP cameras, so that
+// (YAML / JSON, docs/cli.md "retimegs import videos"), or, without either, one recovered by
+// COLMAP's mapper from one frame of every camera. All become COLMAP cameras, so that
 // detail::Undistorter resamples distorted footage exactly as `import colmap` does.
 #include <filesystem>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "retimegs/colmap/run.hpp"
 #include "retimegs/io/colmap.hpp"
 
 namespace retimegs::ingest::detail {
@@ -45,5 +47,27 @@ std::vector<CalibratedCamera> read_rig_text(std::string_view text, bool json,
 // different aspect ratio is an error naming `footage`.
 io::ColmapCamera fit_to_footage(io::ColmapCamera camera, int width, int height,
                                 const std::string& where, const std::string& footage);
+
+// A calibration recovered from the images (recover_calibration).
+struct RecoveredCalibration {
+  std::vector<CalibratedCamera> cameras;  // the registered cameras, sorted by name
+  std::vector<std::string> unregistered;  // cameras COLMAP could not place, sorted
+  std::size_t points = 0;                 // 3-D points of the model
+  double reprojection_error = 0;          // pixels, mean over every observation of those points
+};
+
+// Structure from motion on one synchronised frame per camera: work_dir/images/<camera>.png for
+// each of `cameras` (written by the caller). Runs COLMAP's feature_extractor (CPU SIFT, one
+// SIMPLE_RADIAL camera per image: the cameras of a rig differ), exhaustive_matcher and mapper in
+// work_dir, each command's output in log_dir/<command>.log; keeps the model that registers the
+// most cameras and writes it to model_dir as a COLMAP text model (a later `import videos --calib
+// model_dir` reads it back). Poses are up to a similarity (COLMAP's frame and scale). Throws
+// Error when a command fails (colmap/run.hpp) or when fewer than two cameras register, naming
+// the mapper's log and what to try.
+RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
+                                         const std::filesystem::path& work_dir,
+                                         const std::filesystem::path& model_dir,
+                                         const std::filesystem::path& log_dir,
+                                         const colmap::ColmapOptions& options);
 
 }  // namespace retimegs::ingest::detail

@@ -65,6 +65,12 @@ struct VideoInfo {
 // OpenCV cannot.
 VideoInfo probe_video(const std::filesystem::path& path);
 
+// Decodes `video` up to source frame `last` (grabbing the ones before `first` undecoded) and
+// calls use(image, k) for k in first..last; one error naming the file and the frame when a frame
+// cannot be decoded or has another size than the header says.
+void decode_video(const VideoInfo& video, int first, int last,
+                  const std::function<void(const Image&, int)>& use);
+
 // Runs job(i, progress) for i in [0, count) in parallel under a progress bar of `ticks` steps
 // (the jobs tick it); errors as in parallel_for (core/parallel.hpp): the first is rethrown.
 void parallel_jobs(std::size_t count, std::size_t ticks, const std::string& label, bool progress,

@@ -10,7 +10,6 @@
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
@@ -117,27 +116,16 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
   AtomicDirectory dir(out, options.force);
   scene.root = dir.temp_path();
   const std::size_t total = std::size_t(count) * scene.num_frames;
-  detail::parallel_jobs(
-      count, total, "import n3dv", options.progress, [&](std::size_t c, Progress& progress) {
-        const detail::VideoInfo& v = probed[c];
-        const Camera& cam = scene.cameras[c];
-        cv::VideoCapture cap(v.path.string(), cv::CAP_FFMPEG);
-        if (!cap.isOpened()) fail("{}: cannot open video", v.path.string());
-        cv::Mat frame;
-        for (int k = 0; k <= last; ++k) {
-          const bool ok = k < first ? cap.grab() : cap.read(frame) && !frame.empty();
-          if (!ok)
-            fail("{}: cannot decode frame {} (the video ends early or is corrupt)", v.path.string(),
-                 k);
-          if (k < first) continue;
-          if (frame.cols != v.width || frame.rows != v.height)
-            fail("{}: frame {} is {}x{} but the video header says {}x{}", v.path.string(), k,
-                 frame.cols, frame.rows, v.width, v.height);
-          media::write_png(scene.image_path(int(c), k - first),
-                           media::resize_area(detail::from_bgr8(frame), cam.width, cam.height));
-          progress.tick();
-        }
-      });
+  detail::parallel_jobs(count, total, "import n3dv", options.progress,
+                        [&](std::size_t c, Progress& progress) {
+                          const detail::VideoInfo& v = probed[c];
+                          const Camera& cam = scene.cameras[c];
+                          detail::decode_video(v, first, last, [&](const Image& image, int k) {
+                            media::write_png(scene.image_path(int(c), k - first),
+                                             media::resize_area(image, cam.width, cam.height));
+                            progress.tick();
+                          });
+                        });
   io::write_scene_json(scene);
   dir.commit();
 }

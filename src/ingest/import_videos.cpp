@@ -1,5 +1,5 @@
-// A user's own capture (a video or an image folder per camera, and a COLMAP model or a rig file)
-// -> scene format (import.hpp: import_videos).
+// A user's own capture (a video or an image folder per camera, and a COLMAP model, a rig file or
+// a calibration COLMAP recovers from the footage) -> scene format (import.hpp: import_videos).
 #include <algorithm>
 #include <cctype>
 #include <climits>
@@ -8,13 +8,14 @@
 #include <memory>
 
 #include <fmt/format.h>
-#include <opencv2/videoio.hpp>
 
 #include "calibration.hpp"
 #include "import_common.hpp"
+#include "retimegs/colmap/run.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/limits.hpp"
+#include "retimegs/core/parallel.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
@@ -27,6 +28,9 @@ namespace {
 
 constexpr double kDefaultFps = 30.0;    // image folders carry no frame rate
 constexpr double kFpsTolerance = 1e-3;  // one capture's videos agree on the rate within 0.1 %
+// Where a recovered calibration goes in the scene, and its COLMAP logs.
+const fs::path kCalibrationModel = "calibration";
+const fs::path kCalibrationLogs = fs::path("logs") / "colmap" / "calibration";
 
 // One camera's footage: a video, or a folder of images.
 struct Footage {
@@ -101,6 +105,45 @@ void probe(Footage& f) {
   }
 }
 
+// Source frame k of an image folder, checked against the camera's first image.
+Image folder_frame(const Footage& f, int k) {
+  const fs::path& file = f.images[k];
+  const Image image = media::read_image(file);
+  if (image.width != f.width || image.height != f.height)
+    fail("{}: image is {}x{} but {} (the camera's first) is {}x{}", file.string(), image.width,
+         image.height, f.images.front().filename().string(), f.width, f.height);
+  return image;
+}
+
+detail::VideoInfo video_info(const Footage& f) {
+  return {f.path, f.width, f.height, f.frames, f.fps};
+}
+
+// Source frame k of a camera.
+Image footage_frame(const Footage& f, int k) {
+  if (!f.video()) return folder_frame(f, k);
+  Image out;
+  detail::decode_video(video_info(f), k, k, [&](const Image& image, int) { out = image; });
+  return out;
+}
+
+// Whether `out` holds nothing but the logs a failed calibration left (kCalibrationLogs), which
+// the next import may replace without --force.
+bool only_calibration_logs(const fs::path& out) {
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(out, ec))) return false;
+  const fs::path logs = out / kCalibrationLogs;
+  for (auto it = fs::recursive_directory_iterator(out, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    const fs::path& p = it->path();
+    const auto [mismatch, rest] = std::mismatch(logs.begin(), logs.end(), p.begin(), p.end());
+    const bool inside = mismatch == logs.end();
+    const bool above = rest == p.end();  // out/logs, out/logs/colmap
+    if (!inside && !(above && it->is_directory())) return false;
+  }
+  return !ec;
+}
+
 // The frame rate and how it was chosen (for the log).
 std::pair<double, std::string> choose_fps(const fs::path& source,
                                           const std::vector<Footage>& footage,
@@ -155,6 +198,74 @@ std::string join(const std::vector<std::string>& names) {
   return fmt::format("{}", fmt::join(names, ", "));
 }
 
+// The calibrated cameras of a calibration file or model, in footage order; cameras without
+// footage are listed in `without_footage`.
+std::vector<detail::CalibratedCamera> match_calibration(const fs::path& path,
+                                                        const std::vector<std::string>& names,
+                                                        const fs::path& source,
+                                                        std::vector<std::string>& without_footage) {
+  const std::vector<detail::CalibratedCamera> calibration = detail::read_calibration(path);
+  std::map<std::string, std::vector<const detail::CalibratedCamera*>> by_name;
+  for (const auto& cam : calibration) by_name[cam.name].push_back(&cam);
+  std::vector<std::string> missing;
+  std::vector<detail::CalibratedCamera> matched;
+  for (const std::string& name : names) {
+    const auto it = by_name.find(name);
+    if (it == by_name.end()) {
+      missing.push_back(name);
+      continue;
+    }
+    if (it->second.size() > 1)
+      fail("{} and {}: both are camera '{}' (their file stems are equal)", it->second[0]->where,
+           it->second[1]->where, name);
+    matched.push_back(*it->second[0]);
+  }
+  if (!missing.empty())
+    fail("{}: no calibration for camera{} {} (footage in {})", path.string(),
+         missing.size() > 1 ? "s" : "", join(missing), source.string());
+  for (const auto& [name, cams] : by_name)
+    if (!std::binary_search(names.begin(), names.end(), name)) without_footage.push_back(name);
+  return matched;
+}
+
+// A calibration recovered by COLMAP from source frame `frame` + offsets[c] of every camera
+// (detail::recover_calibration), written to scene_root/calibration, its logs in
+// scene_root/logs/colmap/calibration. Cameras it cannot place are removed from `footage` and
+// `offsets` (and listed in the report); the others' calibrations are returned in footage order.
+std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
+                                              std::vector<int>& offsets, int frame,
+                                              const fs::path& scene_root,
+                                              const ImportOptions& options, VideosReport& report) {
+  const colmap::WorkFolder work("calibration");
+  std::vector<std::string> names;
+  detail::parallel_jobs(footage.size(), footage.size(), "calibration frames", options.progress,
+                        [&](std::size_t c, Progress& progress) {
+                          media::write_png(work.path() / "images" / (footage[c].name + ".png"),
+                                           footage_frame(footage[c], frame + offsets[c]));
+                          progress.tick();
+                        });
+  for (const Footage& f : footage) names.push_back(f.name);
+  colmap::ColmapOptions colmap_options;
+  colmap_options.threads = max_threads();
+  detail::RecoveredCalibration recovered =
+      detail::recover_calibration(names, work.path(), scene_root / kCalibrationModel,
+                                  scene_root / kCalibrationLogs, colmap_options);
+  std::vector<Footage> kept;
+  std::vector<int> kept_offsets;
+  for (std::size_t c = 0; c < footage.size(); ++c)
+    if (!std::binary_search(recovered.unregistered.begin(), recovered.unregistered.end(),
+                            footage[c].name))
+      kept.push_back(std::move(footage[c])), kept_offsets.push_back(offsets[c]);
+  footage = std::move(kept);
+  offsets = std::move(kept_offsets);
+  report.recovered = true;
+  report.registered = int(recovered.cameras.size());
+  report.unregistered = std::move(recovered.unregistered);
+  report.points = recovered.points;
+  report.reprojection_error = recovered.reprojection_error;
+  return std::move(recovered.cameras);
+}
+
 }  // namespace
 
 VideosReport import_videos(const fs::path& source, const fs::path& out,
@@ -163,33 +274,14 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   std::vector<Footage> footage = find_footage(source);
   std::vector<std::string> names;
   for (const Footage& f : footage) names.push_back(f.name);
-  const std::string calib = videos.calibration.string();
+  const bool recovering = videos.calibration.empty();
+  if (!recovering && videos.calibration_frame)
+    fail("--calib-frame: only without --calib (it chooses the frame COLMAP calibrates from)");
 
-  // Cameras <-> calibration.
-  const std::vector<detail::CalibratedCamera> calibration =
-      detail::read_calibration(videos.calibration);
-  std::map<std::string, std::vector<const detail::CalibratedCamera*>> by_name;
-  for (const auto& cam : calibration) by_name[cam.name].push_back(&cam);
-  std::vector<std::string> missing;
-  std::vector<const detail::CalibratedCamera*> matched;
-  for (const Footage& f : footage) {
-    const auto it = by_name.find(f.name);
-    if (it == by_name.end()) {
-      missing.push_back(f.name);
-      continue;
-    }
-    if (it->second.size() > 1)
-      fail("{} and {}: both are camera '{}' (their file stems are equal)", it->second[0]->where,
-           it->second[1]->where, f.name);
-    matched.push_back(it->second[0]);
-  }
-  if (!missing.empty())
-    fail("{}: no calibration for camera{} {} (footage in {})", calib, missing.size() > 1 ? "s" : "",
-         join(missing), source.string());
   VideosReport report;
-  for (const auto& [name, cams] : by_name)
-    if (!std::binary_search(names.begin(), names.end(), name))
-      report.without_footage.push_back(name);
+  std::vector<detail::CalibratedCamera> calibration;
+  if (!recovering)
+    calibration = match_calibration(videos.calibration, names, source, report.without_footage);
 
   for (const std::string& name : videos.test_cameras)
     if (!std::binary_search(names.begin(), names.end(), name))
@@ -207,14 +299,41 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   const auto [lo, hi] = common_frames(footage, offsets);
   const auto [first, last] = detail::frame_range(
       options, hi - lo + 1, videos.offsets.empty() ? "the footage" : "the footage after --offsets");
+  const int scene_start = lo + first;  // k of scene frame 0
 
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = fps;
+  AtomicDirectory dir(out, options.force || (recovering && only_calibration_logs(out)));
+  scene.root = dir.temp_path();
+  if (recovering) {
+    const int frame = videos.calibration_frame.value_or((scene.num_frames - 1) / 2);
+    if (frame < 0 || frame >= scene.num_frames)
+      fail("--calib-frame: {} is outside the scene's frames 0:{}", frame, scene.num_frames - 1);
+    try {
+      calibration = recover(footage, offsets, scene_start + frame, scene.root, options, report);
+    } catch (const Error&) {
+      // The logs outlive the scene, where the message says they are.
+      if (fs::is_directory(scene.root / kCalibrationLogs)) {
+        const fs::path logs = output_path(out) / kCalibrationLogs;
+        fs::remove_all(logs);
+        fs::create_directories(logs.parent_path());
+        fs::rename(scene.root / kCalibrationLogs, logs);
+      }
+      throw;
+    }
+    report.calibration = fmt::format("recovered by COLMAP from scene frame {}, written to {}",
+                                     frame, (output_path(out) / kCalibrationModel).string());
+  } else {
+    report.calibration = fs::is_directory(videos.calibration)
+                             ? "COLMAP model " + io::find_colmap_model(videos.calibration).string()
+                             : "rig file " + videos.calibration.string();
+  }
+
   std::vector<std::unique_ptr<detail::Undistorter>> undistorters;
   for (std::size_t c = 0; c < footage.size(); ++c) {
     const Footage& f = footage[c];
-    const detail::CalibratedCamera& cal = *matched[c];
+    const detail::CalibratedCamera& cal = calibration[c];
     undistorters.push_back(std::make_unique<detail::Undistorter>(
         detail::fit_to_footage(cal.intrinsics, f.width, f.height, cal.where, f.path.string()),
         cal.where));
@@ -230,14 +349,11 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
-  const int scene_start = lo + first;  // k of scene frame 0
   for (std::size_t c = 0; c < footage.size(); ++c) {
     const int source_first = scene_start + offsets[c];
     scene.sources.push_back({footage[c].path.filename().string(), source_first,
                              source_first + scene.num_frames - 1, offsets[c], footage[c].fps});
   }
-  AtomicDirectory dir(out, options.force);
-  scene.root = dir.temp_path();
   const std::size_t total = footage.size() * std::size_t(scene.num_frames);
   detail::parallel_jobs(
       footage.size(), total, "import videos", options.progress,
@@ -252,31 +368,11 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
           progress.tick();
         };
         if (!f.video()) {
-          for (int j = 0; j < scene.num_frames; ++j) {
-            const fs::path& file = f.images[source_first + j];
-            const Image image = media::read_image(file);
-            if (image.width != f.width || image.height != f.height)
-              fail("{}: image is {}x{} but {} (the camera's first) is {}x{}", file.string(),
-                   image.width, image.height, f.images.front().filename().string(), f.width,
-                   f.height);
-            store(image, j);
-          }
+          for (int j = 0; j < scene.num_frames; ++j) store(folder_frame(f, source_first + j), j);
           return;
         }
-        cv::VideoCapture cap(f.path.string(), cv::CAP_FFMPEG);
-        if (!cap.isOpened()) fail("{}: cannot open video", f.path.string());
-        cv::Mat frame;
-        for (int k = 0; k < source_first + scene.num_frames; ++k) {
-          const bool ok = k < source_first ? cap.grab() : cap.read(frame) && !frame.empty();
-          if (!ok)
-            fail("{}: cannot decode frame {} (the video ends early or is corrupt)", f.path.string(),
-                 k);
-          if (k < source_first) continue;
-          if (frame.cols != f.width || frame.rows != f.height)
-            fail("{}: frame {} is {}x{} but the video header says {}x{}", f.path.string(), k,
-                 frame.cols, frame.rows, f.width, f.height);
-          store(detail::from_bgr8(frame), k - source_first);
-        }
+        detail::decode_video(video_info(f), source_first, source_first + scene.num_frames - 1,
+                             [&](const Image& image, int k) { store(image, k - source_first); });
       });
   io::write_scene_json(scene);
   dir.commit();
@@ -286,9 +382,6 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   report.first_frame = scene_start;
   report.fps = fps;
   report.fps_source = fps_source;
-  report.calibration = fs::is_directory(videos.calibration)
-                           ? "COLMAP model " + io::find_colmap_model(videos.calibration).string()
-                           : "rig file " + calib;
   return report;
 }
 

@@ -1,5 +1,6 @@
-// probe_video (import_common.hpp): the one helper the importers share that needs OpenCV's videoio,
-// apart so that the lean GPU build, which has no videoio, builds the others (CMakeLists.txt).
+// probe_video and decode_video (import_common.hpp): the helpers the importers share that need
+// OpenCV's videoio, apart so that the lean GPU build, which has no videoio, builds the others
+// (CMakeLists.txt).
 #include <cstdlib>
 
 #include <opencv2/videoio.hpp>
@@ -32,6 +33,24 @@ VideoInfo probe_video(const std::filesystem::path& path) {
   if (v.frames < 1) fail("{}: video reports no frames", path.string());
   check_fps(v.fps, path.string() + ": the video's frame rate");
   return v;
+}
+
+void decode_video(const VideoInfo& video, int first, int last,
+                  const std::function<void(const Image&, int)>& use) {
+  cv::VideoCapture cap(video.path.string(), cv::CAP_FFMPEG);
+  if (!cap.isOpened()) fail("{}: cannot open video", video.path.string());
+  cv::Mat frame;
+  for (int k = 0; k <= last; ++k) {
+    const bool ok = k < first ? cap.grab() : cap.read(frame) && !frame.empty();
+    if (!ok)
+      fail("{}: cannot decode frame {} (the video ends early or is corrupt)", video.path.string(),
+           k);
+    if (k < first) continue;
+    if (frame.cols != video.width || frame.rows != video.height)
+      fail("{}: frame {} is {}x{} but the video header says {}x{}", video.path.string(), k,
+           frame.cols, frame.rows, video.width, video.height);
+    use(from_bgr8(frame), k);
+  }
 }
 
 }  // namespace retimegs::ingest::detail

@@ -1,6 +1,5 @@
 #include "retimegs/prepare/prepare.hpp"
 
-#include <unistd.h>
 #include <algorithm>
 #include <array>
 #include <optional>
@@ -34,18 +33,10 @@ struct FlowJob {
 // failed or not; its logs stay in the scene (SCENE/logs/colmap/<frame:05d>/), where a failure's
 // message points, with the other point sources to try.
 io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions& options) {
-  const fs::path work =
-      fs::temp_directory_path() / fmt::format("retimegs-colmap-{}-{:05d}", ::getpid(), k);
+  const colmap::WorkFolder work(fmt::format("{:05d}", k));
   const fs::path logs = scene.root / "logs" / "colmap" / fmt::format("{:05d}", k);
-  struct RemovedOnExit {
-    fs::path path;
-    ~RemovedOnExit() {
-      std::error_code ignored;
-      fs::remove_all(path, ignored);
-    }
-  } removed{work};
   try {
-    return triangulate_with_colmap(scene, k, work, logs, options);
+    return triangulate_with_colmap(scene, k, work.path(), logs, options);
   } catch (const Error& e) {
     fail(
         "{}. Other point sources: --points hull (needs a mask for every training view), "

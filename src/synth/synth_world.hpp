@@ -44,6 +44,7 @@ enum class Pattern {
   kSpots,  // soft blobs and fine stripes in 3-D canonical space (spheres, boxes, ellipsoids)
   kTiles,  // soft checker on the ground, fading to plain with distance from the scene centre
   kSky,    // gradient, clouds and a mountain skyline as a function of direction
+  kNoise,  // hard-edged multi-scale value noise in 3-D canonical space (corners at every scale)
 };
 
 struct Texture {

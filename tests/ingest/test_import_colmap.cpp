@@ -16,10 +16,6 @@ namespace retimegs::ingest {
 namespace {
 namespace fs = std::filesystem;
 
-bool have_colmap() {
-  return std::system("command -v colmap >/dev/null 2>&1") == 0;
-}
-
 io::ColmapModel sample_model() {
   io::ColmapModel m;
   m.cameras.push_back({1, "PINHOLE", 40, 30, {50, 51, 20, 15}});
@@ -109,7 +105,7 @@ TEST(ColmapModelIo, BinaryCountsBeyondTheFileAreRefusedNamingThem) {
 
 // COLMAP's own converter writes the binary files: an independent check of the binary reader.
 TEST(ColmapModelIo, ReadsWhatColmapModelConverterWrites) {
-  if (!have_colmap()) GTEST_SKIP() << "colmap not installed";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed";
   test::TempDir dir;
   io::write_colmap_model_txt(sample_model(), dir / "txt");
   fs::create_directories(dir / "bin");

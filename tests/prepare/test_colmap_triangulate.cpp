@@ -15,10 +15,6 @@ namespace retimegs::prepare {
 namespace {
 namespace fs = std::filesystem;
 
-bool have_colmap() {
-  return std::system("command -v colmap >/dev/null 2>&1") == 0;
-}
-
 io::Scene minimal_scene(const fs::path& root) {
   synth::SynthOptions options;
   options.preset = "minimal";
@@ -35,7 +31,7 @@ io::Scene minimal_scene(const fs::path& root) {
 // the median distance to the renderer's own surface samples (points/00000.ply) is a small
 // fraction of the camera distance.
 TEST(ColmapTriangulate, PointsLieOnTheSyntheticSurfaces) {
-  if (!have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;
   const io::Scene scene = minimal_scene(dir / "scene");
   ColmapOptions options;

@@ -55,9 +55,18 @@ void import_nerfstudio(const std::filesystem::path& source, const std::filesyste
 // dist, R, t, world-to-camera); intrinsics follow the footage size when it differs (same aspect
 // ratio), distorted cameras are resampled into pinhole ones as `import colmap` does. Every
 // camera needs a calibration; calibrated cameras without footage are left out (listed in the
-// report). No masks are written.
+// report). Without a calibration, COLMAP recovers one from one scene frame of every camera
+// (calibration.hpp: recover_calibration), fixed over the clip and written to SCENE/calibration/
+// (a COLMAP text model, reusable as --calib); its logs go to SCENE/logs/colmap/calibration/ (also
+// when it fails: the folder SCENE then holds them alone, and a later import may replace it
+// without --force). Cameras it cannot place are left out (listed in the report). No masks are
+// written.
 struct VideosOptions {
-  std::filesystem::path calibration;      // COLMAP model folder, or rig .yaml / .yml / .json
+  std::filesystem::path calibration;  // COLMAP model folder, or rig .yaml / .yml / .json; empty:
+                                      // recovered from the footage by COLMAP
+  // Without a calibration: the scene frame (after --frames and offsets) COLMAP calibrates from;
+  // absent: the middle one, (frames - 1) / 2.
+  std::optional<int> calibration_frame;
   std::vector<std::string> test_cameras;  // get split "test"
   // Synchronisation: scene frame k of camera c is source frame k + offsets[c] (0 when absent).
   // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
@@ -71,8 +80,15 @@ struct VideosReport {
   int first_frame = 0;  // k of scene frame 0 (source frame k + offset of each camera)
   double fps = 0;
   std::string fps_source;   // how fps was chosen, for the log
-  std::string calibration;  // "COLMAP model <dir>" or "rig file <file>"
-  int undistorted = 0;      // cameras resampled from a distorted model into pinhole ones
+  std::string calibration;  // "COLMAP model <dir>", "rig file <file>" or how it was recovered
+  // A recovered calibration: its cameras (registered), those left out, its points and mean
+  // reprojection error in pixels.
+  bool recovered = false;
+  int registered = 0;
+  std::vector<std::string> unregistered;
+  std::size_t points = 0;
+  double reprojection_error = 0;
+  int undistorted = 0;  // cameras resampled from a distorted model into pinhole ones
   std::vector<std::string> without_footage;  // calibrated cameras without footage (left out)
 };
 

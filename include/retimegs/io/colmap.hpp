@@ -1,8 +1,8 @@
 #pragma once
-// COLMAP sparse models (cameras, images, points3D as .bin or .txt, COLMAP 3.x layout). The
-// triangulation runner of `prepare --points colmap` is prepare/colmap_triangulate.hpp. COLMAP
-// conventions: the quaternion (qw, qx, qy, qz) and translation of an image map world to camera;
-// pixel centres are at integer + 0.5 (as in the scene format).
+// COLMAP sparse models (cameras, images, points3D as .bin or .txt, COLMAP 3.x layout). COLMAP's
+// command line is run by colmap/run.hpp (for `prepare --points colmap` and `import videos`
+// without a calibration). COLMAP conventions: the quaternion (qw, qx, qy, qz) and translation of an
+// image map world to camera; pixel centres are at integer + 0.5 (as in the scene format).
 #include <array>
 #include <cstdint>
 #include <filesystem>

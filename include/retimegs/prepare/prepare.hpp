@@ -40,7 +40,7 @@ struct PrepareOptions {
   // the masks and COLMAP's static background). Empty: default_points().
   std::vector<PointsSource> points;
   std::filesystem::path points_dir;  // for kPly
-  ColmapOptions colmap;  // kColmap; it works in a temporary folder, removed unless it failed
+  ColmapOptions colmap;              // kColmap; it works in a temporary folder (colmap::WorkFolder)
   HullOptions hull;
   // Set: background-model masks for the cameras missing one, learnt from the training frames.
   // They are approximate (they miss what moves little over the clip), so the default points then

@@ -1,0 +1,46 @@
+// `import videos` without a calibration on real footage: the shared Panoptic frames
+// (RETIMEGS_SHARED_DATA/panoptic-basketball, 31 cameras at 640x360) as image folders, against the
+// Panoptic calibration. Labelled `slow` (tests/CMakeLists.txt): COLMAP's exhaustive matching of
+// 31 views takes minutes of CPU.
+#include <cstdlib>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "camera_alignment.hpp"
+#include "retimegs/ingest/import.hpp"
+#include "retimegs/media/scene_images.hpp"
+#include "test_util.hpp"
+
+namespace retimegs::ingest {
+namespace {
+namespace fs = std::filesystem;
+
+// Recovered from frame 8 of ims/<camera>/ (the folder names are the Panoptic camera ids, as
+// `import panoptic` names its cameras): the camera centres must lie within 2 % of the rig's
+// extent of the Panoptic calibration after a similarity (issue 43's "Done when"). Disabled: it
+// fails today (COLMAP registers 30 of 31 at 0.9 px, but the dome's repeated panels put about half
+// of the cameras in wrong places: 121 % after alignment); run it with
+// --gtest_also_run_disabled_tests.
+TEST(PanopticCalibration, DISABLED_CentresWithinTwoPercentOfTheCalibration) {
+  const fs::path data = fs::path(RETIMEGS_SHARED_DATA) / "panoptic-basketball";
+  if (!fs::is_directory(data / "ims")) GTEST_SKIP() << data << " not present";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  test::TempDir dir;
+  ImportOptions options;
+  options.progress = false;
+  options.first_frame = options.last_frame = 8;
+  import_panoptic(data, dir / "truth", options);
+  const VideosReport r = import_videos(data / "ims", dir / "recovered", options, {});
+  std::printf("registered %d of %zu, %zu points, %.2f px\n", r.registered,
+              r.registered + r.unregistered.size(), r.points, r.reprojection_error);
+  EXPECT_GE(r.registered, 29);
+  EXPECT_LT(r.reprojection_error, 1.5);
+  const double error = test::centre_error_after_alignment(
+      media::read_scene(dir / "truth").cameras, media::read_scene(dir / "recovered").cameras);
+  std::printf("camera centres within %.3f %% of the rig's extent\n", 100 * error);
+  EXPECT_LT(error, 0.02);
+}
+
+}  // namespace
+}  // namespace retimegs::ingest
