@@ -230,7 +230,7 @@ Model read_model(const fs::path& path) {
     const json& grid = header.at("time_grid");
     model.grid = {number(grid.at("first"), "time_grid.first"),
                   number(grid.at("step"), "time_grid.step"),
-                  int(integer(grid.at("count"), "time_grid.count", 1, 1'000'000'000))};
+                  int(integer(grid.at("count"), "time_grid.count", 1, kMaxFrames))};
     const json& m = header.at("model");
     model.config.representation =
         m.at("representation") == "stgs" ? Representation::kStgs : Representation::kRetime;

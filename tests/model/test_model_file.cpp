@@ -142,6 +142,9 @@ TEST(ModelFile, EditedHeadersAreRefusedNamingTheValue) {
       {"count_5", [](auto& h) { h["count"] = 5; }, "header count 5"},
       {"grid_count_1e20", [](auto& h) { h["time_grid"]["count"] = 1e20; },
        "'time_grid.count' must be an integer"},
+      // A clip's frame limit (core/limits.hpp): the viewer's pack lists every training frame.
+      {"grid_count_1e9", [](auto& h) { h["time_grid"]["count"] = 1'000'000'000; },
+       "'time_grid.count' must be an integer in [1, 100000], got 1000000000"},
       {"step_string", [](auto& h) { h["time_grid"]["step"] = "1"; },
        "'time_grid.step' must be a finite number"},
       {"sh_degree_9", [](auto& h) { h["model"]["sh_degree"] = 9; }, "'model.sh_degree'"},
