@@ -6,13 +6,15 @@
 # what the merge costs shows apart from what the windows cost. Both also measure temporal
 # stability (eval --stability): the largest change of the static world between consecutive frames
 # of an 8x slow motion at the merged model's seams, and at the other training frames. Writes
-# bench/results/windows.md.
+# bench/results/windows.md. OVERLAP=N: slurm --overlap N (training intervals each window trains
+# beyond each seam; slurm's default otherwise).
 #
-#   bash bench/windows.sh        # ITERS="750 3000" WINDOWS=4 FRAMES=33 CAMERAS=6 SIZE=128x96 CAP=60000
+#   bash bench/windows.sh        # ITERS="750 3000" WINDOWS=4 OVERLAP= FRAMES=33 CAMERAS=6 SIZE=128x96 CAP=60000
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 iters_list=${ITERS:-750 3000}
 windows=${WINDOWS:-4}
+overlap=${OVERLAP:-}
 frames=${FRAMES:-33}
 cameras=${CAMERAS:-6}
 size=${SIZE:-128x96}
@@ -50,10 +52,10 @@ for iters in $iters_list; do
     "$bin" eval --model "$one/run/model.rgs" --scene "$scene" --out "$one/metrics.json" \
       --stability --threads "$threads"
   fi
-  split="$work/windows_${windows}x$iters"
+  split="$work/windows_${windows}x$iters${overlap:+_overlap$overlap}"
   if [ ! -f "$split/metrics.json" ]; then
     "$bin" slurm --scene "$scene" --out "$split/run" --windows "$windows" --iters "$iters" \
-      --cap "$cap" --force
+      --cap "$cap" ${overlap:+--overlap "$overlap"} --force
     start=$(date +%s)
     SLURM_CPUS_PER_TASK=$threads "$split/run/slurm/run_local.sh"
     echo $(($(date +%s) - start)) > "$split/train_seconds"
@@ -83,8 +85,8 @@ for iters in $iters_list; do
     "$(metric "$one/metrics.json" ssim)" "$(metric "$one/metrics.json" ssim whole)" \
     "$(stability "$one/metrics.json" max_at_seams)" \
     "$(stability "$one/metrics.json" max_at_training_frames)" "$(cat "$one/train_seconds")")")
-  rows+=("$(printf '| %s | %s windows x %s, merged | %s / %s | %s / %s | %s / %s | %s | %s → %s |' \
-    "$total" "$windows" "$iters" "$(metric "$split/metrics.json" psnr)" \
+  rows+=("$(printf '| %s | %s windows x %s%s, merged | %s / %s | %s / %s | %s / %s | %s | %s → %s |' \
+    "$total" "$windows" "$iters" "${overlap:+, overlap $overlap}" "$(metric "$split/metrics.json" psnr)" \
     "$(metric "$split/metrics.json" psnr whole)" "$(metric "$split/metrics.json" ssim)" \
     "$(metric "$split/metrics.json" ssim whole)" "$(stability "$split/metrics.json" max_at_seams)" \
     "$(stability "$split/metrics.json" max_at_training_frames)" "$(cat "$split/train_seconds")" \

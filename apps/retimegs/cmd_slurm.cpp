@@ -1,4 +1,5 @@
-// retimegs slurm --scene S --out RUN --windows N [--train-frames even|all] [--iters N]
+// retimegs slurm --scene S --out RUN --windows N [--overlap N] [--train-frames even|all] [--iters
+// N]
 //                [--preset P] [--config FILE] [--cap N] [--seed S] [--downscale F]
 //                [--sbatch-arg ARG ...]
 //                [--merge-sbatch-arg ARG ...] [--submit] [--force]
@@ -26,6 +27,7 @@ void add_slurm_command(CLI::App& app) {
   struct Args {
     std::string scene, out, frames = "even", preset, config;
     int windows = 0;
+    std::optional<int> overlap;
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;
@@ -46,6 +48,12 @@ void add_slurm_command(CLI::App& app) {
       ->required();
   cmd->add_option("--windows", args->windows, "number of time windows (one array task each)")
       ->required();
+  cmd->add_option("--overlap", args->overlap,
+                  "training intervals each window trains beyond each seam, so that the merge hands "
+                  "over between two reconstructions of the same frames (0: windows only share "
+                  "their boundary frame)")
+      ->default_str(
+          fmt::format("{}, or the most the windows allow", cluster::kDefaultWindowOverlap));
   cmd->add_option("--train-frames", args->frames, "even or all, as for train")
       ->check(CLI::IsMember({"even", "all"}))
       ->capture_default_str();
@@ -93,6 +101,7 @@ void add_slurm_command(CLI::App& app) {
     job.scene = args->scene;
     job.run = args->out;
     job.windows = args->windows;
+    job.overlap = args->overlap;
     job.train_frames = args->frames;
     job.sbatch_args = args->sbatch_args;
     job.merge_sbatch_args = args->merge_sbatch_args;

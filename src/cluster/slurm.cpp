@@ -106,15 +106,27 @@ std::string shell_quote(const std::string& text) {
   return out + "'";
 }
 
-std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_frames, int count) {
+std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_frames, int count,
+                                           std::optional<int> overlap) {
   const int intervals = int(training_frames.size()) - 1;
   if (count < 1 || count > intervals)
     fail("--windows {}: give 1 to {} (the clip's training intervals; a window needs one)", count,
          std::max(intervals, 0));
+  std::vector<int> seams;  // indices into training_frames: the clip's ends and the seams
+  int shortest = intervals;
+  for (int j = 0; j <= count; ++j) seams.push_back(j * intervals / count);
+  for (int j = 0; j < count; ++j) shortest = std::min(shortest, seams[j + 1] - seams[j]);
+  const int margin = overlap.value_or(std::min(kDefaultWindowOverlap, shortest / 2));
+  if (count > 1 && (margin < 0 || 2 * margin > shortest))
+    fail(
+        "--overlap {}: give 0 to {} ({} windows, the shortest of {} training intervals; a window "
+        "may overlap only its neighbours)",
+        margin, shortest / 2, count, shortest);
   std::vector<io::FrameWindow> windows;
   for (int j = 0; j < count; ++j)
-    windows.push_back({training_frames[std::size_t(j * intervals / count)],
-                       training_frames[std::size_t((j + 1) * intervals / count)]});
+    windows.push_back(
+        {training_frames[std::size_t(j > 0 ? seams[j] - margin : 0)],
+         training_frames[std::size_t(j + 1 < count ? seams[j + 1] + margin : intervals)]});
   return windows;
 }
 
@@ -125,7 +137,7 @@ SlurmScripts write_slurm_scripts(const SlurmJob& job, const io::Scene& scene) {
   s.windows = split_windows(
       io::training_views(scene, io::parse_frame_selection(job.train_frames, "--train-frames"))
           .frames,
-      job.windows);
+      job.windows, job.overlap);
   s.window = dir / "window.sh";
   s.train = dir / "train.sbatch";
   s.merge = dir / "merge.sbatch";

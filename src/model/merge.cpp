@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <limits>
 #include <map>
 #include <numeric>
+
+#include <fmt/format.h>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/interrupt.hpp"
@@ -57,15 +60,26 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
     return window_of(windows[x]).first < window_of(windows[y]).first;
   });
   const TimeGrid& grid = windows[0].grid;
+  // Where consecutive windows hand over: the middle of the training frames both trained (rounded
+  // down to a training frame), their shared boundary frame where they only touch. Since each
+  // window starts and ends after the previous one, the seams ascend and each window keeps the
+  // frames between its two, which it trained.
+  std::vector<int> handovers;
   for (std::size_t k = 0; k + 1 < order.size(); ++k) {
     const std::size_t a = order[k], b = order[k + 1];
     const TimeWindow wa = window_of(windows[a]), wb = window_of(windows[b]);
-    if (wb.first != wa.last)
+    const auto frames = [&](const TimeWindow& w) {
+      return fmt::format("frames {}..{}", grid.at(w.first), grid.at(w.last));
+    };
+    if (wb.first > wa.last)
       fail(
-          "merge: {} (frames {}..{}) and {} (frames {}..{}) {}: consecutive windows share their "
+          "merge: {} ({}) and {} ({}) leave a gap: consecutive windows share at least their "
           "boundary frame",
-          names[a], grid.at(wa.first), grid.at(wa.last), names[b], grid.at(wb.first),
-          grid.at(wb.last), wb.first < wa.last ? "overlap" : "leave a gap");
+          names[a], frames(wa), names[b], frames(wb));
+    if (wb.first == wa.first || wb.last <= wa.last)
+      fail("merge: {} ({}) and {} ({}) overlap: one window holds the other", names[a], frames(wa),
+           names[b], frames(wb));
+    handovers.push_back((wb.first + wa.last) / 2);
   }
 
   Model merged;
@@ -75,17 +89,31 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   merged.config.seams.clear();
   merged.config.seam_fade = seam_fade;
   merged.training_config = first.training_config;
-  std::size_t total = 0;
+  // Each window's rows between its hand-overs: a row beyond one is dropped (the neighbour's
+  // reconstruction covers that time) and a support that crosses one ends there, where the seam's
+  // fade hands over. Only the support changes; the trajectory keeps its μ_τ, which may then lie
+  // outside the support (a negative half-width).
+  const double epsilon = first.config.epsilon;
+  const double inf = std::numeric_limits<double>::infinity();
+  std::size_t total = 0, row = 0;
   for (const Model& m : windows) total += m.primitives.size();
   merged.primitives.resize(total);
-  std::size_t row = 0;
-  for (const std::size_t k : order) {
-    const Primitives& p = windows[k].primitives;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const double from = k > 0 ? grid.at(handovers[k - 1]) : -inf;
+    const double to = k + 1 < order.size() ? grid.at(handovers[k]) : inf;
+    const Primitives& p = windows[order[k]].primitives;
     for (std::size_t i = 0; i < p.size(); ++i) {
       throw_if_interrupted_every(i);
-      merged.primitives.copy_row(row++, p, i);
+      const double mu_tau = p.mu_tau[i];
+      const double lo = mu_tau - p.tau_l[i], hi = mu_tau + p.tau_r[i];
+      if (hi <= from + epsilon || lo >= to - epsilon) continue;
+      merged.primitives.copy_row(row, p, i);
+      if (lo < from - epsilon) merged.primitives.tau_l[row] = float(mu_tau - from);
+      if (hi > to + epsilon) merged.primitives.tau_r[row] = float(to - mu_tau);
+      ++row;
     }
   }
+  merged.primitives.resize(row);
   // Colour maps: per camera, the interval-weighted mean over the windows that learned one.
   std::map<std::string, std::pair<std::array<double, 6>, double>> sums;  // m, c; total weight
   for (const Model& m : windows) {
@@ -107,10 +135,10 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       color.c[c] = float(entry.first[3 + c] / entry.second);
     }
   }
-  // Seams: each window's own (a merged model merged again) and where consecutive windows meet.
+  // Seams: each window's own (a merged model merged again) and the hand-overs.
   for (std::size_t k = 0; k < order.size(); ++k) {
     const Model& m = windows[order[k]];
-    if (k > 0) merged.config.seams.push_back(window_of(m).first);
+    if (k > 0) merged.config.seams.push_back(handovers[k - 1]);
     merged.config.seams.insert(merged.config.seams.end(), m.config.seams.begin(),
                                m.config.seams.end());
   }

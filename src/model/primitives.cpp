@@ -36,8 +36,9 @@ void check_primitives(const Primitives& p, const std::string& what) {
         fail("{}: field '{}' of primitive {} is not finite", what, field.name, k / field.width);
   }
   for (std::size_t i = 0; i < n; ++i)
-    if (!(p.tau_l[i] >= 0 && p.tau_r[i] >= 0))
-      fail("{}: primitive {} has a negative temporal half-width", what, i);
+    if (!(p.tau_l[i] + p.tau_r[i] >= 0))
+      fail("{}: primitive {} has an empty temporal window (tau_l + tau_r = {} < 0)", what, i,
+           p.tau_l[i] + p.tau_r[i]);
 }
 
 }  // namespace retimegs::model

@@ -39,21 +39,47 @@ bool executable(const fs::path& path) {
 TEST(Slurm, SplitWindowsShareTheirBoundaryFrames) {
   std::vector<int> frames;
   for (int k = 0; k <= 32; k += 2) frames.push_back(k);  // 33 frames trained on the even ones
-  const auto four = split_windows(frames, 4);
+  const auto four = split_windows(frames, 4, 0);
   ASSERT_EQ(four.size(), 4u);
   for (int j = 0; j < 4; ++j) {
     EXPECT_EQ(four[j].first, 8 * j);
     EXPECT_EQ(four[j].last, 8 * j + 8);
   }
-  const auto three = split_windows(frames, 3);  // 16 intervals: 5, 5, 6
+  const auto three = split_windows(frames, 3, 0);  // 16 intervals: 5, 5, 6
   ASSERT_EQ(three.size(), 3u);
   EXPECT_EQ(three[0].first, 0);
   EXPECT_EQ(three[0].last, three[1].first);
   EXPECT_EQ(three[1].last, three[2].first);
   EXPECT_EQ(three[2].last, 32);
-  EXPECT_EQ(split_windows(frames, 16).back().first, 30);
-  test::expect_error([&] { split_windows(frames, 17); }, {"--windows 17", "1 to 16"});
-  test::expect_error([&] { split_windows(frames, 0); }, {"--windows 0"});
+  EXPECT_EQ(split_windows(frames, 16, 0).back().first, 30);
+  test::expect_error([&] { split_windows(frames, 17, 0); }, {"--windows 17", "1 to 16"});
+  test::expect_error([&] { split_windows(frames, 0, 0); }, {"--windows 0"});
+}
+
+TEST(Slurm, OverlappingWindowsTrainBeyondEachSeam) {
+  std::vector<int> frames;
+  for (int k = 0; k <= 32; k += 2) frames.push_back(k);  // seams at frames 8, 16, 24
+  const auto four = split_windows(frames, 4, 1);
+  ASSERT_EQ(four.size(), 4u);
+  // One training interval (2 frames) past each seam; the clip's own ends stay where they are.
+  EXPECT_EQ(four[0].first, 0);
+  EXPECT_EQ(four[0].last, 10);
+  EXPECT_EQ(four[1].first, 6);
+  EXPECT_EQ(four[1].last, 18);
+  EXPECT_EQ(four[3].first, 22);
+  EXPECT_EQ(four[3].last, 32);
+  // Up to half the shortest window (4 intervals): neighbours then meet, but never overlap a
+  // window beyond them.
+  const auto most = split_windows(frames, 4, 2);
+  EXPECT_EQ(most[0].last, most[2].first);
+  test::expect_error([&] { split_windows(frames, 4, 3); }, {"--overlap 3", "0 to 2"});
+  test::expect_error([&] { split_windows(frames, 4, -1); }, {"--overlap -1"});
+  // One window has no seam to overlap.
+  EXPECT_EQ(split_windows(frames, 1, 5).front().last, 32);
+  // The default: kDefaultWindowOverlap, or the most that windows this short allow.
+  EXPECT_EQ(split_windows(frames, 4).front().last, 8 + 2 * kDefaultWindowOverlap);
+  const auto sixteen = split_windows(frames, 16);  // one interval each: none
+  EXPECT_EQ(sixteen[0].last, sixteen[1].first);
 }
 
 TEST(Slurm, ShellQuoteKeepsWordsWhole) {
@@ -76,8 +102,8 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   job.sbatch_args = {"--partition=gpu", "--time=1:00:00"};
   job.merge_sbatch_args = {"--partition=cpu"};
   const SlurmScripts s = write_slurm_scripts(job, media::read_scene(scene_dir));
-  ASSERT_EQ(s.windows.size(), 2u);
-  EXPECT_EQ(s.windows[0].last, 4);
+  ASSERT_EQ(s.windows.size(), 2u);  // the default overlap: one interval past the seam at 4
+  EXPECT_EQ(s.windows[0].last, 6);
   for (const fs::path& p : {s.window, s.train, s.merge, s.local}) {
     ASSERT_TRUE(fs::exists(p)) << p;
     EXPECT_TRUE(executable(p)) << p;
@@ -86,7 +112,7 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   EXPECT_TRUE(fs::is_directory(dir / "run" / "slurm" / "logs"));
   const std::string window = test::read_text(s.window), train = test::read_text(s.train);
   const std::string merge = test::read_text(s.merge), local = test::read_text(s.local);
-  EXPECT_NE(window.find("windows=(0:4 4:8)"), std::string::npos) << window;
+  EXPECT_NE(window.find("windows=(0:6 2:8)"), std::string::npos) << window;
   EXPECT_NE(window.find("/opt/x/retimegs prepare --scene " + scene_dir.string()),
             std::string::npos);
   EXPECT_NE(window.find("/opt/x/retimegs train --scene " + scene_dir.string()), std::string::npos);

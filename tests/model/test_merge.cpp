@@ -253,15 +253,60 @@ TEST(Merge, PartialMergeKeepsItsOuterEndsOpen) {
   EXPECT_NEAR(temporal_sum(m, 16.0), 1.0, 1e-5);
 }
 
+// Windows that overlap (slurm --overlap): window 0 trained 0..10, window 1 6..16, both with their
+// own primitives over [6, 8] and [8, 10] and one stretched over [6, 10].
+TEST(Merge, OverlappingWindowsHandOverInTheMiddleOfTheirOverlap) {
+  std::mt19937 rng(11);
+  Fixture f = fixture();
+  f.left.window = TimeWindow{0, 5};
+  f.right.window = TimeWindow{3, 8};
+  add(f.left.primitives, 8, 10, rng);
+  add(f.left.primitives, 6, 10, rng);
+  add(f.right.primitives, 6, 8, rng);
+  add(f.right.primitives, 6, 10, rng);  // μ_τ = 7: ended at the seam, its τ_l is negative
+  // The unsplit model's counterpart: the two stretched primitives, each cut at the seam.
+  Model whole = f.whole;
+  add(whole.primitives, 6, 8, rng);
+  add(whole.primitives, 8, 10, rng);
+  for (const Model& merged : {merge_models({f.right, f.left}, {"right.rgs", "left.rgs"}, 0),
+                              merge_models({f.left, f.right}, {"a", "b"})}) {
+    EXPECT_EQ(merged.config.seams, (std::vector<int>{4}));  // the middle of training frames 3..5
+    // Window 0's [8, 10] and window 1's [6, 8] lie beyond the seam: dropped.
+    ASSERT_EQ(merged.primitives.size(), whole.primitives.size());
+    const Primitives& p = merged.primitives;
+    int cut_before = 0, cut_after = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double from = p.mu_tau[i] - p.tau_l[i], to = p.mu_tau[i] + p.tau_r[i];
+      EXPECT_FALSE(from < kSeam - 1e-3 && to > kSeam + 1e-3) << "row " << i << " crosses the seam";
+      if (p.mu_tau[i] == 7 && std::abs(from - 6) < 1e-6 && std::abs(to - kSeam) < 1e-6)
+        ++cut_before;
+      if (p.mu_tau[i] == 7 && std::abs(from - kSeam) < 1e-6 && std::abs(to - 10) < 1e-6) {
+        ++cut_after;
+        EXPECT_FLOAT_EQ(p.tau_l[i], -1);
+      }
+    }
+    EXPECT_EQ(cut_before, 2);  // window 0's [6, 8] and its stretched one, cut
+    EXPECT_EQ(cut_after, 1);   // window 1's stretched one, cut
+  }
+  // Without a fade it draws as the unsplit model, across the overlap and everywhere else.
+  const Model merged = merge_models({f.left, f.right}, {"a", "b"}, 0);
+  for (double t = 0; t <= 16 + 1e-9; t += 0.25)
+    EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(whole, t), 1e-5) << "t = " << t;
+  // A merged model with a negative half-width is written and read back as it is; an empty
+  // window (τ_l + τ_r < 0) is refused (check_primitives, also where a file is read).
+  const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_overlap";
+  fs::create_directories(dir);
+  write_model(dir / "merged.rgs", merged);
+  EXPECT_EQ(read_model(dir / "merged.rgs").primitives.tau_l, merged.primitives.tau_l);
+  Model empty = merged;
+  empty.primitives.tau_l[0] = -empty.primitives.tau_r[0] - 0.5f;
+  test::expect_error([&] { write_model(dir / "empty.rgs", empty); },
+                     {"empty.rgs", "primitive 0", "empty temporal window"});
+  fs::remove_all(dir);
+}
+
 TEST(Merge, RefusesOverlapsGapsAndMismatches) {
   const Fixture f = fixture();
-  Model early = f.right;
-  early.window = TimeWindow{3, 8};
-  test::expect_error(
-      [&] {
-        merge_models({f.left, early}, {"L.rgs", "R.rgs"});
-      },
-      {"L.rgs", "R.rgs", "overlap"});
   Model late = f.right;
   late.window = TimeWindow{5, 8};
   test::expect_error(
@@ -273,7 +318,12 @@ TEST(Merge, RefusesOverlapsGapsAndMismatches) {
       [&] {
         merge_models({f.whole, f.right}, {"W.rgs", "R.rgs"});
       },
-      {"W.rgs", "R.rgs", "overlap"});
+      {"W.rgs", "R.rgs", "overlap", "holds"});
+  // Three windows that overlap: each hands over to the next in the middle of their overlap.
+  Model middle = f.right;
+  middle.window = TimeWindow{2, 6};
+  EXPECT_EQ(merge_models({f.left, middle, f.right}, {"L.rgs", "M.rgs", "R.rgs"}).config.seams,
+            (std::vector<int>{3, 5}));
   Model other_grid = f.right;
   other_grid.grid.count = 10;
   test::expect_error(

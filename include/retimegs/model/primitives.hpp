@@ -159,7 +159,9 @@ struct PrimitiveGradsT {
 };
 using PrimitiveGrads = PrimitiveGradsT<float>;
 
-// Throws Error naming `what`, the field and the row of the first size mismatch or non-finite value.
+// Throws Error naming `what`, the field and the row of the first size mismatch or non-finite value,
+// or of an empty temporal window (τ_l + τ_r < 0; one half-width alone may be negative where a
+// merge ended a support at a seam before its μ_τ, model/merge.hpp).
 void check_primitives(const Primitives& primitives, const std::string& what);
 
 }  // namespace retimegs::model

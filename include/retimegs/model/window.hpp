@@ -1,16 +1,18 @@
 #pragma once
-// Window models: a long clip trained as time windows (train --window A:B) that share their
-// boundary frames, then merged (model/merge.hpp). A window model is stored with the whole clip's
-// time grid and its window (Model::window), so that windows share one grid.
+// Window models: a long clip trained as time windows (train --window A:B) that share at least their
+// boundary frames (slurm --overlap: a few training intervals), then merged (model/merge.hpp). A
+// window model is stored with the whole clip's time grid and its window (Model::window), so that
+// windows share one grid.
 //
 // Edges at a window's ends: while a window trains, nothing else covers the time beyond its ends,
 // so they behave as clip ends (open edges, σ_τ ≡ 1 on that side), exactly as the clip's own ends
 // do in a whole-clip run; a window model drawn alone (render, eval, export) behaves the same. In
-// the merged model an interior seam is an ordinary training frame: the edges that end there are
-// closed sigmoids again, each side at σ_τ = 0.5 at the seam, as two adjacent intervals meet in a
-// whole-clip model, their scale the seam's fade (ModelConfig::seam_fade, model/merge.hpp). Each
-// window's primitives at the seam were trained to explain the boundary frame on their own, as the
-// compensated group renders of triple rendering train each group.
+// the merged model an interior seam is an ordinary training frame: the edges that end there (the
+// merge ends every support that crosses it) are closed sigmoids again, each side at σ_τ = 0.5 at
+// the seam, as two adjacent intervals meet in a whole-clip model, their scale the seam's fade
+// (ModelConfig::seam_fade, model/merge.hpp). Each window's primitives at the seam were trained to
+// explain the boundary frame on their own, as the compensated group renders of triple rendering
+// train each group.
 #include "retimegs/model/model_file.hpp"
 #include "retimegs/model/primitives.hpp"
 
