@@ -8,14 +8,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -47,24 +48,32 @@ const char* muxer(const fs::path& out) {
 }
 
 // The line of ffmpeg's log that says why it failed: the first one (at -loglevel error the log
-// holds errors alone, and later lines are their consequences: "Conversion failed!").
-std::string first_line(const fs::path& log) {
+// holds errors alone, and later lines are their consequences: "Conversion failed!"), with the
+// temporary `file` shown as the output `out`; empty when the log is.
+std::string first_error(const fs::path& log, const fs::path& file, const fs::path& out) {
   std::ifstream in(log);
   std::string line;
   while (std::getline(in, line)) {
     while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
     if (line.empty()) continue;
+    for (std::size_t at; (at = line.find(file.string())) != std::string::npos;)
+      line.replace(at, file.string().size(), out.string());
     if (line.size() > kMaxQuoted) line = line.substr(0, kMaxQuoted) + "...";
     return line;
   }
-  return "(no output)";
+  return {};
 }
 
-// A fresh log name per encoder of this process.
-fs::path log_path() {
-  static std::atomic<int> count{0};
-  return fs::temp_directory_path() /
-         fmt::format("retimegs-ffmpeg-{}-{}.log", ::getpid(), count.fetch_add(1));
+// A new, empty log file in the temporary folder, readable by its owner alone, and its descriptor
+// (closed on exec: ffmpeg gets it as its stdout and stderr only). Created exclusively under a
+// random name (mkostemps), never opened through a link another user left in a shared /tmp.
+std::pair<fs::path, int> new_log(const fs::path& out) {
+  std::string name = (fs::temp_directory_path() / "retimegs-ffmpeg-XXXXXX.log").string();
+  const int fd = ::mkostemps(name.data(), 4, O_CLOEXEC);
+  if (fd < 0)
+    fail("{}: cannot start ffmpeg: cannot create its log {}: {}", out.string(), name,
+         std::strerror(errno));
+  return {name, fd};
 }
 
 }  // namespace
@@ -81,14 +90,20 @@ fs::path find_ffmpeg(const fs::path& out) {
 }
 
 FfmpegVideo::FfmpegVideo(const fs::path& ffmpeg, const fs::path& file, const fs::path& out,
-                         int width, int height, double fps, int crf)
-    : out_(out), log_(log_path()), width_(width), height_(height) {
+                         int width, int height, double fps, int crf, std::function<void()> explain)
+    : out_(out), file_(file), explain_(std::move(explain)), width_(width), height_(height) {
+  const auto [log, log_fd] = new_log(out);
+  log_ = log;
   // A socket rather than a pipe: send() with MSG_NOSIGNAL reports a stopped ffmpeg as EPIPE,
   // where write() into a pipe would raise SIGPIPE and end this process without a word. Both ends
   // close on exec, so that no other child holds ffmpeg's input open (it would never see its end).
   int sockets[2];
-  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sockets) != 0)
-    fail("{}: cannot start ffmpeg: socketpair: {}", out_.string(), std::strerror(errno));
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sockets) != 0) {
+    const int error = errno;
+    ::close(log_fd);
+    fs::remove(log_);
+    fail("{}: cannot start ffmpeg: socketpair: {}", out_.string(), std::strerror(error));
+  }
   const std::vector<std::string> args = {
       ffmpeg.string(), "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error",
       // The input: raw frames on standard input.
@@ -104,8 +119,8 @@ FfmpegVideo::FfmpegVideo(const fs::path& ffmpeg, const fs::path& file, const fs:
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, sockets[1], 0);
-  posix_spawn_file_actions_addopen(&actions, 1, log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, 1);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, 2);
   // Its own process group: a Ctrl-C at the terminal reaches this process alone, which ends
   // ffmpeg itself (the destructor) rather than letting it complete a file that is then removed.
   // Its signal mask is cleared (a caller's blocked signals are not ffmpeg's); signals ignored
@@ -122,6 +137,7 @@ FfmpegVideo::FfmpegVideo(const fs::path& ffmpeg, const fs::path& file, const fs:
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   ::close(sockets[1]);
+  ::close(log_fd);
   if (rc != 0) {
     ::close(sockets[0]);
     pid_ = -1;
@@ -166,7 +182,10 @@ void FfmpegVideo::finish() {
   ::close(input_);  // the end of the input: ffmpeg encodes what it holds and writes the trailer
   input_ = -1;
   wait_for_exit();
-  if (!WIFEXITED(status_) || WEXITSTATUS(status_) != 0) fail_stopped();
+  // ffmpeg (5.1) exits with status 0 when writing the trailer or closing the file fails, having
+  // said so: at -loglevel error, any line in its log is a failure.
+  if (!WIFEXITED(status_) || WEXITSTATUS(status_) != 0 || !first_error(log_, file_, out_).empty())
+    fail_stopped();
   std::error_code ignored;
   fs::remove(log_, ignored);
 }
@@ -193,15 +212,18 @@ void FfmpegVideo::fail_stopped() {
   input_ = -1;
   wait_for_exit();
   const std::string how = WIFEXITED(status_)
-                              ? fmt::format("exit status {}", WEXITSTATUS(status_))
+                              ? fmt::format("exit status {}{}", WEXITSTATUS(status_),
+                                            WEXITSTATUS(status_) == 0 ? ", after an error" : "")
                               : fmt::format("ended by signal {}, {}", WTERMSIG(status_),
                                             ::strsignal(WTERMSIG(status_)));
+  if (explain_) explain_();
   keep_log_ = true;
-  if (WIFEXITED(status_) && WEXITSTATUS(status_) == 0)
+  const std::string error = first_error(log_, file_, out_);
+  if (WIFEXITED(status_) && WEXITSTATUS(status_) == 0 && error.empty())
     fail("{}: ffmpeg stopped reading frames before the last one (its log: {})", out_.string(),
          log_.string());
   fail("{}: ffmpeg failed ({}): {} (its log: {}); write PNGs (--out a folder/) to go on without it",
-       out_.string(), how, first_line(log_), log_.string());
+       out_.string(), how, error.empty() ? "(no output)" : error, log_.string());
 }
 
 }  // namespace retimegs::media

@@ -43,8 +43,9 @@ bool is_h264(const fs::path& path) {
 
 // OpenCV's video writer drops FFmpeg's write errors: a video cut short by a file-size limit or a
 // full disk after its first block (the probe in the constructor) would be kept as if complete.
-// ffmpeg reports them, but in its words: checked first, either is named as every other writer
-// names it. Each leaves a trace: the file at the size limit (a write beyond it fails with EFBIG),
+// ffmpeg reports them in its words (and exits with status 0 when its trailer is cut): FfmpegVideo
+// runs this check first when it fails, so that either is named as every other writer names it.
+// Each leaves a trace: the file at the size limit (a write beyond it fails with EFBIG),
 // or its file system without a free block (root may write into the reserved ones, others may not).
 void check_video_not_cut_short(const fs::path& file, const fs::path& out) {
   rlimit limit{};
@@ -178,9 +179,11 @@ void FrameWriter::write(const Image& image, const Image* depth) {
               "render at an even size (--size, --scale) or write PNGs",
               out_.string(), image.width, image.height);
         if (h264) {
-          video_->h264 = std::make_unique<FfmpegVideo>(video_->ffmpeg, file_->temp_path(), out_,
-                                                       image.width, image.height, options_.fps,
-                                                       options_.crf.value_or(kDefaultCrf));
+          const fs::path file = file_->temp_path(), out = out_;
+          video_->h264 =
+              std::make_unique<FfmpegVideo>(video_->ffmpeg, file, out, image.width, image.height,
+                                            options_.fps, options_.crf.value_or(kDefaultCrf),
+                                            [file, out] { check_video_not_cut_short(file, out); });
         } else {
           // Software encoding: the codec and its settings do not depend on the machine's GPU.
           const std::vector<int> params = {cv::VIDEOWRITER_PROP_HW_ACCELERATION,
@@ -203,12 +206,7 @@ void FrameWriter::write(const Image& image, const Image* depth) {
       cv::Mat f(image.height, image.width, CV_32FC3, const_cast<float*>(image.data.data())), rgb8;
       f.convertTo(rgb8, CV_8UC3, 255.0);  // rounded, clamped to [0, 255]
       if (h264) {
-        try {
-          video_->h264->write(rgb8.ptr<std::uint8_t>());
-        } catch (const Error&) {
-          check_video_not_cut_short(file_->temp_path(), out_);
-          throw;
-        }
+        video_->h264->write(rgb8.ptr<std::uint8_t>());
       } else {
         cv::cvtColor(rgb8, rgb8, cv::COLOR_RGB2BGR);
         video_->mjpeg.write(rgb8);
@@ -250,14 +248,7 @@ void FrameWriter::finish() {
   if (written_ != frames_)
     fail("{}: {} of {} frames were written", out_.string(), written_, frames_);
   if (kind_ == Kind::kVideo) {
-    if (video_->h264) {
-      try {
-        video_->h264->finish();
-      } catch (const Error&) {
-        check_video_not_cut_short(file_->temp_path(), out_);
-        throw;
-      }
-    }
+    if (video_->h264) video_->h264->finish();
     video_->mjpeg.release();
     if (!fs::exists(file_->temp_path()) || fs::file_size(file_->temp_path()) == 0)
       fail("{}: the video encoder wrote nothing", out_.string());

@@ -5,6 +5,7 @@
 // the output are refused before anything is written, and so is H.264 without ffmpeg; a failing
 // or abandoned ffmpeg leaves no file and no process.
 #include <signal.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -107,25 +108,47 @@ std::pair<double, int> video_psnr(const fs::path& path, int width, int height,
   return {frames ? sum / frames : 0.0, frames};
 }
 
-// PATH set to `value` for the life of the object (the writer looks ffmpeg up there).
-class ScopedPath {
+// Environment variable `name` set to `value` for the life of the object (the writer looks ffmpeg
+// up on PATH, and puts its log in TMPDIR).
+class ScopedEnv {
  public:
-  explicit ScopedPath(const std::string& value) {
-    const char* old = std::getenv("PATH");
+  ScopedEnv(std::string name, const std::string& value) : name_(std::move(name)) {
+    const char* old = std::getenv(name_.c_str());
     had_ = old != nullptr;
     if (had_) old_ = old;
-    ::setenv("PATH", value.c_str(), 1);
+    ::setenv(name_.c_str(), value.c_str(), 1);
   }
-  ~ScopedPath() {
+  ~ScopedEnv() {
     if (had_)
-      ::setenv("PATH", old_.c_str(), 1);
+      ::setenv(name_.c_str(), old_.c_str(), 1);
     else
-      ::unsetenv("PATH");
+      ::unsetenv(name_.c_str());
   }
 
  private:
+  std::string name_, old_;
   bool had_ = false;
-  std::string old_;
+};
+
+// A file-size limit of `bytes` for this process and its children while the object lives, with
+// SIGXFSZ ignored as the app ignores it, so that writes beyond it fail with EFBIG.
+class ScopedFileSizeLimit {
+ public:
+  explicit ScopedFileSizeLimit(rlim_t bytes) {
+    old_handler_ = ::signal(SIGXFSZ, SIG_IGN);
+    ::getrlimit(RLIMIT_FSIZE, &old_);
+    rlimit limited = old_;
+    limited.rlim_cur = bytes;
+    ::setrlimit(RLIMIT_FSIZE, &limited);
+  }
+  ~ScopedFileSizeLimit() {
+    ::setrlimit(RLIMIT_FSIZE, &old_);
+    ::signal(SIGXFSZ, old_handler_);
+  }
+
+ private:
+  rlimit old_{};
+  sighandler_t old_handler_ = SIG_DFL;
 };
 
 // A folder holding an executable `ffmpeg` shell script with `body`, to stand for a broken one.
@@ -292,7 +315,7 @@ TEST(FrameWriter, CrfTradesSizeForQuality) {
 TEST(FrameWriter, H264WithoutFfmpegIsRefusedUpFront) {
   TempDir dir;
   fs::create_directories(dir / "empty-bin");
-  const ScopedPath path((dir / "empty-bin").string());
+  const ScopedEnv path("PATH", (dir / "empty-bin").string());
   for (const char* name : {"v.mp4", "v.mov", "v.mkv"})
     expect_error([&] { FrameWriter(dir / name, 2, 24); },
                  {name, "ffmpeg program", "not on PATH", "Debian package ffmpeg", "PNGs"});
@@ -304,8 +327,9 @@ TEST(FrameWriter, H264WithoutFfmpegIsRefusedUpFront) {
 }
 
 // A failing ffmpeg (here a stand-in that fails as ffmpeg does, at once, after reading a little,
-// or by a signal) is one error naming the output, how it ended, its first error line and its
-// log, which is kept; the half-written video is not.
+// by a signal, or with status 0 and an error) is one error naming the output, how it ended, its
+// first error line (the output named as the user did, not its temporary) and its log, which is
+// kept; the half-written video is not.
 TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
   TempDir dir;
   struct Case {
@@ -319,8 +343,15 @@ TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
                 "exit 3",
                 "(exit status 3)", "av_interleaved_write_frame(): I/O error"},
            Case{"kill -SEGV $$", "(ended by signal 11", "(no output)"},
+           // ffmpeg 5.1 exits with 0 when its trailer cannot be written, and says so.
+           Case{"cat >/dev/null; for last; do :; done; "
+                "echo \"Error writing trailer of $last: Input/output error\" >&2",
+                "(exit status 0, after an error)",
+                "Error writing trailer of " + (dir / "out" / "v.mp4").string() +
+                    ": Input/output error"},
        }) {
-    const ScopedPath path(fake_ffmpeg(dir / "bin", c.script).string() + ":" + std::getenv("PATH"));
+    const ScopedEnv path("PATH",
+                         fake_ffmpeg(dir / "bin", c.script).string() + ":" + std::getenv("PATH"));
     const fs::path out = dir / "out" / "v.mp4";
     std::string message;
     {
@@ -337,7 +368,10 @@ TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
     EXPECT_NE(message.find("write PNGs"), std::string::npos) << message;
     const fs::path log = named_log(message);
     ASSERT_FALSE(log.empty()) << message;
-    EXPECT_NE(test::read_text(log).find(c.line == "(no output)" ? "" : c.line), std::string::npos);
+    // The log as ffmpeg wrote it (the temporary's name in it).
+    EXPECT_NE(test::read_text(log).find(c.line == "(no output)" ? "" : c.line.substr(0, 20)),
+              std::string::npos);
+    EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
     fs::remove(log);
     EXPECT_TRUE(fs::is_empty(dir / "out")) << c.script;
   }
@@ -345,6 +379,31 @@ TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
 
 // A writer dropped before finish() (an error or Ctrl-C while rendering) ends its ffmpeg and
 // leaves no file: the process is gone once the writer is.
+// A video cut short by a file-size limit is named as every writer names it, whether ffmpeg failed
+// mid-stream or, writing its trailer, said so and exited with status 0 (ffmpeg 5.1 does); its log
+// is not kept, as the message does not name it.
+TEST(FrameWriter, AVideoCutShortByAFileSizeLimitIsNamedSo) {
+  TempDir dir;
+  fs::create_directories(dir / "tmp");
+  const ScopedEnv tmpdir("TMPDIR", (dir / "tmp").string());
+  write_video(dir / "whole.mp4", 128, 96, 12, 24, std::nullopt, textured_frame);
+  const std::uintmax_t whole = fs::file_size(dir / "whole.mp4");
+  // Mid-stream: lossless frames pass the limit long before the end. The trailer: an MP4's index
+  // is its last box, so a limit a little below the whole file cuts it there.
+  for (const auto& [crf, limit] : {std::pair{0, std::uintmax_t(16384)}, {23, whole - 64}}) {
+    std::string message;
+    {
+      const ScopedFileSizeLimit limited(limit);
+      message = test::message_of(
+          [&] { write_video(dir / "out" / "v.mp4", 128, 96, 12, 24, crf, textured_frame); });
+    }
+    EXPECT_NE(message.find("v.mp4: cannot write the video file: File too large"), std::string::npos)
+        << "CRF " << crf << ": " << message;
+    EXPECT_TRUE(fs::is_empty(dir / "out")) << crf;
+    EXPECT_TRUE(fs::is_empty(dir / "tmp")) << crf;  // no log left
+  }
+}
+
 TEST(FrameWriter, AnAbandonedVideoEndsItsFfmpeg) {
   TempDir dir;
   {
@@ -355,10 +414,10 @@ TEST(FrameWriter, AnAbandonedVideoEndsItsFfmpeg) {
   }
   EXPECT_TRUE(fs::is_empty(dir / "out"));
   // A stand-in that says who it is and reads on until its input ends.
-  const ScopedPath path(
-      fake_ffmpeg(dir / "bin", "echo $$ > " + (dir / "pid").string() + "; exec cat >/dev/null")
-          .string() +
-      ":" + std::getenv("PATH"));
+  const ScopedEnv path("PATH", fake_ffmpeg(dir / "bin", "echo $$ > " + (dir / "pid").string() +
+                                                            "; exec cat >/dev/null")
+                                       .string() +
+                                   ":" + std::getenv("PATH"));
   {
     FrameWriter writer(dir / "out" / "half.mp4", 4, 24);
     writer.write(moving_frame(64, 48, 0));

@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 
 namespace retimegs::media {
 
@@ -29,10 +30,14 @@ std::filesystem::path find_ffmpeg(const std::filesystem::path& out);
 // replaced), as H.264 at `crf` in the container of `out`'s extension (.mp4, .mov or .mkv). `out`
 // is the output as the user named it, for messages; `file` is where it is written (its temporary
 // sibling). ffmpeg's output goes to a log in the temporary folder, kept and named when it fails.
+// `explain`, when given, runs first when ffmpeg has failed, and may throw its own Error instead
+// (FrameWriter names a file-size limit or a full disk as every writer does); the log is then
+// removed.
 class FfmpegVideo {
  public:
   FfmpegVideo(const std::filesystem::path& ffmpeg, const std::filesystem::path& file,
-              const std::filesystem::path& out, int width, int height, double fps, int crf);
+              const std::filesystem::path& out, int width, int height, double fps, int crf,
+              std::function<void()> explain = {});
   // A process that finish() has not waited for is killed (its half-written file is the caller's
   // to remove), so that an error or Ctrl-C leaves no encoder running.
   ~FfmpegVideo();
@@ -42,15 +47,17 @@ class FfmpegVideo {
   // One frame: width * height * 3 bytes, rows top to bottom, R, G, B. Throws Error when ffmpeg
   // has stopped (as finish() does).
   void write(const std::uint8_t* rgb);
-  // Ends the input and waits for ffmpeg to complete the file. Throws Error when it failed:
-  // "<out>: ffmpeg failed (<exit status or signal>): <its first error line> (log: <path>); ...",
-  // and Interrupted on Ctrl-C or SIGTERM meanwhile.
+  // Ends the input and waits for ffmpeg to complete the file. Throws Error when it failed, by its
+  // exit status, a signal or an error in its log: "<out>: ffmpeg failed (<exit status or
+  // signal>): <its first error line> (its log: <path>); ...", and Interrupted on Ctrl-C or SIGTERM
+  // meanwhile.
   void finish();
 
  private:
   [[noreturn]] void fail_stopped();
   void wait_for_exit();
-  std::filesystem::path out_, log_;
+  std::filesystem::path out_, file_, log_;
+  std::function<void()> explain_;
   int width_, height_;
   int input_ = -1;  // our end of ffmpeg's standard input
   pid_t pid_ = -1;  // until it has been waited for
