@@ -9,6 +9,7 @@ packages=(
   g++ cmake ninja-build pkg-config
   libeigen3-dev            # small dense math
   libopencv-dev            # images, flow I/O and estimation, video (FFmpeg backend)
+  ffmpeg                   # render's H.264 (.mp4, .mov, .mkv): frames piped to libx264 at a --crf
   libopencv-contrib-dev    # DeepFlow / TV-L1 flow (optflow)
   nlohmann-json3-dev libcli11-dev libfmt-dev libspdlog-dev
   libnanoflann-dev         # nearest neighbours (initialisation, stretching)

@@ -1,8 +1,8 @@
 // retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
 //                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
 // retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
-//   outputs: [--size WxH | --scale S] [--fps F] [--alpha] [--bit-depth 8|16] [--exr half|float]
-//   [--depth] [--force]
+//   outputs: [--size WxH | --scale S] [--fps F] [--crf N] [--alpha] [--bit-depth 8|16]
+//   [--exr half|float] [--depth] [--force]
 //   [--device cpu|cuda|auto] [--threads T]
 #include <cmath>
 #include <filesystem>
@@ -37,6 +37,7 @@ void add_render_command(CLI::App& app) {
     std::string camera_path;  // nerfstudio camera_path.json
     std::string size;         // --size WxH
     std::optional<double> scale, fps;
+    std::optional<int> crf;
     bool alpha = false, depth = false;
     int bit_depth = 8;
     std::string exr;
@@ -87,11 +88,16 @@ void add_render_command(CLI::App& app) {
                   "frames of a --path move at a fixed --time (bullet time)")
       ->capture_default_str();
   cmd->add_option("--out", args->out,
-                  "output: x.png or x.exr (one frame), x.mp4 / x.mov / x.mkv (H.264), x.avi "
-                  "(Motion-JPEG) or a folder of PNGs (EXRs with --exr) with times.csv")
+                  "output: x.png or x.exr (one frame), x.mp4 / x.mov / x.mkv (H.264, through the "
+                  "ffmpeg program), x.avi (Motion-JPEG) or a folder of PNGs (EXRs with --exr) "
+                  "with times.csv")
       ->required();
   cmd->add_option("--fps", args->fps,
                   "frame rate of a video (default: the scene's; a --camera-path file's own)");
+  cmd->add_option("--crf", args->crf,
+                  "H.264 outputs: libx264's constant quality, 0 (lossless; High 4:4:4 profile, "
+                  "which browsers do not play) to 51 (coarsest); 16 to 18 is near-lossless "
+                  "(default: 23, x264's)");
   auto* size = cmd->add_option("--size", args->size,
                                "render at WxH, the camera's aspect ratio (intrinsics scaled; "
                                "default: the camera's size)");
@@ -159,6 +165,7 @@ void add_render_command(CLI::App& app) {
       writer_options.exr =
           args->exr == "float" ? media::ExrPrecision::kFloat : media::ExrPrecision::kHalf;
     writer_options.depth = args->depth;
+    writer_options.crf = args->crf;
     writer_options.times = shot.times;
     writer_options.force = args->force;
     const std::size_t frames = shot.times.size();

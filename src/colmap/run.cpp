@@ -11,7 +11,6 @@
 #include <cctype>
 #include <cerrno>
 #include <chrono>
-#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <thread>
@@ -20,6 +19,7 @@
 
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/executable.hpp"
 #include "retimegs/core/interrupt.hpp"
 
 extern char** environ;
@@ -32,24 +32,6 @@ namespace {
 // How often a running command is checked for its end and for a signal: unnoticeable beside
 // commands that take seconds.
 constexpr std::chrono::milliseconds kWaitPoll{20};
-
-// The executable as a path, or empty when it cannot be found.
-fs::path find_executable(const std::string& name) {
-  auto runnable = [](const fs::path& p) {
-    return fs::is_regular_file(p) && ::access(p.c_str(), X_OK) == 0;
-  };
-  if (name.find('/') != std::string::npos) return runnable(name) ? fs::path(name) : fs::path();
-  const char* path = std::getenv("PATH");
-  std::string dirs = path ? path : "/usr/local/bin:/usr/bin:/bin";
-  for (std::size_t start = 0; start <= dirs.size();) {
-    std::size_t end = dirs.find(':', start);
-    if (end == std::string::npos) end = dirs.size();
-    const fs::path candidate = fs::path(dirs.substr(start, end - start)) / name;
-    if (end > start && runnable(candidate)) return candidate;
-    start = end + 1;
-  }
-  return {};
-}
 
 // The line of a log that best explains a failure: the last one that mentions an error (glog's
 // "Check failed", "ERROR", boost's "error"), else the last non-empty one.

@@ -70,10 +70,15 @@ std::string shown_path(const fs::path& path) {
   const std::string marker = fmt::format(".tmp{}", ::getpid());
   fs::path shown;
   for (const fs::path& part : path) {
-    const std::string name = part.string();
-    const std::size_t at = name.find(marker);
-    const bool temporary = name.size() > 1 && name[0] == '.' && at != std::string::npos && at > 1;
-    shown /= temporary ? name.substr(1, at - 1) + name.substr(at + marker.size()) : name;
+    std::string name = part.string();
+    // A temporary of a temporary (a file written whole into another writer's temporary name, as
+    // FrameWriter pairs a frame with its depth pass) is undone to the output as well.
+    for (;;) {
+      const std::size_t at = name.find(marker);
+      if (!(name.size() > 1 && name[0] == '.' && at != std::string::npos && at > 1)) break;
+      name = name.substr(1, at - 1) + name.substr(at + marker.size());
+    }
+    shown /= name;
   }
   return shown.string();
 }

@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -16,13 +17,19 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/core/limits.hpp"
+#include "retimegs/media/ffmpeg_video.hpp"
 #include "retimegs/media/image_io.hpp"
 
 namespace retimegs::media {
 namespace fs = std::filesystem;
 
+// Motion-JPEG through OpenCV's writer; H.264 through the ffmpeg program (ffmpeg_video.hpp), once
+// the first frame gives the size.
 struct FrameWriter::Video {
-  cv::VideoWriter writer;
+  fs::path ffmpeg;  // H.264 only
+  cv::VideoWriter mjpeg;
+  std::unique_ptr<FfmpegVideo> h264;
+  bool started = false;
   int width = 0, height = 0;
 };
 
@@ -36,8 +43,10 @@ bool is_h264(const fs::path& path) {
 
 // OpenCV's video writer drops FFmpeg's write errors: a video cut short by a file-size limit or a
 // full disk after its first block (the probe in the constructor) would be kept as if complete.
-// Each leaves a trace: the file at the size limit (a write beyond it fails with EFBIG), or its
-// file system without a free block (root may write into the reserved ones, others may not).
+// ffmpeg reports them in its words (and exits with status 0 when its trailer is cut): FfmpegVideo
+// runs this check first when it fails, so that either is named as every other writer names it.
+// Each leaves a trace: the file at the size limit (a write beyond it fails with EFBIG),
+// or its file system without a free block (root may write into the reserved ones, others may not).
 void check_video_not_cut_short(const fs::path& file, const fs::path& out) {
   rlimit limit{};
   if (::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
@@ -82,6 +91,15 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
         out_.string());
   const bool folder = !out.has_filename() || ext.empty();  // `x/` is a folder whatever its name
   if (options_.depth && !folder) check_output_free(depth_path(out_), options.force);
+  const bool h264 = !folder && is_h264(out_);
+  if (options_.crf && !h264)
+    fail("{}: --crf is the quality of H.264 video (.mp4, .mov, .mkv), not of {}", out_.string(),
+         folder ? std::string("a folder of frames") : fmt::format("a {} output", ext));
+  if (options_.crf && (*options_.crf < kMinCrf || *options_.crf > kMaxCrf))
+    fail(
+        "{}: --crf {} is outside libx264's range {} to {} (0 lossless, 16 to 18 near-lossless, {} "
+        "the default)",
+        out_.string(), *options_.crf, kMinCrf, kMaxCrf, kDefaultCrf);
   if (folder) {
     kind_ = Kind::kFolder;
     folder_ = std::make_unique<AtomicDirectory>(out_, options.force);
@@ -104,6 +122,8 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
       fail("{}: a video is 8-bit; {} bits per channel (--bit-depth) need a .png or a folder",
            out_.string(), options.bit_depth);
     kind_ = Kind::kVideo;
+    video_ = std::make_unique<Video>();
+    if (h264) video_->ffmpeg = find_ffmpeg(out_);
     file_ = std::make_unique<AtomicFile>(out_, /*replace=*/options.force);
     // The encoder reports any failure to create or start its file as "cannot open": try both
     // first (a block of the size of a container header), so that a read-only folder or a full
@@ -118,7 +138,6 @@ FrameWriter::FrameWriter(fs::path out, int frames, const FrameWriterOptions& opt
         fail("{}: cannot create the video file: {}", out_.string(),
              errno ? std::strerror(errno) : "unknown error");
     }
-    video_ = std::make_unique<Video>();
   } else {
     fail(
         "{}: unknown output type '{}': give x.png or x.exr (one frame), a video (.mp4, .mov, "
@@ -152,32 +171,46 @@ void FrameWriter::write(const Image& image, const Image* depth) {
           image, depth, /*replace=*/true);
       break;
     case Kind::kVideo: {
-      if (!video_->writer.isOpened()) {
-        const bool h264 = is_h264(out_);
+      const bool h264 = !video_->ffmpeg.empty();
+      if (!video_->started) {
         if (image.width % 2 != 0 || image.height % 2 != 0)
           fail(
               "{}: a video needs an even width and height (4:2:0 chroma), the frames are {}x{}: "
               "render at an even size (--size, --scale) or write PNGs",
               out_.string(), image.width, image.height);
-        const int fourcc = h264 ? cv::VideoWriter::fourcc('a', 'v', 'c', '1')
-                                : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
-        // Software encoding: the codec and its settings do not depend on the machine's GPU.
-        const std::vector<int> params = {cv::VIDEOWRITER_PROP_HW_ACCELERATION,
-                                         cv::VIDEO_ACCELERATION_NONE};
-        video_->writer.open(file_->temp_path().string(), cv::CAP_FFMPEG, fourcc, options_.fps,
-                            cv::Size(image.width, image.height), params);
-        if (!video_->writer.isOpened())
-          fail("{}: cannot open a {} video writer (OpenCV's FFmpeg backend without {}?)",
-               out_.string(), h264 ? "H.264" : "Motion-JPEG", h264 ? "libx264" : "mjpeg");
+        if (h264) {
+          const fs::path file = file_->temp_path(), out = out_;
+          video_->h264 =
+              std::make_unique<FfmpegVideo>(video_->ffmpeg, file, out, image.width, image.height,
+                                            options_.fps, options_.crf.value_or(kDefaultCrf),
+                                            [file, out] { check_video_not_cut_short(file, out); });
+        } else {
+          // Software encoding: the codec and its settings do not depend on the machine's GPU.
+          const std::vector<int> params = {cv::VIDEOWRITER_PROP_HW_ACCELERATION,
+                                           cv::VIDEO_ACCELERATION_NONE};
+          video_->mjpeg.open(file_->temp_path().string(), cv::CAP_FFMPEG,
+                             cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), options_.fps,
+                             cv::Size(image.width, image.height), params);
+          if (!video_->mjpeg.isOpened())
+            fail(
+                "{}: cannot open a Motion-JPEG video writer (OpenCV's FFmpeg backend without "
+                "mjpeg?)",
+                out_.string());
+        }
+        video_->started = true;
         video_->width = image.width, video_->height = image.height;
       }
       if (image.width != video_->width || image.height != video_->height)
         fail("{}: frame {} is {}x{} but the video is {}x{}", out_.string(), written_, image.width,
              image.height, video_->width, video_->height);
-      cv::Mat f(image.height, image.width, CV_32FC3, const_cast<float*>(image.data.data())), bgr8;
-      f.convertTo(bgr8, CV_8UC3, 255.0);
-      cv::cvtColor(bgr8, bgr8, cv::COLOR_RGB2BGR);
-      video_->writer.write(bgr8);
+      cv::Mat f(image.height, image.width, CV_32FC3, const_cast<float*>(image.data.data())), rgb8;
+      f.convertTo(rgb8, CV_8UC3, 255.0);  // rounded, clamped to [0, 255]
+      if (h264) {
+        video_->h264->write(rgb8.ptr<std::uint8_t>());
+      } else {
+        cv::cvtColor(rgb8, rgb8, cv::COLOR_RGB2BGR);
+        video_->mjpeg.write(rgb8);
+      }
       break;
     }
   }
@@ -186,20 +219,37 @@ void FrameWriter::write(const Image& image, const Image* depth) {
 
 void FrameWriter::write_image(const fs::path& path, const Image& image, const Image* depth,
                               bool replace) const {
+  const auto write_colour = [&](const fs::path& to, bool replace_to) {
+    if (options_.exr)
+      write_exr(to, image, *options_.exr == ExrPrecision::kFloat, replace_to);
+    else
+      write_png(to, image, options_.bit_depth, replace_to);
+  };
+  if (!depth) return write_colour(path, replace);
+  // A frame and its depth pass appear together or not at all: both are written under temporary
+  // names, then moved into place, the depth pass first, which is taken back when the frame's move
+  // fails (another writer's x.exr there meanwhile, a folder in its place).
+  AtomicFile depth_file(depth_path(path), replace), colour_file(path, replace);
   // Float, whatever the frames' precision: half's 11-bit mantissa would step by 1/1024 of the
   // depth, and kNoDepth is beyond its range.
-  if (depth) write_exr(depth_path(path), *depth, /*float32=*/true, replace);
-  if (options_.exr)
-    write_exr(path, image, *options_.exr == ExrPrecision::kFloat, replace);
-  else
-    write_png(path, image, options_.bit_depth, replace);
+  write_exr(depth_file.temp_path(), *depth, /*float32=*/true, /*replace=*/true);
+  write_colour(colour_file.temp_path(), /*replace_to=*/true);
+  depth_file.commit();
+  try {
+    colour_file.commit();
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(depth_file.final_path(), ignored);
+    throw;
+  }
 }
 
 void FrameWriter::finish() {
   if (written_ != frames_)
     fail("{}: {} of {} frames were written", out_.string(), written_, frames_);
   if (kind_ == Kind::kVideo) {
-    video_->writer.release();
+    if (video_->h264) video_->h264->finish();
+    video_->mjpeg.release();
     if (!fs::exists(file_->temp_path()) || fs::file_size(file_->temp_path()) == 0)
       fail("{}: the video encoder wrote nothing", out_.string());
     check_video_not_cut_short(file_->temp_path(), out_);

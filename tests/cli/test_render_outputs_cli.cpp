@@ -1,8 +1,9 @@
 // `retimegs render` outputs for a VFX pipeline: --size / --scale render at another size (the
 // camera's intrinsics scaled, not a resampled image), --alpha writes straight RGBA PNGs,
 // --bit-depth 16 16-bit PNGs, --fps the video's rate (the scene's by default), a folder gets
-// times.csv, --depth a float depth pass beside each EXR frame; options that do not fit the output
-// are refused with one line and status 2.
+// times.csv, --depth a float depth pass beside each EXR frame, --crf the H.264 quality; options
+// that do not fit the output are refused with one line and status 2, and so is H.264 without the
+// ffmpeg program.
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -13,6 +14,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "cli_run.hpp"
+#include "retimegs/core/executable.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/media/image_io.hpp"
@@ -150,6 +153,66 @@ TEST(RenderOutputsCli, FpsSetsTheVideoRateAndTheSceneGivesTheDefault) {
   }
 }
 
+// The PSNR in dB of a video's decoded frames, all together, against the PNG frames of `folder`.
+double video_psnr(const fs::path& video, const fs::path& folder) {
+  cv::VideoCapture cap(video.string(), cv::CAP_FFMPEG);
+  EXPECT_TRUE(cap.isOpened()) << video;
+  double se = 0, values = 0;
+  int k = 0;
+  for (cv::Mat decoded; cap.read(decoded); ++k) {
+    const cv::Mat png = cv::imread((folder / fmt::format("{:05d}.png", k)).string());
+    EXPECT_EQ(png.size(), decoded.size()) << video << " frame " << k;
+    if (png.size() != decoded.size()) return 0;
+    cv::Mat d;
+    cv::absdiff(png, decoded, d);
+    d.convertTo(d, CV_64F);
+    se += cv::sum(d.mul(d))[0] + cv::sum(d.mul(d))[1] + cv::sum(d.mul(d))[2];
+    values += 3.0 * double(d.total());
+  }
+  EXPECT_GT(k, 0) << video;
+  return 10 * std::log10(255.0 * 255.0 / std::max(se / std::max(values, 1.0), 1e-12));
+}
+
+// --crf sets the H.264 quality: the renders of --crf 0 are larger and decode closer to the same
+// frames written as PNGs than those of --crf 40; x264 signs each with its rate control.
+TEST(RenderOutputsCli, CrfSetsTheH264Quality) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  const std::string shot = "--times 0:2:0.25 --scale 2 --out ";
+  ASSERT_EQ(f.render(shot + (dir / "frames/").string()).status, 0);
+  for (const char* crf : {"0", "40"}) {
+    const auto r = f.render("--crf " + std::string(crf) + " " + shot +
+                            (dir / (std::string("crf") + crf + ".mp4")).string());
+    ASSERT_EQ(r.status, 0) << r.err;
+  }
+  const fs::path lossless = dir / "crf0.mp4", coarse = dir / "crf40.mp4";
+  EXPECT_NE(test::read_text(lossless).find("rc=cqp"), std::string::npos);  // x264's lossless mode
+  EXPECT_NE(test::read_text(coarse).find("crf=40.0"), std::string::npos);
+  EXPECT_GT(fs::file_size(lossless), 2 * fs::file_size(coarse));
+  const double lossless_db = video_psnr(lossless, dir / "frames"),
+               coarse_db = video_psnr(coarse, dir / "frames");
+  EXPECT_GT(lossless_db, coarse_db + 5) << lossless_db << " vs " << coarse_db;
+}
+
+// H.264 is written by the ffmpeg program: without it on PATH, render refuses in one line that
+// says what to install, before rendering, and writes nothing.
+TEST(RenderOutputsCli, H264WithoutFfmpegIsRefusedInOneLine) {
+  test::TempDir dir;
+  const Fixture f(dir.path());
+  fs::create_directories(dir / "bin");  // `timeout` alone, which the test runs the command under
+  fs::create_symlink(find_executable("timeout"), dir / "bin" / "timeout");
+  const fs::path out = dir / "clip.mp4";
+  const auto r = test::run_cli_timed(
+      "render --model " + (dir / "model.rgs").string() + " --scene " + f.scene.root.string() +
+          " --camera cam00 --times 0:2:0.5 --crf 18 --out " + out.string(),
+      60, "export PATH=" + (dir / "bin").string() + "; ");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_TRUE(test::is_single_error_line(r.err)) << r.err;
+  EXPECT_NE(r.err.find(out.string() + ": H.264 video"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("install it (Debian package ffmpeg"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 TEST(RenderOutputsCli, AFolderGetsTimesCsv) {
   test::TempDir dir;
   const Fixture f(dir.path());
@@ -243,7 +306,8 @@ TEST(RenderOutputsCli, OptionsThatDoNotFitExitTwoWithOneLine) {
         Case{"--scale 0" + png, "--scale"}, Case{"--scale -2" + png, "--scale"},
         Case{"--size 33x25" + mp4, "even"}, Case{"--fps 0" + mp4, "--fps"},
         Case{"--fps -3" + mp4, "--fps"}, Case{"--fps nan" + mp4, "--fps"},
-        Case{"--fps inf" + mp4, "--fps"}}) {
+        Case{"--fps inf" + mp4, "--fps"}, Case{"--crf 52" + mp4, "--crf 52"},
+        Case{"--crf -1" + mp4, "--crf -1"}, Case{"--crf 18" + png, "--crf"}}) {
     const auto r = f.render(c.args);
     EXPECT_EQ(r.status, 2) << c.args;
     EXPECT_NE(r.err.find(c.fragment), std::string::npos) << c.args << ": " << r.err;

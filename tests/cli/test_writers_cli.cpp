@@ -1,8 +1,8 @@
 // Writers under signals and beside other writers: export --time, export --web and merge of a large
 // model stop on Ctrl-C / SIGTERM while they load, pack or write (exit 130 / 143, one line, their
-// unfinished output removed); an output that another writer creates while a command runs is not
-// replaced (the command fails in one line, exit 2); a link at --out, dangling or a loop, is an
-// existing output.
+// unfinished output removed), and so does an H.264 render, ending its ffmpeg; an output that
+// another writer creates while a command runs is not replaced (the command fails in one line, exit
+// 2); a link at --out, dangling or a loop, is an existing output.
 #include <signal.h>
 #include <unistd.h>
 
@@ -11,6 +11,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -130,6 +131,40 @@ TEST_F(WritersCli, SigtermStopsAWebExport) {
 TEST_F(WritersCli, CtrlCStopsAMerge) {
   expect_interrupted({"merge", "--out", (out_ / "m.rgs").string(), large_model().string()}, SIGINT,
                      loading);
+}
+
+// The ffmpeg process that `pid` started, or 0 while there is none.
+pid_t ffmpeg_child(pid_t pid) {
+  for (const auto& entry : fs::directory_iterator("/proc")) {
+    std::ifstream stat(entry.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    // "pid (comm) state ppid ...": the command name may hold spaces, so read after its ')'.
+    const std::size_t close = line.rfind(')');
+    if (close == std::string::npos || line.find("(ffmpeg)") == std::string::npos) continue;
+    std::istringstream rest(line.substr(close + 1));
+    char state = 0;
+    pid_t parent = 0;
+    rest >> state >> parent;
+    if (parent == pid) return std::stoi(line);
+  }
+  return 0;
+}
+
+// Ctrl-C while a render pipes its frames to ffmpeg: the render stops as every command does
+// (130, one line, no output), and its ffmpeg is ended with it, not left to finish a removed file.
+TEST_F(WritersCli, CtrlCStopsAnH264RenderAndItsFfmpeg) {
+  pid_t encoder = 0;
+  const auto encoding = [&](pid_t pid) {
+    encoder = ffmpeg_child(pid);
+    return encoder != 0;
+  };
+  expect_interrupted(
+      {"render", "--model", small_model().string(), "--scene", scene().string(), "--camera",
+       "cam00", "--times", "0:2:0.002", "--size", "320x240", "--out", (out_ / "v.mp4").string()},
+      SIGINT, encoding);
+  ASSERT_NE(encoder, 0);
+  EXPECT_EQ(::kill(encoder, 0), -1) << "ffmpeg " << encoder << " still runs";
 }
 
 // Another writer creates the output while the command runs (after its own check that nothing is

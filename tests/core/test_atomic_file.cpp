@@ -36,6 +36,19 @@ TEST(AtomicFile, AbandonedWriteLeavesNothing) {
   EXPECT_TRUE(fs::is_empty(dir / "sub"));
 }
 
+// Messages name the output, not its temporary: a temporary's name, and that of a file written
+// whole into another writer's temporary (FrameWriter's frame beside its depth pass), are shown as
+// the output they become.
+TEST(AtomicFile, ShownPathIsTheOutputsForTemporariesOfTemporaries) {
+  test::TempDir dir;
+  const AtomicFile outer(dir / "plate.depth.exr");
+  const AtomicFile inner(outer.temp_path());
+  EXPECT_NE(outer.temp_path(), dir / "plate.depth.exr");
+  EXPECT_EQ(shown_path(outer.temp_path()), (dir / "plate.depth.exr").string());
+  EXPECT_EQ(shown_path(inner.temp_path()), (dir / "plate.depth.exr").string());
+  EXPECT_EQ(shown_path(dir / ".hidden.txt"), (dir / ".hidden.txt").string());
+}
+
 TEST(AtomicFile, TextFileIsWrittenWholeOrNamesThePath) {
   test::TempDir dir;
   write_text_file(dir / "sub" / "state.json", "{\"a\": 1}\n");

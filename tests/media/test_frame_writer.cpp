@@ -1,11 +1,21 @@
 // FrameWriter's outputs as a VFX pipeline reads them: .mp4 / .mov / .mkv are H.264 (libx264,
-// 4:2:0, 8-bit) that decodes close to what was written, .avi Motion-JPEG at any size; PNGs hold
-// straight RGBA and 16-bit codes exactly; a folder has times.csv; options that do not fit the
-// output are refused before anything is written.
+// 4:2:0, 8-bit, through the ffmpeg program) that decodes close to what was written, at the CRF
+// asked for, .avi Motion-JPEG at any size; PNGs hold straight RGBA and 16-bit codes exactly; a
+// folder has times.csv; an EXR frame and its depth pass appear together; options that do not fit
+// the output are refused before anything is written, and so is H.264 without ffmpeg; a failing
+// or abandoned ffmpeg leaves no file and no process.
+#include <signal.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -14,6 +24,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "retimegs/core/error.hpp"
+#include "retimegs/media/ffmpeg_video.hpp"
 #include "retimegs/media/frame_writer.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "test_util.hpp"
@@ -47,6 +58,21 @@ Image moving_frame(int width, int height, int k) {
   return image;
 }
 
+// A moving texture in luma over smooth colour gradients: what 4:2:0 keeps (its chroma is smooth),
+// so that a decoded frame differs from it by the encoder's loss rather than by the subsampling.
+Image textured_frame(int width, int height, int k) {
+  Image image(width, height, 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float t =
+          0.35f + 0.3f * float(std::sin((x + 3.0 * k) / 3.0) * std::cos((y - 2.0 * k) / 5.0));
+      image.at(y, x, 0) = 0.3f * float(x) / width + t;
+      image.at(y, x, 1) = 0.3f * float(y) / height + t;
+      image.at(y, x, 2) = 0.3f + t;
+    }
+  return image;
+}
+
 // PSNR in dB of a decoded BGR 8-bit frame against the RGB frame written.
 double psnr(const cv::Mat& bgr, const Image& rgb) {
   double se = 0;
@@ -59,10 +85,87 @@ double psnr(const cv::Mat& bgr, const Image& rgb) {
   return 10 * std::log10(255.0 * 255.0 / (se / (3.0 * rgb.pixels())));
 }
 
-void write_video(const fs::path& path, int width, int height, int frames, double fps) {
-  FrameWriter writer(path, frames, fps);
-  for (int k = 0; k < frames; ++k) writer.write(moving_frame(width, height, k));
+using FrameFunction = Image (*)(int width, int height, int k);
+
+void write_video(const fs::path& path, int width, int height, int frames, double fps,
+                 std::optional<int> crf = std::nullopt, FrameFunction frame = moving_frame) {
+  FrameWriterOptions o = options(fps);
+  o.crf = crf;
+  FrameWriter writer(path, frames, o);
+  for (int k = 0; k < frames; ++k) writer.write(frame(width, height, k));
   writer.finish();
+}
+
+// The mean PSNR in dB of a video's decoded frames against frame(width, height, k), and how many
+// frames it has.
+std::pair<double, int> video_psnr(const fs::path& path, int width, int height,
+                                  FrameFunction frame) {
+  cv::VideoCapture cap(path.string(), cv::CAP_FFMPEG);
+  if (!cap.isOpened()) return {0.0, 0};
+  double sum = 0;
+  int frames = 0;
+  for (cv::Mat bgr; cap.read(bgr); ++frames) sum += psnr(bgr, frame(width, height, frames));
+  return {frames ? sum / frames : 0.0, frames};
+}
+
+// Environment variable `name` set to `value` for the life of the object (the writer looks ffmpeg
+// up on PATH, and puts its log in TMPDIR).
+class ScopedEnv {
+ public:
+  ScopedEnv(std::string name, const std::string& value) : name_(std::move(name)) {
+    const char* old = std::getenv(name_.c_str());
+    had_ = old != nullptr;
+    if (had_) old_ = old;
+    ::setenv(name_.c_str(), value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (had_)
+      ::setenv(name_.c_str(), old_.c_str(), 1);
+    else
+      ::unsetenv(name_.c_str());
+  }
+
+ private:
+  std::string name_, old_;
+  bool had_ = false;
+};
+
+// A file-size limit of `bytes` for this process and its children while the object lives, with
+// SIGXFSZ ignored as the app ignores it, so that writes beyond it fail with EFBIG.
+class ScopedFileSizeLimit {
+ public:
+  explicit ScopedFileSizeLimit(rlim_t bytes) {
+    old_handler_ = ::signal(SIGXFSZ, SIG_IGN);
+    ::getrlimit(RLIMIT_FSIZE, &old_);
+    rlimit limited = old_;
+    limited.rlim_cur = bytes;
+    ::setrlimit(RLIMIT_FSIZE, &limited);
+  }
+  ~ScopedFileSizeLimit() {
+    ::setrlimit(RLIMIT_FSIZE, &old_);
+    ::signal(SIGXFSZ, old_handler_);
+  }
+
+ private:
+  rlimit old_{};
+  sighandler_t old_handler_ = SIG_DFL;
+};
+
+// A folder holding an executable `ffmpeg` shell script with `body`, to stand for a broken one.
+fs::path fake_ffmpeg(const fs::path& dir, const std::string& body) {
+  fs::create_directories(dir);
+  test::write_text(dir / "ffmpeg", "#!/bin/sh\n" + body + "\n");
+  fs::permissions(dir / "ffmpeg", fs::perms::owner_all);
+  return dir;
+}
+
+// The "(its log: PATH)" a failure message names.
+fs::path named_log(const std::string& message) {
+  const std::string key = "(its log: ";
+  const std::size_t at = message.find(key);
+  if (at == std::string::npos) return {};
+  const std::size_t end = message.find(')', at);
+  return message.substr(at + key.size(), end - at - key.size());
 }
 
 std::string fourcc_text(double fourcc) {
@@ -171,6 +274,159 @@ TEST(FrameWriter, AviIsMotionJpeg) {
   EXPECT_EQ(bgr.cols, 64);
   EXPECT_EQ(bgr.rows, 48);
   EXPECT_GT(psnr(bgr, moving_frame(64, 48, 0)), 30.0);
+}
+
+// The CRF (--crf) trades size for quality: CRF 0 (lossless coding of the 4:2:0 frames) is far
+// larger and decodes far closer to the frames than the default 23, and 23 than 40 (on these
+// frames about 45, 37 and 28 dB; 57, 4.3 and 2.6 KB). x264 signs each file with the rate control
+// it used.
+TEST(FrameWriter, CrfTradesSizeForQuality) {
+  TempDir dir;
+  struct Result {
+    std::uintmax_t bytes = 0;
+    double psnr = 0;
+  };
+  std::vector<Result> results;
+  for (const std::optional<int> crf :
+       {std::optional<int>(0), std::optional<int>(), std::optional<int>(40)}) {
+    const fs::path mp4 = dir / fmt::format("crf{}.mp4", crf.value_or(kDefaultCrf));
+    write_video(mp4, 128, 96, 12, 24, crf, textured_frame);
+    const std::string bytes = test::read_text(mp4);
+    // x264 codes CRF 0 as constant QP 0, its lossless mode.
+    EXPECT_NE(
+        bytes.find(crf == 0 ? "rc=cqp" : fmt::format("rc=crf mbtree=1 crf={}.0", crf.value_or(23))),
+        std::string::npos)
+        << mp4;
+    const auto [psnr_db, frames] = video_psnr(mp4, 128, 96, textured_frame);
+    EXPECT_EQ(frames, 12) << mp4;
+    results.push_back({fs::file_size(mp4), psnr_db});
+  }
+  const Result lossless = results[0], standard = results[1], coarse = results[2];
+  EXPECT_GT(lossless.bytes, 5 * standard.bytes);
+  EXPECT_GT(standard.bytes, 1.3 * double(coarse.bytes));
+  EXPECT_GT(lossless.psnr, 43.0);  // what 4:2:0 and 8-bit YUV alone lose
+  EXPECT_GT(lossless.psnr, standard.psnr + 5);
+  EXPECT_GT(standard.psnr, coarse.psnr + 5);
+}
+
+// H.264 needs the ffmpeg program: without it on PATH, an H.264 output is refused when the writer
+// is made, in words that say what to install or write instead; Motion-JPEG and PNGs (OpenCV,
+// libpng) are written as before.
+TEST(FrameWriter, H264WithoutFfmpegIsRefusedUpFront) {
+  TempDir dir;
+  fs::create_directories(dir / "empty-bin");
+  const ScopedEnv path("PATH", (dir / "empty-bin").string());
+  for (const char* name : {"v.mp4", "v.mov", "v.mkv"})
+    expect_error([&] { FrameWriter(dir / name, 2, 24); },
+                 {name, "ffmpeg program", "not on PATH", "Debian package ffmpeg", "PNGs"});
+  EXPECT_FALSE(fs::exists(dir / "v.mp4"));
+  write_video(dir / "clip.avi", 64, 48, 2, 24);
+  write_video(dir / "frames/", 8, 6, 2, 24);
+  EXPECT_TRUE(fs::exists(dir / "clip.avi"));
+  EXPECT_TRUE(fs::exists(dir / "frames" / "00001.png"));
+}
+
+// A failing ffmpeg (here a stand-in that fails as ffmpeg does, at once, after reading a little,
+// by a signal, or with status 0 and an error) is one error naming the output, how it ended, its
+// first error line (the output named as the user did, not its temporary) and its log, which is
+// kept; the half-written video is not.
+TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
+  TempDir dir;
+  struct Case {
+    std::string script, how, line;
+  };
+  for (const Case& c : {
+           Case{"echo \"[libx264 @ 0x1] broken encoder\" >&2; echo 'Conversion failed!' >&2; "
+                "exit 1",
+                "(exit status 1)", "[libx264 @ 0x1] broken encoder"},
+           Case{"head -c 1000 >/dev/null; echo 'av_interleaved_write_frame(): I/O error' >&2; "
+                "exit 3",
+                "(exit status 3)", "av_interleaved_write_frame(): I/O error"},
+           Case{"kill -SEGV $$", "(ended by signal 11", "(no output)"},
+           // ffmpeg 5.1 exits with 0 when its trailer cannot be written, and says so.
+           Case{"cat >/dev/null; for last; do :; done; "
+                "echo \"Error writing trailer of $last: Input/output error\" >&2",
+                "(exit status 0, after an error)",
+                "Error writing trailer of " + (dir / "out" / "v.mp4").string() +
+                    ": Input/output error"},
+       }) {
+    const ScopedEnv path("PATH",
+                         fake_ffmpeg(dir / "bin", c.script).string() + ":" + std::getenv("PATH"));
+    const fs::path out = dir / "out" / "v.mp4";
+    std::string message;
+    {
+      // 512x384 frames: more than the socket holds, so that the stop shows in write() too.
+      FrameWriter writer(out, 4, 24);
+      message = test::message_of([&] {
+        for (int k = 0; k < 4; ++k) writer.write(moving_frame(512, 384, k));
+        writer.finish();
+      });
+    }
+    EXPECT_NE(message.find(out.string() + ": ffmpeg failed " + c.how), std::string::npos)
+        << message;
+    EXPECT_NE(message.find(c.line), std::string::npos) << message;
+    EXPECT_NE(message.find("write PNGs"), std::string::npos) << message;
+    const fs::path log = named_log(message);
+    ASSERT_FALSE(log.empty()) << message;
+    // The log as ffmpeg wrote it (the temporary's name in it).
+    EXPECT_NE(test::read_text(log).find(c.line == "(no output)" ? "" : c.line.substr(0, 20)),
+              std::string::npos);
+    EXPECT_EQ(message.find(".tmp"), std::string::npos) << message;
+    fs::remove(log);
+    EXPECT_TRUE(fs::is_empty(dir / "out")) << c.script;
+  }
+}
+
+// A writer dropped before finish() (an error or Ctrl-C while rendering) ends its ffmpeg and
+// leaves no file: the process is gone once the writer is.
+// A video cut short by a file-size limit is named as every writer names it, whether ffmpeg failed
+// mid-stream or, writing its trailer, said so and exited with status 0 (ffmpeg 5.1 does); its log
+// is not kept, as the message does not name it.
+TEST(FrameWriter, AVideoCutShortByAFileSizeLimitIsNamedSo) {
+  TempDir dir;
+  fs::create_directories(dir / "tmp");
+  const ScopedEnv tmpdir("TMPDIR", (dir / "tmp").string());
+  write_video(dir / "whole.mp4", 128, 96, 12, 24, std::nullopt, textured_frame);
+  const std::uintmax_t whole = fs::file_size(dir / "whole.mp4");
+  // Mid-stream: lossless frames pass the limit long before the end. The trailer: an MP4's index
+  // is its last box, so a limit a little below the whole file cuts it there.
+  for (const auto& [crf, limit] : {std::pair{0, std::uintmax_t(16384)}, {23, whole - 64}}) {
+    std::string message;
+    {
+      const ScopedFileSizeLimit limited(limit);
+      message = test::message_of(
+          [&] { write_video(dir / "out" / "v.mp4", 128, 96, 12, 24, crf, textured_frame); });
+    }
+    EXPECT_NE(message.find("v.mp4: cannot write the video file: File too large"), std::string::npos)
+        << "CRF " << crf << ": " << message;
+    EXPECT_TRUE(fs::is_empty(dir / "out")) << crf;
+    EXPECT_TRUE(fs::is_empty(dir / "tmp")) << crf;  // no log left
+  }
+}
+
+TEST(FrameWriter, AnAbandonedVideoEndsItsFfmpeg) {
+  TempDir dir;
+  {
+    // The real encoder, half-way through.
+    FrameWriter writer(dir / "out" / "half.mp4", 4, 24);
+    writer.write(moving_frame(64, 48, 0));
+    writer.write(moving_frame(64, 48, 1));
+  }
+  EXPECT_TRUE(fs::is_empty(dir / "out"));
+  // A stand-in that says who it is and reads on until its input ends.
+  const ScopedEnv path("PATH", fake_ffmpeg(dir / "bin", "echo $$ > " + (dir / "pid").string() +
+                                                            "; exec cat >/dev/null")
+                                       .string() +
+                                   ":" + std::getenv("PATH"));
+  {
+    FrameWriter writer(dir / "out" / "half.mp4", 4, 24);
+    writer.write(moving_frame(64, 48, 0));
+    for (int wait = 0; wait < 500 && test::read_text(dir / "pid").empty(); ++wait) ::usleep(10000);
+  }
+  const pid_t pid = std::stoi(test::read_text(dir / "pid"));
+  EXPECT_EQ(::kill(pid, 0), -1);
+  EXPECT_EQ(errno, ESRCH) << "ffmpeg " << pid << " still runs";
+  EXPECT_TRUE(fs::is_empty(dir / "out"));
 }
 
 TEST(FrameWriter, VideosRefuseAnOddSizeAndLeaveNothing) {
@@ -340,6 +596,45 @@ TEST(FrameWriter, DepthPassIsOneFloatChannelBesideEachExrFrame) {
   expect_error([&] { FrameWriter(dir / "plate.exr", 1, o); }, {"plate.depth.exr"});
 }
 
+// A one-frame x.exr and its x.depth.exr appear together or not at all: when the frame cannot be
+// moved into place (another writer's x.exr appeared meanwhile; with --force, a folder stands
+// there), no depth pass is left behind, nor any temporary.
+TEST(FrameWriter, AnExrFrameAndItsDepthPassAppearTogether) {
+  if (!can_write_exr()) GTEST_SKIP() << "this OpenCV build writes no OpenEXR";
+  TempDir dir;
+  const Image depth(4, 3, 1, 2.0f);
+  FrameWriterOptions o = options();
+  o.depth = true;
+  {
+    FrameWriter writer(dir / "plate.exr", 1, o);
+    test::write_text(dir / "plate.exr", "another writer's");
+    expect_error([&] { writer.write(Image(4, 3, 3, 0.5f), &depth); },
+                 {"plate.exr", "already exists"});
+  }
+  EXPECT_FALSE(fs::exists(dir / "plate.depth.exr"));
+  EXPECT_EQ(test::read_text(dir / "plate.exr"), "another writer's");
+  o.force = true;
+  fs::create_directories(dir / "held.exr" / "inside");
+  {
+    FrameWriter writer(dir / "held.exr", 1, o);
+    expect_error([&] { writer.write(Image(4, 3, 3, 0.5f), &depth); }, {"held.exr"});
+  }
+  EXPECT_FALSE(fs::exists(dir / "held.depth.exr"));
+  std::vector<std::string> left;
+  for (const auto& entry : fs::directory_iterator(dir.path()))
+    left.push_back(entry.path().filename().string());
+  std::sort(left.begin(), left.end());
+  EXPECT_EQ(left, (std::vector<std::string>{"held.exr", "plate.exr"}));
+  // Written, the pair is there.
+  {
+    FrameWriter writer(dir / "both.exr", 1, o);
+    writer.write(Image(4, 3, 3, 0.5f), &depth);
+    writer.finish();
+  }
+  EXPECT_TRUE(fs::exists(dir / "both.exr"));
+  EXPECT_TRUE(fs::exists(dir / "both.depth.exr"));
+}
+
 TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
   TempDir dir;
   expect_error([&] { FrameWriter(dir / "v.mp4", 2, options(24, true)); },
@@ -362,6 +657,20 @@ TEST(FrameWriter, RefusesOptionsThatDoNotFitTheOutput) {
                  {name.substr(0, 4), "--depth", "x.exr"});
   exr.depth = true;
   expect_error([&] { FrameWriter(dir / "v.avi", 2, exr); }, {"v.avi", "not EXR"});
+  // A CRF is H.264's alone, within libx264's range.
+  for (const int crf : {-1, 52}) {
+    FrameWriterOptions o = options(24);
+    o.crf = crf;
+    expect_error([&] { FrameWriter(dir / "v.mp4", 2, o); },
+                 {"v.mp4", fmt::format("--crf {}", crf), "0 to 51"});
+  }
+  for (const std::string name : {"v.avi", "v.png", "v.exr", "pngs/", "v.mp4/"}) {
+    FrameWriterOptions o = options(24);
+    o.crf = 18;
+    if (name == "v.exr" && !can_write_exr()) continue;
+    expect_error([&] { FrameWriter(dir / name, name == "v.png" || name == "v.exr" ? 1 : 2, o); },
+                 {name.substr(0, 4), "--crf", "H.264"});
+  }
   {
     FrameWriter rgba(dir / "a.png", 1, options(0, true));
     expect_error([&] { rgba.write(moving_frame(4, 4, 0)); }, {"a.png", "4 channels"});

@@ -2,9 +2,9 @@
 // Where rendered frames go, chosen by the output path:
 //   x.png                  exactly one frame
 //   x.exr                  exactly one frame as OpenEXR (write_exr: half or float, unclamped)
-//   x.mp4, x.mov, x.mkv    H.264 video (libx264 through OpenCV's FFmpeg backend; 8-bit yuv420p,
-//                          x264's constant quality CRF 23): what browsers, players and
-//                          editors open
+//   x.mp4, x.mov, x.mkv    H.264 video (libx264 through the ffmpeg program, ffmpeg_video.hpp;
+//                          8-bit yuv420p at a constant quality, CRF 23 unless set): what
+//                          browsers, players and editors open
 //   x.avi                  Motion-JPEG video (every frame a JPEG, 4:2:0): intra-only frames for
 //                          tools that scrub or cut frame by frame
 // Both videos halve the chroma in each direction, so their frames must have an even width and
@@ -44,6 +44,9 @@ struct FrameWriterOptions {
   // EXR outputs only: write() also takes each frame's depth pass, written as float EXR at
   // depth_path(frame) (so an x.exr output also claims x.depth.exr, --force and all).
   bool depth = false;
+  // H.264 outputs only: libx264's constant rate factor, kMinCrf to kMaxCrf (0 lossless; unset:
+  // kDefaultCrf, 23).
+  std::optional<int> crf;
   bool force = false;  // replace an existing output folder or file
 };
 
@@ -51,7 +54,8 @@ class FrameWriter {
  public:
   // `frames`: how many will be written (checked; so is times.size() when times are given). Throws
   // Error naming the output when the options do not fit its kind (alpha or 16 bits for a video,
-  // EXR where this build cannot write it, a depth pass for PNGs or a video).
+  // EXR where this build cannot write it, a depth pass for PNGs or a video, a CRF for anything
+  // but H.264 or outside its range), or when H.264 is asked for and ffmpeg is not installed.
   FrameWriter(std::filesystem::path out, int frames, const FrameWriterOptions& options);
   FrameWriter(std::filesystem::path out, int frames, double fps, bool force = false);
   ~FrameWriter();
