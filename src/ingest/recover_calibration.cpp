@@ -123,6 +123,7 @@ io::ColmapModel map_reference_frame(const fs::path& exe, const fs::path& work_di
 struct Placement {
   Eigen::Matrix3d k;
   Eigen::Matrix4d world_to_camera;
+  int larger_side = 0;  // pixels
 };
 
 std::map<std::string, Placement> placements(const io::ColmapModel& model) {
@@ -133,6 +134,7 @@ std::map<std::string, Placement> placements(const io::ColmapModel& model) {
     // SIMPLE_RADIAL, as every camera is made here: f, cx, cy, k.
     p.k << camera.params[0], 0, camera.params[1], 0, camera.params[0], camera.params[2], 0, 0, 1;
     p.world_to_camera = image.world_to_camera();
+    p.larger_side = std::max(camera.width, camera.height);
     out[fs::path(image.name).stem().string()] = p;
   }
   return out;
@@ -219,8 +221,7 @@ io::ColmapModel map_moving_features(const fs::path& exe, const std::vector<std::
       }
       const Eigen::Matrix3d f = fundamental_matrix(pa->second.k, pa->second.world_to_camera,
                                                    pb->second.k, pb->second.world_to_camera);
-      const io::ColmapCamera& size = model.cameras.front();
-      const double limit = tolerance * std::max(size.width, size.height);
+      const double limit = tolerance * std::max(pa->second.larger_side, pb->second.larger_side);
       for (const auto& [i, j] : all[p])
         if (epipolar_distance(f, features[a].features[i], features[b].features[j]) < limit)
           kept[p].emplace_back(i, j);
