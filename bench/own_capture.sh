@@ -7,8 +7,8 @@
 #   slow motion of test camera 0 -> eval on the odd frames of the training cameras (masked by the
 #   approximate masks, and the whole image) and of the test cameras.
 # Writes bench/results/own_capture.md: each step's wall time and the scores. CALIB=none runs the
-# same without the rig file (COLMAP recovers the calibration from frame 8 of every camera; issue
-# 43's "Done when" compares the two) and writes bench/results/own_capture_nocalib.md.
+# same without the rig file (COLMAP recovers the calibration from the 17 frames of every camera;
+# issue 43's "Done when" compares the two) and writes bench/results/own_capture_nocalib.md.
 #
 #   bash bench/own_capture.sh      # PRESET=fast CALIB=rig DATA=../shared/data/panoptic-basketball
 #   CALIB=none bash bench/own_capture.sh

@@ -1,6 +1,6 @@
 // retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
-// retimegs import videos --in DIR [--calib PATH | --calib-frame N] --out SCENE [--test-cameras ...]
-//                        [--offsets ...]
+// retimegs import videos --in DIR [--calib PATH | --calib-frames K --calib-frame N] --out SCENE
+//                        [--test-cameras ...] [--offsets ...]
 #include <charconv>
 #include <map>
 #include <memory>
@@ -86,13 +86,14 @@ void add_videos_command(CLI::App* cmd) {
     std::string calib, test_cameras, offsets;
     std::optional<double> fps;
     std::optional<int> calib_frame;
+    std::optional<int> calib_frames;
   };
   auto args = std::make_shared<VideoArgs>();
   CLI::App* sub = cmd->add_subcommand(
       "videos",
       "Your own capture: DIR/<camera>.mp4 (.mov, .mkv, .avi) or DIR/<camera>/ image folders, "
       "calibrated by a COLMAP model, an OpenCV-style rig file, or without either by COLMAP from "
-      "one frame of every camera (docs/cli.md).");
+      "synchronised frames of every camera (docs/cli.md).");
   add_common_options(sub, *args,
                      "folder of <camera>.mp4 / .mov / .mkv / .avi videos or <camera>/ folders of "
                      "PNG / JPEG images (sorted by name)");
@@ -102,8 +103,11 @@ void add_videos_command(CLI::App* cmd) {
       ".json (per camera K, dist, R, t world-to-camera); without it COLMAP recovers the "
       "calibration from the footage and writes it to SCENE/calibration");
   sub->add_option("--calib-frame", args->calib_frame,
-                  "without --calib: the scene frame COLMAP calibrates from (default: the middle "
-                  "one)");
+                  "without --calib: the scene frame COLMAP calibrates from where nothing moves "
+                  "(default: the middle one)");
+  sub->add_option("--calib-frames", args->calib_frames,
+                  "without --calib: frames per camera, spread over the footage, in which COLMAP "
+                  "places the cameras by what moves (default 17; below 3: --calib-frame alone)");
   sub->add_option("--test-cameras", args->test_cameras,
                   "comma-separated cameras held out for evaluation (split test)");
   sub->add_option("--offsets", args->offsets,
@@ -121,6 +125,7 @@ void add_videos_command(CLI::App* cmd) {
     if (!args->offsets.empty()) videos.offsets = parse_offsets(args->offsets);
     videos.fps = args->fps;
     videos.calibration_frame = args->calib_frame;
+    videos.calibration_instants = args->calib_frames;
     const ingest::VideosReport r = ingest::import_videos(args->in, args->out, options, videos);
     const std::string start =
         videos.offsets.empty() && r.first_frame == 0

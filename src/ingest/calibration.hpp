@@ -1,9 +1,10 @@
 #pragma once
 // The calibration of `import videos` (--calib): a COLMAP sparse model or an OpenCV-style rig file
 // (YAML / JSON, docs/cli.md "retimegs import videos"), or, without either, one recovered by
-// COLMAP's mapper from one frame of every camera. All become COLMAP cameras, so that
+// COLMAP's mapper from synchronised frames of every camera. All become COLMAP cameras, so that
 // detail::Undistorter resamples distorted footage exactly as `import colmap` does.
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -11,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "retimegs/colmap/run.hpp"
+#include "retimegs/core/image.hpp"
 #include "retimegs/io/colmap.hpp"
 
 namespace retimegs::ingest::detail {
@@ -54,20 +56,39 @@ struct RecoveredCalibration {
   std::vector<std::string> unregistered;  // cameras COLMAP could not place, sorted
   std::size_t points = 0;                 // 3-D points of the model
   double reprojection_error = 0;          // pixels, mean over every observation of those points
+  bool moving = false;  // placed by moving features (else from the reference frame alone)
 };
 
-// Structure from motion on one synchronised frame per camera: work_dir/images/<camera>.png for
-// each of `cameras` (written by the caller). Runs COLMAP's feature_extractor (CPU SIFT, one
-// SIMPLE_RADIAL camera per image: the cameras of a rig differ), exhaustive_matcher and mapper in
-// work_dir, each command's output in log_dir/<command>.log; keeps the model that registers the
-// most cameras and writes it to model_dir as a COLMAP text model (a later `import videos --calib
+// A per-pixel median needs three frames to tell what stands still from what passes.
+constexpr int kMinInstants = 3;
+
+// The synchronised frames of the calibration: frame(c, k) is camera c's frame at instant k <
+// instants, the same instant for every camera; called from several threads at once.
+struct CalibrationFrames {
+  int instants = 0;
+  std::function<Image(std::size_t camera, int instant)> frame;
+};
+
+// Structure from motion on a rig of static cameras; work_dir/images/<camera>.png holds each of
+// `cameras`' reference frame (written by the caller), the size of every frame. With
+// kMinInstants or more instants, the cameras are first placed by the features on what moves
+// (calibration_features.hpp: a repeated static background cannot mislead them), matched within
+// each instant, then refined with every feature, static ones included, that agrees with that
+// placement; each step imports the features and matches into COLMAP (feature_importer,
+// matches_importer: COLMAP verifies each pair's geometry) and runs its mapper, logs in
+// log_dir/<step>/. Where the footage moves too little to place three cameras so, or with fewer
+// instants, COLMAP's own features of the reference frames are matched and mapped instead
+// (feature_extractor, exhaustive_matcher, mapper; logs in log_dir). Every camera is a
+// SIMPLE_RADIAL camera of its own (the cameras of a rig differ). The model that registers the
+// most cameras is written to model_dir as a COLMAP text model (a later `import videos --calib
 // model_dir` reads it back). Poses are up to a similarity (COLMAP's frame and scale). Throws
 // Error when a command fails (colmap/run.hpp) or when fewer than two cameras register, naming
 // the mapper's log and what to try.
 RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
+                                         const CalibrationFrames& frames,
                                          const std::filesystem::path& work_dir,
                                          const std::filesystem::path& model_dir,
                                          const std::filesystem::path& log_dir,
-                                         const colmap::ColmapOptions& options);
+                                         const colmap::ColmapOptions& options, bool progress);
 
 }  // namespace retimegs::ingest::detail

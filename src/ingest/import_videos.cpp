@@ -31,6 +31,9 @@ constexpr double kFpsTolerance = 1e-3;  // one capture's videos agree on the rat
 // Where a recovered calibration goes in the scene, and its COLMAP logs.
 const fs::path kCalibrationModel = "calibration";
 const fs::path kCalibrationLogs = fs::path("logs") / "colmap" / "calibration";
+// Frames per camera a recovered calibration reads by default, spread over the footage: enough
+// positions of what moves to place every camera of a 31-camera dome (CMU Panoptic, 17 frames).
+constexpr int kDefaultCalibrationInstants = 17;
 
 // One camera's footage: a video, or a folder of images.
 struct Footage {
@@ -228,12 +231,25 @@ std::vector<detail::CalibratedCamera> match_calibration(const fs::path& path,
   return matched;
 }
 
-// A calibration recovered by COLMAP from source frame `frame` + offsets[c] of every camera
-// (detail::recover_calibration), written to scene_root/calibration, its logs in
-// scene_root/logs/colmap/calibration. Cameras it cannot place are removed from `footage` and
-// `offsets` (and listed in the report); the others' calibrations are returned in footage order.
+// Instants spread evenly over the k that every camera has, lo..hi, for a recovered calibration:
+// `count` of them, or every k where there are fewer.
+std::vector<int> calibration_instants(int lo, int hi, int count) {
+  const int n = std::min(count, hi - lo + 1);
+  std::vector<int> out;
+  for (int i = 0; i < n; ++i)
+    out.push_back(n == 1 ? lo + (hi - lo) / 2
+                         : lo + int(std::lround(double(i) * (hi - lo) / (n - 1))));
+  return out;
+}
+
+// A calibration recovered by COLMAP (detail::recover_calibration) from source frame `frame` +
+// offsets[c] of every camera (the reference frame) and from `instants` (k, source frame k +
+// offsets[c]), written to scene_root/calibration, its logs in scene_root/logs/colmap/calibration.
+// Cameras it cannot place are removed from `footage` and `offsets` (and listed in the report);
+// the others' calibrations are returned in footage order.
 std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
                                               std::vector<int>& offsets, int frame,
+                                              const std::vector<int>& instants,
                                               const fs::path& scene_root,
                                               const ImportOptions& options, VideosReport& report) {
   const colmap::WorkFolder work("calibration");
@@ -247,9 +263,19 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
   for (const Footage& f : footage) names.push_back(f.name);
   colmap::ColmapOptions colmap_options;
   colmap_options.threads = max_threads();
+  detail::CalibrationFrames frames;
+  frames.instants = int(instants.size());
+  frames.frame = [&](std::size_t c, int k) {
+    const Image image = footage_frame(footage[c], instants[k] + offsets[c]);
+    if (image.width != footage[c].width || image.height != footage[c].height)
+      fail("{}: frame {} is {}x{}, the camera's others {}x{}", footage[c].path.string(),
+           instants[k] + offsets[c], image.width, image.height, footage[c].width,
+           footage[c].height);
+    return image;
+  };
   detail::RecoveredCalibration recovered =
-      detail::recover_calibration(names, work.path(), scene_root / kCalibrationModel,
-                                  scene_root / kCalibrationLogs, colmap_options);
+      detail::recover_calibration(names, frames, work.path(), scene_root / kCalibrationModel,
+                                  scene_root / kCalibrationLogs, colmap_options, options.progress);
   std::vector<Footage> kept;
   std::vector<int> kept_offsets;
   for (std::size_t c = 0; c < footage.size(); ++c)
@@ -263,6 +289,7 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
   report.unregistered = std::move(recovered.unregistered);
   report.points = recovered.points;
   report.reprojection_error = recovered.reprojection_error;
+  report.moving_features = recovered.moving;
   return std::move(recovered.cameras);
 }
 
@@ -277,6 +304,10 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   const bool recovering = videos.calibration.empty();
   if (!recovering && videos.calibration_frame)
     fail("--calib-frame: only without --calib (it chooses the frame COLMAP calibrates from)");
+  if (!recovering && videos.calibration_instants)
+    fail("--calib-frames: only without --calib (it chooses the frames COLMAP calibrates from)");
+  const int instant_count = videos.calibration_instants.value_or(kDefaultCalibrationInstants);
+  if (instant_count < 1) fail("--calib-frames: {} is not a positive count", instant_count);
 
   VideosReport report;
   std::vector<detail::CalibratedCamera> calibration;
@@ -310,8 +341,12 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
     const int frame = videos.calibration_frame.value_or((scene.num_frames - 1) / 2);
     if (frame < 0 || frame >= scene.num_frames)
       fail("--calib-frame: {} is outside the scene's frames 0:{}", frame, scene.num_frames - 1);
+    const std::vector<int> instants = calibration_instants(lo, hi, instant_count);
     try {
-      calibration = recover(footage, offsets, scene_start + frame, scene.root, options, report);
+      calibration = recover(
+          footage, offsets, scene_start + frame,
+          instants.size() >= std::size_t(detail::kMinInstants) ? instants : std::vector<int>(),
+          scene.root, options, report);
     } catch (const Error&) {
       // The logs outlive the scene, where the message says they are.
       if (fs::is_directory(scene.root / kCalibrationLogs)) {
@@ -322,8 +357,14 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
       }
       throw;
     }
-    report.calibration = fmt::format("recovered by COLMAP from scene frame {}, written to {}",
-                                     frame, (output_path(out) / kCalibrationModel).string());
+    report.calibration =
+        report.moving_features
+            ? fmt::format(
+                  "recovered by COLMAP from what moves in {} frames over the footage, refined with "
+                  "what stands still, written to {}",
+                  instants.size(), (output_path(out) / kCalibrationModel).string())
+            : fmt::format("recovered by COLMAP from scene frame {}, written to {}", frame,
+                          (output_path(out) / kCalibrationModel).string());
   } else {
     report.calibration = fs::is_directory(videos.calibration)
                              ? "COLMAP model " + io::find_colmap_model(videos.calibration).string()

@@ -1,10 +1,13 @@
 // A calibration recovered from the footage by COLMAP's mapper (calibration.hpp:
 // recover_calibration), for `import videos` without --calib.
 #include <algorithm>
+#include <map>
 
 #include <fmt/format.h>
 
 #include "calibration.hpp"
+#include "calibration_features.hpp"
+#include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
 
@@ -34,17 +37,66 @@ double mean_reprojection_error(const io::ColmapModel& model) {
   return observations > 0 ? sum / observations : 0;
 }
 
-}  // namespace
+// A guide model must place this many cameras to judge the static matches: a similarity between
+// two cameras' placements is not determined by fewer.
+constexpr int kMinGuideCameras = 3;
+// Matches a pair needs before COLMAP verifies it (its --SiftMatching.min_num_inliers default):
+// fewer can never pass.
+constexpr std::size_t kMinPairMatches = 15;
+// The refinements after the guide: a match is kept where it lies within this fraction of the
+// image's larger side of the epipolar line of the previous placement (10 px, then 4 px at
+// 640x360): loose while the guide, placed by moving features alone, may be a few degrees off,
+// then as tight as COLMAP's own verification (--SiftMatching.max_error 4 px).
+constexpr double kRefineTolerance[] = {1.0 / 64, 1.0 / 160};
 
-RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
-                                         const fs::path& work_dir, const fs::path& model_dir,
-                                         const fs::path& log_dir,
-                                         const colmap::ColmapOptions& options) {
-  const fs::path exe = colmap::find_colmap(options);
-  const fs::path images = work_dir / "images", database = work_dir / "database.db",
-                 sparse = work_dir / "sparse";
+std::vector<std::string> mapper_args(const fs::path& database, const fs::path& images,
+                                     const fs::path& sparse, const colmap::ColmapOptions& options) {
+  return {"--database_path",
+          database.string(),
+          "--image_path",
+          images.string(),
+          "--output_path",
+          sparse.string(),
+          "--Mapper.num_threads",
+          std::to_string(options.threads),
+          "--Mapper.min_model_size",
+          std::to_string(kMinModelSize),
+          "--Mapper.init_min_num_inliers",
+          std::to_string(kInitMinInliers),
+          "--Mapper.abs_pose_min_num_inliers",
+          std::to_string(kRegisterMinInliers),
+          "--Mapper.filter_max_reproj_error",
+          colmap::number(options.max_reprojection_error)};
+}
+
+// Runs the mapper into `sparse` and returns the model that registers the most images (empty when
+// none).
+io::ColmapModel map_largest(const fs::path& exe, const std::vector<std::string>& args,
+                            const fs::path& sparse, const fs::path& log_dir,
+                            const colmap::ColmapOptions& options) {
   fs::create_directories(sparse);
+  try {
+    colmap::run_colmap(exe, "mapper", args, log_dir, options.verbose);
+  } catch (const Error&) {
+    // It fails ("failed to create sparse model") when no two images share enough matches to
+    // start a model: none registered, as the caller says.
+    if (!fs::is_empty(sparse)) throw;
+  }
+  // The mapper writes one numbered folder per disconnected model.
+  io::ColmapModel best;
+  for (const auto& entry : fs::directory_iterator(sparse)) {
+    if (!entry.is_directory()) continue;
+    io::ColmapModel model = io::read_colmap_model(entry.path());
+    if (model.images.size() > best.images.size()) best = std::move(model);
+  }
+  return best;
+}
 
+// COLMAP's own features and matches of the reference frame (work_dir/images), every pair
+// matched and verified, then the mapper.
+io::ColmapModel map_reference_frame(const fs::path& exe, const fs::path& work_dir,
+                                    const fs::path& log_dir, const colmap::ColmapOptions& options) {
+  const fs::path images = work_dir / "images", database = work_dir / "database.db";
   std::vector<std::string> extractor = {"--database_path",
                                         database.string(),
                                         "--image_path",
@@ -62,38 +114,140 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
   matcher.insert(matcher.end(), matching.begin(), matching.end());
   colmap::run_colmap(exe, "exhaustive_matcher", matcher, log_dir, options.verbose);
 
-  const std::vector<std::string> mapper = {"--database_path",
-                                           database.string(),
-                                           "--image_path",
-                                           images.string(),
-                                           "--output_path",
-                                           sparse.string(),
-                                           "--Mapper.num_threads",
-                                           std::to_string(options.threads),
-                                           "--Mapper.min_model_size",
-                                           std::to_string(kMinModelSize),
-                                           "--Mapper.init_min_num_inliers",
-                                           std::to_string(kInitMinInliers),
-                                           "--Mapper.abs_pose_min_num_inliers",
-                                           std::to_string(kRegisterMinInliers),
-                                           "--Mapper.filter_max_reproj_error",
-                                           colmap::number(options.max_reprojection_error)};
-  try {
-    colmap::run_colmap(exe, "mapper", mapper, log_dir, options.verbose);
-  } catch (const Error&) {
-    // It fails ("failed to create sparse model") when no two images share enough matches to
-    // start a model: none registered, refused below as one alone is.
-    if (!fs::is_empty(sparse)) throw;
-  }
+  const fs::path sparse = work_dir / "sparse";
+  return map_largest(exe, mapper_args(database, images, sparse, options), sparse, log_dir, options);
+}
 
-  // The mapper writes one numbered folder per disconnected model.
-  io::ColmapModel best;
-  for (const auto& entry : fs::directory_iterator(sparse)) {
-    if (!entry.is_directory()) continue;
-    io::ColmapModel model = io::read_colmap_model(entry.path());
-    if (model.images.size() > best.images.size()) best = std::move(model);
+// One camera's placement in a model: pinhole intrinsics (the distortion left out: the
+// tolerances above are far wider than its effect near the centre) and pose.
+struct Placement {
+  Eigen::Matrix3d k;
+  Eigen::Matrix4d world_to_camera;
+  int larger_side = 0;  // pixels
+};
+
+std::map<std::string, Placement> placements(const io::ColmapModel& model) {
+  std::map<std::string, Placement> out;
+  for (const io::ColmapImage& image : model.images) {
+    const io::ColmapCamera& camera = model.camera(image.camera_id);
+    Placement p;
+    // SIMPLE_RADIAL, as every camera is made here: f, cx, cy, k.
+    p.k << camera.params[0], 0, camera.params[1], 0, camera.params[0], camera.params[2], 0, 0, 1;
+    p.world_to_camera = image.world_to_camera();
+    p.larger_side = std::max(camera.width, camera.height);
+    out[fs::path(image.name).stem().string()] = p;
   }
+  return out;
+}
+
+// One step of the moving-feature calibration in work_dir/<step>: the features imported, the
+// pairs' matches (`matches`: a list per pair of `cameras`, in pair order) verified by COLMAP, and
+// the mapper; logs in log_dir/<step>.
+io::ColmapModel map_matches(const fs::path& exe, const fs::path& work_dir, const std::string& step,
+                            const std::vector<std::string>& cameras,
+                            const std::vector<Matches>& matches, const fs::path& log_dir,
+                            const colmap::ColmapOptions& options) {
+  const fs::path dir = work_dir / step, database = dir / "database.db",
+                 images = work_dir / "images", logs = log_dir / step;
+  fs::create_directories(dir);
+  colmap::run_colmap(
+      exe, "feature_importer",
+      {"--database_path", database.string(), "--image_path", images.string(), "--import_path",
+       (work_dir / "features").string(), "--ImageReader.camera_model", "SIMPLE_RADIAL",
+       "--ImageReader.single_camera_per_image", "1"},
+      logs, options.verbose);
+  std::string list;
+  std::size_t pair = 0;
+  for (std::size_t a = 0; a < cameras.size(); ++a)
+    for (std::size_t b = a + 1; b < cameras.size(); ++b, ++pair) {
+      if (matches[pair].size() < kMinPairMatches) continue;
+      list += fmt::format("{}.png {}.png\n", cameras[a], cameras[b]);
+      for (const auto& [i, j] : matches[pair]) list += fmt::format("{} {}\n", i, j);
+      list += '\n';
+    }
+  write_text_file(dir / "matches.txt", list);
+  colmap::run_colmap(
+      exe, "matches_importer",
+      {"--database_path", database.string(), "--match_list_path", (dir / "matches.txt").string(),
+       "--match_type", "raw", "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads",
+       std::to_string(options.threads)},
+      logs, options.verbose);
+  return map_largest(exe, mapper_args(database, images, dir / "sparse", options), dir / "sparse",
+                     logs, options);
+}
+
+// The moving-feature calibration (calibration_features.hpp): the guide from moving features
+// alone, then refinements that add the static ones and keep every match that agrees with the
+// previous placement. Empty when the footage moves too little for a guide.
+io::ColmapModel map_moving_features(const fs::path& exe, const std::vector<std::string>& cameras,
+                                    const CalibrationFrames& frames, const fs::path& work_dir,
+                                    const fs::path& log_dir, const colmap::ColmapOptions& options,
+                                    bool progress) {
+  std::vector<CameraFeatures> features(cameras.size());
+  parallel_jobs(
+      cameras.size(), cameras.size(), "calibration features", progress,
+      [&](std::size_t c, Progress& bar) {
+        features[c] = camera_features(
+            frames.instants, [&](int k) { return frames.frame(c, k); }, options.max_num_features);
+        write_colmap_features(features[c], work_dir / "features" / (cameras[c] + ".png.txt"));
+        bar.tick();
+      });
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t a = 0; a < cameras.size(); ++a)
+    for (std::size_t b = a + 1; b < cameras.size(); ++b) pairs.emplace_back(a, b);
+  std::vector<Matches> moving(pairs.size()), all(pairs.size());
+  parallel_jobs(pairs.size(), pairs.size(), "calibration matches", progress,
+                [&](std::size_t p, Progress& bar) {
+                  const auto [a, b] = pairs[p];
+                  moving[p] = match_features(features[a], features[b], true, false);
+                  all[p] = match_features(features[a], features[b], true, true);
+                  bar.tick();
+                });
+
+  io::ColmapModel model = map_matches(exe, work_dir, "guide", cameras, moving, log_dir, options);
+  if (int(model.images.size()) < kMinGuideCameras) return {};
+  int round = 0;
+  for (const double tolerance : kRefineTolerance) {
+    const std::map<std::string, Placement> placed = placements(model);
+    std::vector<Matches> kept(pairs.size());
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      const auto [a, b] = pairs[p];
+      const auto pa = placed.find(cameras[a]), pb = placed.find(cameras[b]);
+      if (pa == placed.end() || pb == placed.end()) {
+        // A camera the placement has not: its moving matches alone, which cannot pair the wrong
+        // places of a repeated background.
+        kept[p] = moving[p];
+        continue;
+      }
+      const Eigen::Matrix3d f = fundamental_matrix(pa->second.k, pa->second.world_to_camera,
+                                                   pb->second.k, pb->second.world_to_camera);
+      const double limit = tolerance * std::max(pa->second.larger_side, pb->second.larger_side);
+      for (const auto& [i, j] : all[p])
+        if (epipolar_distance(f, features[a].features[i], features[b].features[j]) < limit)
+          kept[p].emplace_back(i, j);
+    }
+    io::ColmapModel refined = map_matches(exe, work_dir, fmt::format("refine{}", ++round), cameras,
+                                          kept, log_dir, options);
+    if (refined.images.size() < model.images.size()) break;  // keep the one that places more
+    model = std::move(refined);
+  }
+  return model;
+}
+
+}  // namespace
+
+RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
+                                         const CalibrationFrames& frames, const fs::path& work_dir,
+                                         const fs::path& model_dir, const fs::path& log_dir,
+                                         const colmap::ColmapOptions& options, bool progress) {
+  const fs::path exe = colmap::find_colmap(options);
   RecoveredCalibration out;
+  io::ColmapModel best;
+  if (frames.instants >= kMinInstants)
+    best = map_moving_features(exe, cameras, frames, work_dir, log_dir, options, progress);
+  out.moving = !best.images.empty();
+  if (!out.moving) best = map_reference_frame(exe, work_dir, log_dir, options);
+
   std::vector<std::string> registered;
   for (const io::ColmapImage& image : best.images)
     registered.push_back(fs::path(image.name).stem().string());

@@ -544,6 +544,16 @@ TEST_F(VideosBadInput, UnknownCamerasInOptions) {
   expect_refused({"--offsets", "'camX'"});
 }
 
+// --calib-frames chooses the frames COLMAP calibrates from: meaningless beside --calib, and a
+// count.
+TEST_F(VideosBadInput, CalibrationFramesNeedNoCalibrationAndACount) {
+  options_.calibration_instants = 5;
+  expect_refused({"--calib-frames", "only without --calib"});
+  options_.calibration.clear();
+  options_.calibration_instants = 0;
+  expect_refused({"--calib-frames", "0 is not a positive count"});
+}
+
 TEST_F(VideosBadInput, OffsetsThatLeaveNoFrame) {
   options_.offsets = {{"cam01", 3}};  // 3 frames each
   expect_refused({"--offsets", "cam01:3", "no frame", "3 frames"});

@@ -55,7 +55,7 @@ void import_nerfstudio(const std::filesystem::path& source, const std::filesyste
 // dist, R, t, world-to-camera); intrinsics follow the footage size when it differs (same aspect
 // ratio), distorted cameras are resampled into pinhole ones as `import colmap` does. Every
 // camera needs a calibration; calibrated cameras without footage are left out (listed in the
-// report). Without a calibration, COLMAP recovers one from one scene frame of every camera
+// report). Without a calibration, COLMAP recovers one from synchronised frames of every camera
 // (calibration.hpp: recover_calibration), fixed over the clip and written to SCENE/calibration/
 // (a COLMAP text model, reusable as --calib); its logs go to SCENE/logs/colmap/calibration/ (also
 // when it fails: the folder SCENE then holds them alone, and a later import may replace it
@@ -67,6 +67,10 @@ struct VideosOptions {
   // Without a calibration: the scene frame (after --frames and offsets) COLMAP calibrates from;
   // absent: the middle one, (frames - 1) / 2.
   std::optional<int> calibration_frame;
+  // Without a calibration: how many frames of every camera, spread over the frames every camera
+  // has (before --frames), COLMAP places the cameras by what moves in (at least 3 for that; fewer
+  // or a static capture: the calibration frame alone); absent: 17.
+  std::optional<int> calibration_instants;
   std::vector<std::string> test_cameras;  // get split "test"
   // Synchronisation: scene frame k of camera c is source frame k + offsets[c] (0 when absent).
   // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
@@ -88,7 +92,8 @@ struct VideosReport {
   std::vector<std::string> unregistered;
   std::size_t points = 0;
   double reprojection_error = 0;
-  int undistorted = 0;  // cameras resampled from a distorted model into pinhole ones
+  bool moving_features = false;  // placed by what moves (else from the calibration frame alone)
+  int undistorted = 0;           // cameras resampled from a distorted model into pinhole ones
   std::vector<std::string> without_footage;  // calibrated cameras without footage (left out)
 };
 
