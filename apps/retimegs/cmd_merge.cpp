@@ -1,5 +1,6 @@
 // retimegs merge --out M.rgs [--force] RUN1/model.rgs RUN2/model.rgs ...
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,13 +19,13 @@ void add_merge_command(CLI::App& app) {
     std::string out;
     std::vector<std::string> models;
     bool force = false;
-    double seam_fade = model::kDefaultSeamFade;
+    std::optional<double> seam_fade;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "merge",
-      "Stitch window models of one clip (train --window), each starting at the frame where the "
-      "previous one ends, into one model of the frames they cover together.");
+      "Stitch window models of one clip (train --window), each starting at or before the frame "
+      "where the previous one ends, into one model of the frames they cover together.");
   cmd->add_option("--out", args->out, "merged model file (.rgs)")->required();
   cmd->add_option("models", args->models, "window models (.rgs), in any order")
       ->required()
@@ -33,7 +34,8 @@ void add_merge_command(CLI::App& app) {
   cmd->add_option("--seam-fade", args->seam_fade,
                   "cross-fade at each seam: the sigmoid scale of the edges there, in training "
                   "intervals (0: gamma, a jump within a tenth of a frame)")
-      ->capture_default_str();
+      ->default_str(fmt::format("{}, or {} where windows overlap", model::kDefaultSeamFade,
+                                model::kDefaultOverlapSeamFade));
   cmd->add_flag("--force", args->force, "replace an existing --out");
   cmd->callback([args] {
     std::vector<InputPath> inputs;

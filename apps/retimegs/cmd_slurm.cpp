@@ -26,8 +26,7 @@ namespace retimegs::app {
 void add_slurm_command(CLI::App& app) {
   struct Args {
     std::string scene, out, frames = "even", preset, config;
-    int windows = 0;
-    std::optional<int> overlap;
+    int windows = 0, overlap = cluster::kDefaultWindowOverlap;
     std::optional<int> iters;
     std::optional<std::size_t> cap;
     std::optional<std::uint64_t> seed;

@@ -107,7 +107,7 @@ std::string shell_quote(const std::string& text) {
 }
 
 std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_frames, int count,
-                                           std::optional<int> overlap) {
+                                           int overlap) {
   const int intervals = int(training_frames.size()) - 1;
   if (count < 1 || count > intervals)
     fail("--windows {}: give 1 to {} (the clip's training intervals; a window needs one)", count,
@@ -116,17 +116,16 @@ std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_fram
   int shortest = intervals;
   for (int j = 0; j <= count; ++j) seams.push_back(j * intervals / count);
   for (int j = 0; j < count; ++j) shortest = std::min(shortest, seams[j + 1] - seams[j]);
-  const int margin = overlap.value_or(std::min(kDefaultWindowOverlap, shortest / 2));
-  if (count > 1 && (margin < 0 || 2 * margin > shortest))
+  if (count > 1 && (overlap < 0 || 2 * overlap > shortest))
     fail(
         "--overlap {}: give 0 to {} ({} windows, the shortest of {} training intervals; a window "
         "may overlap only its neighbours)",
-        margin, shortest / 2, count, shortest);
+        overlap, shortest / 2, count, shortest);
   std::vector<io::FrameWindow> windows;
   for (int j = 0; j < count; ++j)
     windows.push_back(
-        {training_frames[std::size_t(j > 0 ? seams[j] - margin : 0)],
-         training_frames[std::size_t(j + 1 < count ? seams[j + 1] + margin : intervals)]});
+        {training_frames[std::size_t(j > 0 ? seams[j] - overlap : 0)],
+         training_frames[std::size_t(j + 1 < count ? seams[j + 1] + overlap : intervals)]});
   return windows;
 }
 

@@ -32,9 +32,9 @@ bool same_config(const ModelConfig& a, const ModelConfig& b) {
 }  // namespace
 
 Model merge_models(const std::vector<Model>& windows, const std::vector<std::string>& names,
-                   double seam_fade) {
+                   std::optional<double> seam_fade) {
   if (windows.empty()) fail("merge: no models given");
-  check_seam_fade(seam_fade, "merge: seam fade");
+  if (seam_fade) check_seam_fade(*seam_fade, "merge: seam fade");
   if (names.size() != windows.size())
     fail("merge: {} models but {} names", windows.size(), names.size());
   for (std::size_t k = 0; k < windows.size(); ++k) {
@@ -65,6 +65,7 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   // window starts and ends after the previous one, the seams ascend and each window keeps the
   // frames between its two, which it trained.
   std::vector<int> handovers;
+  std::vector<bool> overlapping;
   for (std::size_t k = 0; k + 1 < order.size(); ++k) {
     const std::size_t a = order[k], b = order[k + 1];
     const TimeWindow wa = window_of(windows[a]), wb = window_of(windows[b]);
@@ -80,6 +81,7 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       fail("merge: {} ({}) and {} ({}) overlap: one window holds the other", names[a], frames(wa),
            names[b], frames(wb));
     handovers.push_back((wb.first + wa.last) / 2);
+    overlapping.push_back(wb.first < wa.last);
   }
 
   Model merged;
@@ -87,12 +89,17 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   merged.grid = grid;
   merged.config = first.config;
   merged.config.seams.clear();
-  merged.config.seam_fade = seam_fade;
+  const bool any_overlap =
+      std::find(overlapping.begin(), overlapping.end(), true) != overlapping.end();
+  merged.config.seam_fade =
+      seam_fade.value_or(any_overlap ? kDefaultOverlapSeamFade : kDefaultSeamFade);
   merged.training_config = first.training_config;
   // Each window's rows between its hand-overs: a row beyond one is dropped (the neighbour's
   // reconstruction covers that time) and a support that crosses one ends there, where the seam's
   // fade hands over. Only the support changes; the trajectory keeps its μ_τ, which may then lie
-  // outside the support (a negative half-width).
+  // outside the support (a negative half-width). Where the windows overlap, an edge that already
+  // ended at the seam moves 2ε off it, beyond RetimeWindow::edge_scale's reach: it keeps γ, since
+  // the fade would draw its trajectory where it was never trained (merge.hpp).
   const double epsilon = first.config.epsilon;
   const double inf = std::numeric_limits<double>::infinity();
   std::size_t total = 0, row = 0;
@@ -101,6 +108,8 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   for (std::size_t k = 0; k < order.size(); ++k) {
     const double from = k > 0 ? grid.at(handovers[k - 1]) : -inf;
     const double to = k + 1 < order.size() ? grid.at(handovers[k]) : inf;
+    const bool nudge_from = k > 0 && overlapping[k - 1];
+    const bool nudge_to = k + 1 < order.size() && overlapping[k];
     const Primitives& p = windows[order[k]].primitives;
     for (std::size_t i = 0; i < p.size(); ++i) {
       throw_if_interrupted_every(i);
@@ -108,8 +117,14 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       const double lo = mu_tau - p.tau_l[i], hi = mu_tau + p.tau_r[i];
       if (hi <= from + epsilon || lo >= to - epsilon) continue;
       merged.primitives.copy_row(row, p, i);
-      if (lo < from - epsilon) merged.primitives.tau_l[row] = float(mu_tau - from);
-      if (hi > to + epsilon) merged.primitives.tau_r[row] = float(to - mu_tau);
+      if (lo < from - epsilon)
+        merged.primitives.tau_l[row] = float(mu_tau - from);
+      else if (nudge_from && lo <= from + epsilon)
+        merged.primitives.tau_l[row] = float(mu_tau - (from + 2 * epsilon));
+      if (hi > to + epsilon)
+        merged.primitives.tau_r[row] = float(to - mu_tau);
+      else if (nudge_to && hi >= to - epsilon)
+        merged.primitives.tau_r[row] = float((to - 2 * epsilon) - mu_tau);
       ++row;
     }
   }

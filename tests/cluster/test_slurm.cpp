@@ -76,10 +76,8 @@ TEST(Slurm, OverlappingWindowsTrainBeyondEachSeam) {
   test::expect_error([&] { split_windows(frames, 4, -1); }, {"--overlap -1"});
   // One window has no seam to overlap.
   EXPECT_EQ(split_windows(frames, 1, 5).front().last, 32);
-  // The default: kDefaultWindowOverlap, or the most that windows this short allow.
+  // By default windows only share their boundary frames.
   EXPECT_EQ(split_windows(frames, 4).front().last, 8 + 2 * kDefaultWindowOverlap);
-  const auto sixteen = split_windows(frames, 16);  // one interval each: none
-  EXPECT_EQ(sixteen[0].last, sixteen[1].first);
 }
 
 TEST(Slurm, ShellQuoteKeepsWordsWhole) {
@@ -102,8 +100,8 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   job.sbatch_args = {"--partition=gpu", "--time=1:00:00"};
   job.merge_sbatch_args = {"--partition=cpu"};
   const SlurmScripts s = write_slurm_scripts(job, media::read_scene(scene_dir));
-  ASSERT_EQ(s.windows.size(), 2u);  // the default overlap: one interval past the seam at 4
-  EXPECT_EQ(s.windows[0].last, 6);
+  ASSERT_EQ(s.windows.size(), 2u);
+  EXPECT_EQ(s.windows[0].last, 4);
   for (const fs::path& p : {s.window, s.train, s.merge, s.local}) {
     ASSERT_TRUE(fs::exists(p)) << p;
     EXPECT_TRUE(executable(p)) << p;
@@ -112,7 +110,7 @@ TEST(Slurm, ScriptsNameEveryPathAbsolutelyAndCarryTheSbatchArgs) {
   EXPECT_TRUE(fs::is_directory(dir / "run" / "slurm" / "logs"));
   const std::string window = test::read_text(s.window), train = test::read_text(s.train);
   const std::string merge = test::read_text(s.merge), local = test::read_text(s.local);
-  EXPECT_NE(window.find("windows=(0:6 2:8)"), std::string::npos) << window;
+  EXPECT_NE(window.find("windows=(0:4 4:8)"), std::string::npos) << window;
   EXPECT_NE(window.find("/opt/x/retimegs prepare --scene " + scene_dir.string()),
             std::string::npos);
   EXPECT_NE(window.find("/opt/x/retimegs train --scene " + scene_dir.string()), std::string::npos);

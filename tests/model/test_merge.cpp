@@ -285,13 +285,37 @@ TEST(Merge, OverlappingWindowsHandOverInTheMiddleOfTheirOverlap) {
         EXPECT_FLOAT_EQ(p.tau_l[i], -1);
       }
     }
-    EXPECT_EQ(cut_before, 2);  // window 0's [6, 8] and its stretched one, cut
-    EXPECT_EQ(cut_after, 1);   // window 1's stretched one, cut
+    // Window 0's stretched one, cut (its [6, 8] ended at the seam as trained: moved 2ε off it).
+    EXPECT_EQ(cut_before, 1);
+    EXPECT_EQ(cut_after, 1);  // window 1's stretched one, cut
   }
-  // Without a fade it draws as the unsplit model, across the overlap and everywhere else.
+  // Without a fade it draws as the unsplit model, across the overlap and everywhere else, up to
+  // the 2ε by which the two edges that ended at the seam move off it (γ is 0.08 frames here: 0.006
+  // of σ_τ each).
   const Model merged = merge_models({f.left, f.right}, {"a", "b"}, 0);
   for (double t = 0; t <= 16 + 1e-9; t += 0.25)
-    EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(whole, t), 1e-5) << "t = " << t;
+    EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(whole, t), 0.015) << "t = " << t;
+  // With the fade (by default the overlap's), only the supports the merge cut fade at the seam;
+  // window 0's primitive of the interval [6, 8] ended there as trained and keeps γ: half an
+  // interval past the seam it is gone, where the cut one still shows its fade's tail.
+  const Model faded = merge_models({f.left, f.right}, {"a", "b"});
+  EXPECT_EQ(faded.config.seam_fade, kDefaultOverlapSeamFade);
+  const double scale = kDefaultOverlapSeamFade * kClip.step, later = kSeam + 1;
+  int natural = 0, cut = 0;
+  for (std::size_t i = 0; i < faded.primitives.size(); ++i) {
+    const Primitives& p = faded.primitives;
+    if (p.mu_tau[i] != 7 || p.tau_l[i] != 1) continue;  // window 0's rows over [6, ...]
+    const double sigma = temporal_opacity(p, i, faded.config, faded.grid, later);
+    if (p.tau_r[i] < 1) {  // ended at the seam in window 0
+      ++natural;
+      EXPECT_LT(sigma, 1e-3);
+    } else {
+      ++cut;
+      EXPECT_NEAR(sigma, 1 / (1 + std::exp((later - kSeam) / scale)), 1e-4);
+    }
+  }
+  EXPECT_EQ(natural, 1);
+  EXPECT_EQ(cut, 1);
   // A merged model with a negative half-width is written and read back as it is; an empty
   // window (τ_l + τ_r < 0) is refused (check_primitives, also where a file is read).
   const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_overlap";

@@ -15,7 +15,6 @@
 // Every path and value in them is one word quoted by shell_quote, in the shell's lines and in the
 // #SBATCH lines alike, so that no name (a quote, `$(...)`, a `;`, a line break) runs as a command.
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,27 +23,26 @@
 
 namespace retimegs::cluster {
 
-// slurm --overlap's default, training intervals, where the windows are long enough (below):
-// chosen on bench/windows.sh (README "Long clips and Slurm").
-constexpr int kDefaultWindowOverlap = 1;
+// slurm --overlap's default, training intervals: chosen on bench/windows.sh (README "Long clips
+// and Slurm": at the same steps per window an overlap spends them on more frames).
+constexpr int kDefaultWindowOverlap = 0;
 
 // `count` windows over the clip's training frames (ascending), their numbers of intervals as equal
 // as possible: each hands over to the next at a seam, and both train `overlap` intervals beyond it
 // (0: the next starts where the previous one ends), so that the merge's fade hands over between
-// two reconstructions of the same frames (model/merge.hpp). Without `overlap`: the default, or the
-// most that fits. Throws Error unless 1 <= count <= the number of intervals and, with two or more
-// windows, 0 <= 2 overlap <= the shortest window's intervals (a window overlaps only its
-// neighbours).
+// two reconstructions of the same frames (model/merge.hpp). Throws Error unless 1 <= count <= the
+// number of intervals and, with two or more windows, 0 <= 2 overlap <= the shortest window's
+// intervals (a window overlaps only its neighbours).
 std::vector<io::FrameWindow> split_windows(const std::vector<int>& training_frames, int count,
-                                           std::optional<int> overlap = std::nullopt);
+                                           int overlap = kDefaultWindowOverlap);
 
 struct SlurmJob {
   std::filesystem::path binary;  // the retimegs executable the scripts run
   std::filesystem::path scene;   // scene folder
   std::filesystem::path run;     // RUN
   int windows = 1;
-  std::optional<int> overlap;         // training intervals (split_windows)
-  std::string train_frames = "even";  // --train-frames of prepare and train
+  int overlap = kDefaultWindowOverlap;  // training intervals (split_windows)
+  std::string train_frames = "even";    // --train-frames of prepare and train
   // Options given to every window's `train` as they are (--iters N, --preset P, --config FILE,
   // ...).
   std::vector<std::string> train_args;
