@@ -150,12 +150,13 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       color.c[c] = float(entry.first[3 + c] / entry.second);
     }
   }
-  // Seams: each window's own (a merged model merged again) and the hand-overs.
+  // Seams: the hand-overs and each window's own (a merged model merged again) between them, where
+  // its rows are kept.
   for (std::size_t k = 0; k < order.size(); ++k) {
-    const Model& m = windows[order[k]];
     if (k > 0) merged.config.seams.push_back(handovers[k - 1]);
-    merged.config.seams.insert(merged.config.seams.end(), m.config.seams.begin(),
-                               m.config.seams.end());
+    for (const int seam : windows[order[k]].config.seams)
+      if ((k == 0 || seam > handovers[k - 1]) && (k + 1 == order.size() || seam < handovers[k]))
+        merged.config.seams.push_back(seam);
   }
   if (merged.config.seams.size() > std::size_t(kMaxSeams))
     fail("merge: {} seams, more than {} (at most {} windows)", merged.config.seams.size(),

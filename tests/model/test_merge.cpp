@@ -343,6 +343,16 @@ TEST(Merge, RefusesOverlapsGapsAndMismatches) {
         merge_models({f.whole, f.right}, {"W.rgs", "R.rgs"});
       },
       {"W.rgs", "R.rgs", "overlap", "holds"});
+  // Merged models that overlap keep their own seams only where their rows are kept.
+  {
+    Model left = f.left, right = f.right;
+    left.window = TimeWindow{0, 5};
+    left.config.seams = {2, 4};
+    right.window = TimeWindow{3, 8};
+    right.config.seams = {3, 7};
+    EXPECT_EQ(merge_models({left, right}, {"L.rgs", "R.rgs"}).config.seams,
+              (std::vector<int>{2, 4, 7}));
+  }
   // Three windows that overlap: each hands over to the next in the middle of their overlap.
   Model middle = f.right;
   middle.window = TimeWindow{2, 6};
