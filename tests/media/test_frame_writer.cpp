@@ -377,8 +377,6 @@ TEST(FrameWriter, AFailingFfmpegLeavesNoVideoAndKeepsItsLog) {
   }
 }
 
-// A writer dropped before finish() (an error or Ctrl-C while rendering) ends its ffmpeg and
-// leaves no file: the process is gone once the writer is.
 // A video cut short by a file-size limit is named as every writer names it, whether ffmpeg failed
 // mid-stream or, writing its trailer, said so and exited with status 0 (ffmpeg 5.1 does); its log
 // is not kept, as the message does not name it.
@@ -390,7 +388,9 @@ TEST(FrameWriter, AVideoCutShortByAFileSizeLimitIsNamedSo) {
   const std::uintmax_t whole = fs::file_size(dir / "whole.mp4");
   // Mid-stream: lossless frames pass the limit long before the end. The trailer: an MP4's index
   // is its last box, so a limit a little below the whole file cuts it there.
-  for (const auto& [crf, limit] : {std::pair{0, std::uintmax_t(16384)}, {23, whole - 64}}) {
+  for (const auto& entry : {std::pair{0, std::uintmax_t(16384)}, {23, whole - 64}}) {
+    const int crf = entry.first;  // a plain variable: clang 14 cannot capture a structured binding
+    const std::uintmax_t limit = entry.second;
     std::string message;
     {
       const ScopedFileSizeLimit limited(limit);
@@ -404,6 +404,8 @@ TEST(FrameWriter, AVideoCutShortByAFileSizeLimitIsNamedSo) {
   }
 }
 
+// A writer dropped before finish() (an error or Ctrl-C while rendering) ends its ffmpeg and
+// leaves no file: the process is gone once the writer is.
 TEST(FrameWriter, AnAbandonedVideoEndsItsFfmpeg) {
   TempDir dir;
   {
