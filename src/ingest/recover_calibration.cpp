@@ -200,7 +200,10 @@ io::ColmapModel map_moving_features(const fs::path& exe, const std::vector<std::
                 [&](std::size_t p, Progress& bar) {
                   const auto [a, b] = pairs[p];
                   moving[p] = match_features(features[a], features[b], true, false);
-                  all[p] = match_features(features[a], features[b], true, true);
+                  // The groups match apart (calibration_features.hpp): the still ones, then the
+                  // moving ones as above, is every match.
+                  all[p] = match_features(features[a], features[b], false, true);
+                  all[p].insert(all[p].end(), moving[p].begin(), moving[p].end());
                   bar.tick();
                 });
 
