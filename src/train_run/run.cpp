@@ -224,11 +224,10 @@ class TrainingLog {
   int steps_ = 0;
 };
 
-// The log's word on the run's background: which, and why (`config` as given, before the run
-// settles random_background).
-std::string describe_background(const TrainConfig& config, const TrainingSet& set) {
-  const bool random = random_background(config, set);
-  const char* why = config.random_background ? "as the config's random_background sets"
+// The log's word on the run's background: which, and why (`given`: the config set
+// random_background rather than leaving it to the capture's masks).
+std::string describe_background(bool random, bool given) {
+  const char* why = given    ? "as the config's random_background sets"
                     : random ? "the capture has no masks; the config's random_background chooses"
                              : "the capture has masks; the config's random_background chooses";
   return fmt::format("{} ({})", random ? "a random colour per step" : "black", why);
@@ -257,9 +256,11 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   // Every input is read before the run folder is created or changed: a bad scene leaves nothing.
   const TrainingSet set = load_training_set(scene, run.frames, run.window, run.downscale);
   RunFolder folder(run);
-  const std::string background = describe_background(folder.config, set);
   // Settled here, so that config.json records what the run does whatever the capture becomes.
+  const bool background_given = folder.config.random_background.has_value();
   folder.config.random_background = random_background(folder.config, set);
+  const std::string background =
+      describe_background(*folder.config.random_background, background_given);
   const TrainConfig& config = folder.config;
 
   const std::unique_ptr<TrainingStep> owned_step = make_step(set, config, run.device);
