@@ -33,9 +33,9 @@ void add_merge_command(CLI::App& app) {
       ->check(input_file("a model"));
   cmd->add_option("--seam-fade", args->seam_fade,
                   "cross-fade at each seam: the sigmoid scale of the edges there, in training "
-                  "intervals (0: gamma, a jump within a tenth of a frame)")
-      ->default_str(fmt::format("{}, or {} where windows overlap", model::kDefaultSeamFade,
-                                model::kDefaultOverlapSeamFade));
+                  "intervals, for what stays put or was trained on both sides (0: gamma, a jump "
+                  "within a tenth of a frame)")
+      ->default_str(fmt::format("{}", model::kDefaultSeamFade));
   cmd->add_flag("--force", args->force, "replace an existing --out");
   cmd->callback([args] {
     std::vector<InputPath> inputs;

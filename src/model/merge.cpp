@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -11,6 +12,8 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/limits.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
+#include "retimegs/model/trajectory.hpp"
 
 namespace retimegs::model {
 
@@ -27,6 +30,32 @@ bool same_grid(const TimeGrid& a, const TimeGrid& b) {
 bool same_config(const ModelConfig& a, const ModelConfig& b) {
   return a.representation == b.representation && a.trajectory == b.trajectory &&
          a.gamma == b.gamma && a.epsilon == b.epsilon && a.sh_degree == b.sh_degree;
+}
+
+// How far a seam's fade shows an edge's primitive beyond the seam, in the seam's sigmoid scales
+// (ψ(-2) = 0.12), and how far it may move there, in its largest axis, to count as staying put.
+constexpr double kFadeReach = 2;
+constexpr double kStillShare = 0.5;
+
+// Whether primitive i stays in place between times `edge` and `beyond`: its mean moves less than
+// kStillShare of its largest axis (merge.hpp).
+bool stays_put(const Primitives& p, std::size_t i, const ModelConfig& config, const TimeGrid& grid,
+               double edge, double beyond) {
+  const auto place = [&](double t, float x[3]) {
+    apply_trajectory(trajectory_at(config.representation, config.trajectory, p.mu_tau[i], float(t),
+                                   float(grid.step)),
+                     &p.mu[3 * i], &p.velocity[9 * i], x);
+  };
+  float there[3], later[3];
+  place(edge, there);
+  place(beyond, later);
+  double moved2 = 0;
+  float largest = p.log_scale[3 * i];
+  for (int a = 0; a < 3; ++a) {
+    moved2 += double(later[a] - there[a]) * (later[a] - there[a]);
+    largest = std::max(largest, p.log_scale[3 * i + a]);
+  }
+  return std::sqrt(moved2) < kStillShare * std::exp(double(largest));
 }
 
 }  // namespace
@@ -65,7 +94,6 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   // window starts and ends after the previous one, the seams ascend and each window keeps the
   // frames between its two, which it trained.
   std::vector<int> handovers;
-  std::vector<bool> overlapping;
   for (std::size_t k = 0; k + 1 < order.size(); ++k) {
     const std::size_t a = order[k], b = order[k + 1];
     const TimeWindow wa = window_of(windows[a]), wb = window_of(windows[b]);
@@ -81,7 +109,6 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       fail("merge: {} ({}) and {} ({}) overlap: one window holds the other", names[a], frames(wa),
            names[b], frames(wb));
     handovers.push_back((wb.first + wa.last) / 2);
-    overlapping.push_back(wb.first < wa.last);
   }
 
   Model merged;
@@ -89,27 +116,25 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   merged.grid = grid;
   merged.config = first.config;
   merged.config.seams.clear();
-  const bool any_overlap =
-      std::find(overlapping.begin(), overlapping.end(), true) != overlapping.end();
-  merged.config.seam_fade =
-      seam_fade.value_or(any_overlap ? kDefaultOverlapSeamFade : kDefaultSeamFade);
+  merged.config.seam_fade = seam_fade.value_or(kDefaultSeamFade);
   merged.training_config = first.training_config;
   // Each window's rows between its hand-overs: a row beyond one is dropped (the neighbour's
   // reconstruction covers that time) and a support that crosses one ends there, where the seam's
   // fade hands over. Only the support changes; the trajectory keeps its μ_τ, which may then lie
-  // outside the support (a negative half-width). Where the windows overlap, an edge that already
-  // ended at the seam moves 2ε off it, beyond RetimeWindow::edge_scale's reach: it keeps γ, since
-  // the fade would draw its trajectory where it was never trained (merge.hpp).
+  // outside the support (a negative half-width). An edge that already ended at the seam moves 2ε
+  // off it, beyond RetimeWindow::edge_scale's reach, unless its primitive stays put: it keeps γ,
+  // since the fade would draw its trajectory where it was never trained (merge.hpp).
   const double epsilon = first.config.epsilon;
   const double inf = std::numeric_limits<double>::infinity();
+  const bool fading = merged.config.seam_fade > 0;
+  const double reach = kFadeReach * seam_scale_frames(merged.config, grid);
   std::size_t total = 0, row = 0;
   for (const Model& m : windows) total += m.primitives.size();
   merged.primitives.resize(total);
   for (std::size_t k = 0; k < order.size(); ++k) {
     const double from = k > 0 ? grid.at(handovers[k - 1]) : -inf;
     const double to = k + 1 < order.size() ? grid.at(handovers[k]) : inf;
-    const bool nudge_from = k > 0 && overlapping[k - 1];
-    const bool nudge_to = k + 1 < order.size() && overlapping[k];
+
     const Primitives& p = windows[order[k]].primitives;
     for (std::size_t i = 0; i < p.size(); ++i) {
       throw_if_interrupted_every(i);
@@ -119,11 +144,13 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       merged.primitives.copy_row(row, p, i);
       if (lo < from - epsilon)
         merged.primitives.tau_l[row] = float(mu_tau - from);
-      else if (nudge_from && lo <= from + epsilon)
+      else if (fading && lo <= from + epsilon &&
+               !stays_put(p, i, merged.config, grid, from, from - reach))
         merged.primitives.tau_l[row] = float(mu_tau - (from + 2 * epsilon));
       if (hi > to + epsilon)
         merged.primitives.tau_r[row] = float(to - mu_tau);
-      else if (nudge_to && hi >= to - epsilon)
+      else if (fading && hi >= to - epsilon &&
+               !stays_put(p, i, merged.config, grid, to, to + reach))
         merged.primitives.tau_r[row] = float((to - 2 * epsilon) - mu_tau);
       ++row;
     }

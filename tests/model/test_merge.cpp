@@ -44,6 +44,11 @@ void add(Primitives& p, double from, double to, std::mt19937& rng) {
   p.tau_r[i] = float(to - from - 1);
 }
 
+// Sets primitive i's velocity to `speed` world units per frame along x (v1 = v2 = v3).
+void move(Primitives& p, std::size_t i, float speed) {
+  for (int j = 0; j < 3; ++j) p.velocity[9 * i + 3 * j] = speed;
+}
+
 struct Fixture {
   Model whole, left, right;  // the unsplit model, and its windows 0..8 and 8..16
 };
@@ -150,6 +155,36 @@ TEST(Merge, SeamCrossFadesOverItsOwnScale) {
   }
 }
 
+// Where windows touch, the edges at the seam are all edges their windows trained up to; the fade
+// shows each beyond the seam. A primitive that stays put there keeps the fade (the static world
+// cross-fades); a moving one keeps γ, since the fade would draw it on a path never trained.
+TEST(Merge, OnlyWhatStaysPutFadesAtASeam) {
+  Fixture f = fixture();
+  // Over the fade's reach (two of its scales: 2 frames), window 0's primitive of [6, 8] moves
+  // 0.04, a fifth of its axis (0.2): it stays put; window 1's of [8, 10] moves 10 axes.
+  move(f.left.primitives, 3, 0.02f);
+  move(f.right.primitives, 0, 1.0f);
+  const Model merged = merge_models({f.left, f.right}, {"a", "b"});
+  EXPECT_EQ(merged.config.seam_fade, kDefaultSeamFade);
+  const double scale = kDefaultSeamFade * kClip.step;
+  const auto [before, after] = seam_rows(merged);
+  const Primitives& p = merged.primitives;
+  for (const double t : {7.0, 7.5, kSeam, 8.5, 9.0})
+    EXPECT_NEAR(temporal_opacity(p, before, merged.config, merged.grid, t),
+                1 / (1 + std::exp((t - kSeam) / scale)), 1e-4)
+        << "t = " << t;
+  // The moving one starts 2ε after the seam, with γ (0.08 frames here): nothing of it shows at
+  // the held-out frame before the seam, where the fade would show 27 % of it.
+  EXPECT_LT(temporal_opacity(p, after, merged.config, merged.grid, kSeam - 1), 1e-4);
+  EXPECT_NEAR(temporal_opacity(p, after, merged.config, merged.grid, kSeam + 0.002), 0.5, 1e-3);
+  EXPECT_GT(temporal_opacity(p, after, merged.config, merged.grid, kSeam + 0.5), 0.99);
+  // Its support, not its trajectory, moved: μ_τ as trained.
+  EXPECT_EQ(p.mu_tau[after], 9);
+  // Without a fade nothing is moved: every seam edge keeps γ.
+  const Model sharp = merge_models({f.left, f.right}, {"a", "b"}, 0);
+  EXPECT_EQ(sharp.primitives.tau_l[seam_rows(sharp).second], 1);
+}
+
 TEST(Merge, SeamFadeIsStoredAndKeptByASecondMerge) {
   const Fixture f = fixture();
   const fs::path dir = fs::temp_directory_path() / "retimegs_test_merge_fade";
@@ -240,9 +275,10 @@ TEST(Merge, RecordsItsSeamsAndStoresThem) {
 
 TEST(Merge, PartialMergeKeepsItsOuterEndsOpen) {
   // The same two windows as part of a longer clip (to t = 20): merged, they cover 0..16 only.
+  // Without a fade, whose tail at t = 16 would add ψ(-8) = 3e-4 of the seam's edges.
   Fixture f = fixture();
   f.left.grid.count = f.right.grid.count = 11;
-  const Model m = merge_models({f.left, f.right}, {"a", "b"});
+  const Model m = merge_models({f.left, f.right}, {"a", "b"}, 0);
   ASSERT_TRUE(m.window);
   EXPECT_EQ(*m.window, (TimeWindow{0, 8}));
   const Model drawn = window_view(m);
@@ -264,6 +300,7 @@ TEST(Merge, OverlappingWindowsHandOverInTheMiddleOfTheirOverlap) {
   add(f.left.primitives, 6, 10, rng);
   add(f.right.primitives, 6, 8, rng);
   add(f.right.primitives, 6, 10, rng);  // μ_τ = 7: ended at the seam, its τ_l is negative
+  move(f.left.primitives, 3, 1.0f);     // window 0's of [6, 8]: moves, ends at the seam
   // The unsplit model's counterpart: the two stretched primitives, each cut at the seam.
   Model whole = f.whole;
   add(whole.primitives, 6, 8, rng);
@@ -285,22 +322,21 @@ TEST(Merge, OverlappingWindowsHandOverInTheMiddleOfTheirOverlap) {
         EXPECT_FLOAT_EQ(p.tau_l[i], -1);
       }
     }
-    // Window 0's stretched one, cut (its [6, 8] ended at the seam as trained: moved 2ε off it).
-    EXPECT_EQ(cut_before, 1);
+    // Window 0's stretched one, cut, and with a fade only that one: its moving [6, 8] ended at
+    // the seam as trained and moved 2ε off it (without a fade it stays, each edge γ's).
+    EXPECT_EQ(cut_before, merged.config.seam_fade > 0 ? 1 : 2);
     EXPECT_EQ(cut_after, 1);  // window 1's stretched one, cut
   }
-  // Without a fade it draws as the unsplit model, across the overlap and everywhere else, up to
-  // the 2ε by which the two edges that ended at the seam move off it (γ is 0.08 frames here: 0.006
-  // of σ_τ each).
+  // Without a fade (nothing moves off the seam then) it draws as the unsplit model, across the
+  // overlap and everywhere else.
   const Model merged = merge_models({f.left, f.right}, {"a", "b"}, 0);
   for (double t = 0; t <= 16 + 1e-9; t += 0.25)
-    EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(whole, t), 0.015) << "t = " << t;
-  // With the fade (by default the overlap's), only the supports the merge cut fade at the seam;
-  // window 0's primitive of the interval [6, 8] ended there as trained and keeps γ: half an
+    EXPECT_NEAR(temporal_sum(merged, t), temporal_sum(whole, t), 1e-5) << "t = " << t;
+  // With the fade, the supports the merge cut fade at the seam, trained on both sides of it;
+  // window 0's moving primitive of the interval [6, 8] ended there as trained and keeps γ: half an
   // interval past the seam it is gone, where the cut one still shows its fade's tail.
   const Model faded = merge_models({f.left, f.right}, {"a", "b"});
-  EXPECT_EQ(faded.config.seam_fade, kDefaultOverlapSeamFade);
-  const double scale = kDefaultOverlapSeamFade * kClip.step, later = kSeam + 1;
+  const double scale = kDefaultSeamFade * kClip.step, later = kSeam + 1;
   int natural = 0, cut = 0;
   for (std::size_t i = 0; i < faded.primitives.size(); ++i) {
     const Primitives& p = faded.primitives;

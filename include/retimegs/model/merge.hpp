@@ -8,18 +8,19 @@
 // training frames both trained (their shared boundary frame where they only touch). The merged
 // model holds each window's primitives between its seams: a primitive whose support lies beyond a
 // seam is left out (the neighbour's reconstruction covers that time) and a support that crosses
-// one ends there. Where the windows overlap, only those cut supports fade at the seam: an edge
-// that ended at the seam in its own window (a moving primitive of the interval before or after
-// it) is moved 2ε off the seam, out of the fade's reach, so that it keeps γ, as a fade would show
-// its trajectory beyond the frames that trained it. An edge at an interior seam is no longer at a
-// clip end and is an ordinary closed sigmoid (model/window.hpp), so the two sides meet at σ_τ = 0.5
-// each, as adjacent intervals do inside a window; its scale is the seam's fade
-// (ModelConfig::seam_fade), so that one window's reconstruction of the static world cross-fades
-// into the next's over a fraction of a training interval instead of jumping within a tenth of a
-// frame, and, where the windows overlap, both sides of the fade are reconstructions of frames they
-// trained. Each training camera's colour map is the mean of the windows' maps weighted by their
-// number of training intervals (each window fixed its own gauge, the average camera of its frames).
-// The merged model records its seams (ModelConfig::seams), where eval --stability looks for jumps.
+// one ends there. An edge at an interior seam is no longer at a clip end and is an ordinary closed
+// sigmoid (model/window.hpp), so the two sides meet at σ_τ = 0.5 each, as adjacent intervals do
+// inside a window; its scale is the seam's fade (ModelConfig::seam_fade), so that one window's
+// reconstruction of the static world cross-fades into the next's over a fraction of a training
+// interval instead of jumping within a tenth of a frame. The fade shows each side beyond the seam,
+// so only what was trained there or stays put keeps it: a support the merge cut (trained on both
+// sides), and an edge whose primitive moves less than half its largest axis over the fade's reach.
+// A moving primitive's edge that ended at the seam in its own window (the interval before or after
+// it) moves 2ε off the seam, out of the fade's reach, and keeps γ: a fade would show it on a path
+// never trained, a faint ghost beside the seam. Each training camera's colour map is the mean of
+// the windows' maps weighted by their number of training intervals (each window fixed its own
+// gauge, the average camera of its frames). The merged model records its seams
+// (ModelConfig::seams), where eval --stability looks for jumps.
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,12 +29,10 @@
 
 namespace retimegs::model {
 
-// merge --seam-fade's default, training intervals, where the windows only touch and where they
-// overlap: chosen on bench/windows.sh (README "Long clips and Slurm"). Where they touch, a wider
-// fade shows each window's trajectories beyond the frames it trained; where they overlap, both
-// sides of the fade were trained there.
-constexpr double kDefaultSeamFade = 0.25;
-constexpr double kDefaultOverlapSeamFade = 0.5;
+// merge --seam-fade's default, training intervals: chosen on bench/windows.sh (README "Long clips
+// and Slurm"). A wider fade spreads the static world's handover over more frames and leaves more
+// of the other window's reconstruction at the held-out frames beside the seam.
+constexpr double kDefaultSeamFade = 0.5;
 
 // `names[k]` names `windows[k]` in errors (its file). Throws Error, in one line naming the files,
 // for: no model, a SpacetimeGaussians model (its Gaussian windows have no edges to close), models
@@ -41,7 +40,7 @@ constexpr double kDefaultOverlapSeamFade = 0.5;
 // windows that leave a gap or hold one another. A model without a window covers its whole clip. The
 // first window's training config is kept for provenance. `seam_fade` (training intervals, within
 // core/limits.hpp's range; 0 keeps γ) applies to every seam, a merged model's own included;
-// without it, kDefaultOverlapSeamFade where two of the windows overlap, else kDefaultSeamFade.
+// without it, kDefaultSeamFade.
 Model merge_models(const std::vector<Model>& windows, const std::vector<std::string>& names,
                    std::optional<double> seam_fade = std::nullopt);
 
