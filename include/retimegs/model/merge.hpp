@@ -30,9 +30,10 @@
 namespace retimegs::model {
 
 // merge --seam-fade's default, training intervals: chosen on bench/windows.sh (README "Long clips
-// and Slurm"). A wider fade spreads the static world's handover over more frames and leaves more
-// of the other window's reconstruction at the held-out frames beside the seam.
-constexpr double kDefaultSeamFade = 0.5;
+// and Slurm"). A wider fade spreads the static world's handover over more frames, but leaves more
+// of the other window's reconstruction at the frames beside the seam, where the two
+// reconstructions, each partly transparent, let a little of what lies behind show through.
+constexpr double kDefaultSeamFade = 0.4;
 
 // `names[k]` names `windows[k]` in errors (its file). Throws Error, in one line naming the files,
 // for: no model, a SpacetimeGaussians model (its Gaussian windows have no edges to close), models
