@@ -134,7 +134,6 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
   for (std::size_t k = 0; k < order.size(); ++k) {
     const double from = k > 0 ? grid.at(handovers[k - 1]) : -inf;
     const double to = k + 1 < order.size() ? grid.at(handovers[k]) : inf;
-
     const Primitives& p = windows[order[k]].primitives;
     for (std::size_t i = 0; i < p.size(); ++i) {
       throw_if_interrupted_every(i);
