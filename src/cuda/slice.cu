@@ -135,9 +135,9 @@ __global__ void __launch_bounds__(kThreads)
 void slice(const DevicePrimitives& primitives, const model::ModelConfig& config,
            const model::TimeGrid& grid, double t, const Camera& camera,
            const DeviceSliceOptions& options, DeviceTimeSlice& out, const DeviceShaded* shaded) {
-  const Params s =
-      model::slice_params<float>(config, grid, t, camera, options.group, options.compensate,
-                                 options.flow_features, options.min_opacity);
+  const Params s = model::slice_params<float>(config, grid, t, camera, options.group,
+                                              options.compensate, options.flow_features,
+                                              options.min_opacity, options.side, options.side_seam);
   check_rows(primitives, "slice");
   const std::size_t n = primitives.size();
   if (shaded && shaded->rgb.size() != 3 * n)
@@ -200,9 +200,9 @@ void slice_backward(const DevicePrimitives& primitives, const model::ModelConfig
                     const DeviceSliceOptions& options, const DeviceTimeSlice& sliced,
                     const DeviceGaussianGrads& v_gaussians, DevicePrimitiveGrads& grads,
                     DeviceShaded* shaded) {
-  Params s =
-      model::slice_params<float>(config, grid, t, camera, model::Group::kAll, options.compensate,
-                                 options.flow_features, options.min_opacity);
+  Params s = model::slice_params<float>(config, grid, t, camera, model::Group::kAll,
+                                        options.compensate, options.flow_features,
+                                        options.min_opacity, options.side, options.side_seam);
   s.channels = sliced.gaussians.channels;
   check_rows(primitives, "slice_backward");
   const std::size_t n = primitives.size(), m = sliced.size();

@@ -48,7 +48,7 @@ bool in_group(const PrimitivesT<T>& p, std::size_t i, const ModelConfig& config,
 template <typename T>
 SliceParams<T> slice_params(const ModelConfig& config, const TimeGrid& grid, double t_in,
                             const Camera& camera, Group group, bool compensate, bool flow_features,
-                            double min_opacity) {
+                            double min_opacity, SeamSide side, double side_seam) {
   if (!std::isfinite(t_in)) fail("slice: time {} is not finite", t_in);
   SliceParams<T> s;
   if (group != Group::kAll) {
@@ -75,6 +75,7 @@ SliceParams<T> slice_params(const ModelConfig& config, const TimeGrid& grid, dou
   std::copy(config.seams.begin(), config.seams.end(), s.seams);
   s.seam_count = int(config.seams.size());
   s.seam_scale = T(seam_scale_frames(config, grid));
+  s.side = side, s.side_seam = T(side_seam);
   set_eye(camera, s.eye);
   s.pinhole = PinholeT<T>(camera);
   s.group = group;
@@ -98,7 +99,7 @@ void slice(const PrimitivesT<T>& primitives, const ModelConfig& config, const Ti
            const ShadedT<T>* shaded) {
   const SliceParams<T> s =
       slice_params<T>(config, grid, t_in, camera, options.group, options.compensate,
-                      options.flow_features, options.min_opacity);
+                      options.flow_features, options.min_opacity, options.side, options.side_seam);
   const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
   const std::size_t n = primitives.size();
 
@@ -165,8 +166,9 @@ void slice_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                     const SliceOptions& options, const TimeSliceT<T>& sliced,
                     const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
                     ShadedT<T>* shaded) {
-  SliceParams<T> s = slice_params<T>(config, grid, t_in, camera, Group::kAll, options.compensate,
-                                     options.flow_features, options.min_opacity);
+  SliceParams<T> s =
+      slice_params<T>(config, grid, t_in, camera, Group::kAll, options.compensate,
+                      options.flow_features, options.min_opacity, options.side, options.side_seam);
   s.channels = sliced.gaussians.channels;
   const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
   const PrimitiveGradArrays<T> v_p = gradient_arrays<T>(grads);
@@ -220,7 +222,8 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
 
 #define RETIMEGS_INSTANTIATE(T)                                                                  \
   template SliceParams<T> slice_params<T>(const ModelConfig&, const TimeGrid&, double,           \
-                                          const Camera&, Group, bool, bool, double);             \
+                                          const Camera&, Group, bool, bool, double, SeamSide,    \
+                                          double);                                               \
   template bool in_group<T>(const PrimitivesT<T>&, std::size_t, const ModelConfig&,              \
                             const TimeGrid&, double, Group);                                     \
   template TimeSliceT<T> slice<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \

@@ -1,11 +1,13 @@
 #include "retimegs/playback/model_renderer.hpp"
 
+#include <optional>
 #include <utility>
 #include <variant>
 
 #include "retimegs/core/error.hpp"
 #include "retimegs/model/slice.hpp"
 #include "retimegs/model/static_splats.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/render/depth.hpp"
 #include "retimegs/render/rasterize.hpp"
 
@@ -67,6 +69,31 @@ ModelRenderer::~ModelRenderer() = default;
 ModelRenderer::ModelRenderer(ModelRenderer&&) noexcept = default;
 ModelRenderer& ModelRenderer::operator=(ModelRenderer&&) noexcept = default;
 
+Image ModelRenderer::draw_side(const Camera& camera, double t, const float* background,
+                               const render::RenderOptions& options, model::SeamSide side,
+                               double seam, UninitVector<float>* alpha,
+                               UninitVector<float>* composited_depth) const {
+#if RETIMEGS_HAS_CUDA
+  if (gpu_)
+    return gpu_->draw(model_, camera, t, background, options, side, seam, alpha, composited_depth);
+#endif
+  render::RenderOutput out;
+  if (const auto* splats = std::get_if<Splats>(&model_)) {
+    render::rasterize_forward(model::splats_to_gaussians(*splats, camera), camera, background,
+                              options, out);
+  } else {
+    const model::Model& m = std::get<model::Model>(model_);
+    model::SliceOptions slice_options;
+    slice_options.side = side, slice_options.side_seam = seam;
+    const model::TimeSlice sliced =
+        model::slice(m.primitives, m.config, m.grid, t, camera, slice_options);
+    render::rasterize_forward(sliced.gaussians, camera, background, options, out);
+  }
+  if (alpha) *alpha = std::move(out.blend.alpha);
+  if (composited_depth) *composited_depth = std::move(out.blend.depth);
+  return std::move(out.blend.image);
+}
+
 Image ModelRenderer::draw(const Camera& camera, double t, const float* background,
                           const render::RenderOptions& options, UninitVector<float>* alpha,
                           Image* depth) const {
@@ -74,25 +101,36 @@ Image ModelRenderer::draw(const Camera& camera, double t, const float* backgroun
   draw_options.render_depth = depth != nullptr;
   UninitVector<float> own_alpha, composited_depth;
   if (depth && !alpha) alpha = &own_alpha;  // the depth pass divides by it
+  UninitVector<float>* depth_sum = depth ? &composited_depth : nullptr;
+  const auto* m = std::get_if<model::Model>(&model_);
+  const std::optional<model::SeamHandover> handover =
+      m ? model::seam_handover(m->config, m->grid, t) : std::nullopt;
   Image image;
-#if RETIMEGS_HAS_CUDA
-  if (gpu_)
-    image = gpu_->draw(model_, camera, t, background, draw_options, alpha,
-                       depth ? &composited_depth : nullptr);
-#endif
-  if (!gpu_) {
-    render::RenderOutput out;
-    if (const auto* splats = std::get_if<Splats>(&model_)) {
-      render::rasterize_forward(model::splats_to_gaussians(*splats, camera), camera, background,
-                                draw_options, out);
-    } else {
-      const model::Model& m = std::get<model::Model>(model_);
-      const model::TimeSlice sliced = model::slice(m.primitives, m.config, m.grid, t, camera, {});
-      render::rasterize_forward(sliced.gaussians, camera, background, draw_options, out);
-    }
-    if (alpha) *alpha = std::move(out.blend.alpha);
-    composited_depth = std::move(out.blend.depth);
-    image = std::move(out.blend.image);
+  if (!handover) {
+    image =
+        draw_side(camera, t, background, draw_options, model::SeamSide::kNone, 0, alpha, depth_sum);
+  } else if (!handover->draws(model::SeamSide::kAfter)) {
+    image = draw_side(camera, t, background, draw_options, model::SeamSide::kBefore, handover->seam,
+                      alpha, depth_sum);
+  } else if (!handover->draws(model::SeamSide::kBefore)) {
+    image = draw_side(camera, t, background, draw_options, model::SeamSide::kAfter, handover->seam,
+                      alpha, depth_sum);
+  } else {
+    // Every output is linear in the two images' compositing sums: the image over the background,
+    // alpha and the composited depth cross-fade alike, and the depth pass divides the faded sums.
+    UninitVector<float> after_alpha, after_depth;
+    image = draw_side(camera, t, background, draw_options, model::SeamSide::kBefore, handover->seam,
+                      alpha, depth_sum);
+    const Image after =
+        draw_side(camera, t, background, draw_options, model::SeamSide::kAfter, handover->seam,
+                  alpha ? &after_alpha : nullptr, depth_sum ? &after_depth : nullptr);
+    const auto fade = [w = float(handover->before)](float* before, const float* later,
+                                                    std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) before[i] = w * before[i] + (1 - w) * later[i];
+    };
+    fade(image.data.data(), after.data.data(), image.data.size());
+    if (alpha) fade(alpha->data(), after_alpha.data(), alpha->size());
+    if (depth_sum) fade(depth_sum->data(), after_depth.data(), depth_sum->size());
   }
   if (depth)
     *depth = render::depth_pass(composited_depth.data(), alpha->data(), image.width, image.height);

@@ -12,10 +12,13 @@ ModelRenderer::Gpu::Gpu(const LoadedModel& model) {
 
 Image ModelRenderer::Gpu::draw(const LoadedModel& model, const Camera& camera, double t,
                                const float* background, const render::RenderOptions& options,
-                               UninitVector<float>* alpha, UninitVector<float>* composited_depth) {
+                               model::SeamSide side, double side_seam, UninitVector<float>* alpha,
+                               UninitVector<float>* composited_depth) {
   const cuda::DeviceGaussians* gaussians = &splats;
   if (const auto* m = std::get_if<model::Model>(&model)) {
-    cuda::slice(primitives, m->config, m->grid, t, camera, {}, sliced);
+    cuda::DeviceSliceOptions slice_options;
+    slice_options.side = side, slice_options.side_seam = side_seam;
+    cuda::slice(primitives, m->config, m->grid, t, camera, slice_options, sliced);
     gaussians = &sliced.gaussians;
   } else {
     splats.upload(model::splats_to_gaussians(std::get<Splats>(model), camera));

@@ -15,11 +15,11 @@ struct ModelRenderer::Gpu {
   cuda::DeviceRenderOutput out;
 
   explicit Gpu(const LoadedModel& model);
-  // ModelRenderer::draw on the device, `model` the one given to the constructor: the image, and
-  // when given its alpha and (with options.render_depth) its composited depth sum_i z_i w_i.
+  // ModelRenderer::draw_side on the device, `model` the one given to the constructor: the image,
+  // and when given its alpha and (with options.render_depth) its composited depth sum_i z_i w_i.
   Image draw(const LoadedModel& model, const Camera& camera, double t, const float* background,
-             const render::RenderOptions& options, UninitVector<float>* alpha,
-             UninitVector<float>* composited_depth);
+             const render::RenderOptions& options, model::SeamSide side, double side_seam,
+             UninitVector<float>* alpha, UninitVector<float>* composited_depth);
 };
 
 }  // namespace retimegs::playback

@@ -6,23 +6,16 @@
 #include "retimegs/core/input_file.hpp"
 #include "retimegs/io/splat_ply.hpp"
 #include "retimegs/io/training_views.hpp"
-#include "retimegs/model/slice.hpp"
 #include "retimegs/model/static_splats.hpp"
 #include "retimegs/model/window.hpp"
+#include "retimegs/playback/model_renderer.hpp"
 #include "retimegs/render/rasterize.hpp"
 
 namespace retimegs::playback {
 
 Image render_model(const model::Model& model, const Camera& camera, double t,
                    const float* background, const render::RenderOptions& options, Colors colors) {
-  const model::TimeSlice sliced =
-      model::slice(model.primitives, model.config, model.grid, t, camera, {});
-  Image image =
-      render::rasterize_forward(sliced.gaussians, camera, background, options).blend.image;
-  if (colors == Colors::kCamera)
-    if (const model::CameraColor* color = model::find_camera_color(model, camera.name))
-      model::apply_camera_color(image, *color, image);
-  return image;
+  return ModelRenderer(model).render(camera, t, background, options, colors);
 }
 
 Image render_splats(const Splats& splats, const Camera& camera, const float* background,

@@ -2,6 +2,7 @@
 // draws as the unsplit model does, the window is stored in the file, and the refusals.
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -183,6 +184,45 @@ TEST(Merge, OnlyWhatStaysPutFadesAtASeam) {
   // Without a fade nothing is moved: every seam edge keeps γ.
   const Model sharp = merge_models({f.left, f.right}, {"a", "b"}, 0);
   EXPECT_EQ(sharp.primitives.tau_l[seam_rows(sharp).second], 1);
+}
+
+// Near a seam an image is the cross-fade of two images, each side's window drawn whole
+// (seam_handover; playback draws them): drawn for one side, the seam's edges of that side are open
+// and the other side's primitives there absent, so one primitive covers each time across the seam.
+TEST(Merge, EachSideOfASeamDrawsItsWindowWhole) {
+  const Fixture f = fixture();
+  const Model merged = merge_models({f.left, f.right}, {"a", "b"});
+  const auto [before, after] = seam_rows(merged);
+  const auto side_sum = [&](SeamSide side, double t) {
+    SliceOptions options;
+    options.min_opacity = 0;
+    options.side = side, options.side_seam = kSeam;
+    const TimeSlice e = slice(merged.primitives, merged.config, merged.grid, t, camera(), options);
+    double sum = 0;
+    for (std::size_t k = 0; k < e.temporal.size(); ++k) {
+      const std::size_t i = e.primitive_from_gaussian[k];
+      EXPECT_NE(i, side == SeamSide::kBefore ? after : before) << "t = " << t;
+      sum += e.temporal[k];
+    }
+    return sum;
+  };
+  for (double t = 7; t <= 9 + 1e-9; t += 0.125) {  // beyond the γ tails of the next edges
+    EXPECT_NEAR(side_sum(SeamSide::kBefore, t), 1.0, 1e-4) << "t = " << t;
+    EXPECT_NEAR(side_sum(SeamSide::kAfter, t), 1.0, 1e-4) << "t = " << t;
+  }
+  // The weights: the seam nearest t, the image before it weighted by the seam's sigmoid; beyond
+  // the tail one side alone is drawn.
+  const double scale = kDefaultSeamFade * kClip.step;
+  for (const double t : {0.0, 5.0, 7.5, kSeam, 8.5, 11.0, 16.0}) {
+    const std::optional<SeamHandover> h = seam_handover(merged.config, merged.grid, t);
+    ASSERT_TRUE(h);
+    EXPECT_EQ(h->seam, kSeam);
+    const double before_weight = 1 / (1 + std::exp((t - kSeam) / scale));
+    EXPECT_NEAR(h->before, before_weight, 1e-12) << "t = " << t;
+    EXPECT_EQ(h->draws(SeamSide::kBefore), before_weight > kHandoverTail) << "t = " << t;
+    EXPECT_EQ(h->draws(SeamSide::kAfter), before_weight < 1 - kHandoverTail) << "t = " << t;
+  }
+  EXPECT_FALSE(seam_handover(f.whole.config, f.whole.grid, kSeam));
 }
 
 TEST(Merge, SeamFadeIsStoredAndKeptByASecondMerge) {

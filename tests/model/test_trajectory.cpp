@@ -161,6 +161,11 @@ TEST(TemporalOpacity, DerivativeMatchesFiniteDifferencesInBothBoundaryCases) {
       {15.0, 1.0, 1.0, 0.0, 16.0, gamma, eps},  // right edge open
       // right edge at a merged model's seam (t = 6, training frame 3 of step 2): its own scale
       {5.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5},
+      // the same drawn for the window before the seam (open there) or the one after it (absent)
+      {5.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5, SeamSide::kBefore, 6.0},
+      {5.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5, SeamSide::kAfter, 6.0},
+      // left edge at the seam, drawn for the window after it (open there)
+      {7.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5, SeamSide::kAfter, 6.0},
   };
   for (const auto& w : windows)
     for (double t : {w.mu_tau - 1.05, w.mu_tau - 1.0, w.mu_tau - 0.97, w.mu_tau, w.mu_tau + 0.98,
@@ -169,6 +174,22 @@ TEST(TemporalOpacity, DerivativeMatchesFiniteDifferencesInBothBoundaryCases) {
       const double fd = (w(t + h) - w(t - h)) / (2 * h);
       EXPECT_NEAR(w.d_dt(t), fd, 1e-6 + 1e-6 * std::abs(fd)) << w.mu_tau << " t " << t;
     }
+  // Drawn for one side of the seam at 6: the edge there is open on its own side, the primitive
+  // absent on the other; an edge elsewhere, or 2ε off the seam, is untouched.
+  const RetimeWindow<double>& before = windows[4];
+  EXPECT_NEAR(before(6.0), 1.0, 1e-4);
+  EXPECT_NEAR(before(9.0), 1.0, 1e-4);
+  EXPECT_NEAR(before(4.0), 0.5, 1e-9);
+  EXPECT_EQ(windows[5](5.0), 0.0);
+  EXPECT_EQ(windows[5].d_dt(5.0), 0.0);
+  EXPECT_NEAR(windows[6](3.0), 1.0, 1e-4);
+  EXPECT_NEAR(windows[6](8.0), 0.5, 1e-9);
+  const RetimeWindow<double> starts_there{
+      7.0, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5, SeamSide::kBefore, 6.0};
+  EXPECT_EQ(starts_there(7.0), 0.0);
+  const RetimeWindow<double> off_seam{
+      7.0 + 2 * eps, 1.0, 1.0, 0.0, 16.0, gamma, eps, 2.0, kSeam, 1, 0.5, SeamSide::kBefore, 6.0};
+  EXPECT_NEAR(off_seam(6.0 + 2 * eps), 0.5, 1e-9);
   // STGS window: gradients with respect to the learnable centre and log scale.
   for (double t : {0.3, 2.0, 3.7}) {
     double mu_tau = 2.2, log_scale = std::log(0.8), v_mu = 0, v_ls = 0;

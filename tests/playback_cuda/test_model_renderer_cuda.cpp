@@ -133,6 +133,28 @@ TEST(ModelRendererCuda, FourDModelMatchesTheCpu) {
     }
 }
 
+// A merged model near its seam: one side alone, and the cross-fade of both sides' images.
+TEST(ModelRendererCuda, SeamHandoverMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const model::Model model = test::seamed_clouds(
+      {.count = 60, .seed = 7, .spread = 0.8f, .drift = 0.3f, .opacity_logit = {}},
+      {.count = 60, .seed = 8, .spread = 0.8f, .drift = -0.2f, .opacity_logit = {}}, 0.4);
+  const ModelRenderer cpu(model, cuda::Device::kCpu), gpu(model, cuda::Device::kCuda);
+  const float background[3] = {0.9f, 0.4f, 0.1f};
+  const View& v = kViews[1];
+  for (const double t : {0.5, 1.7, 2.0, 2.4, 3.5}) {
+    const std::string what = "t=" + std::to_string(t);
+    expect_close(what + " rgb", gpu.render(v.camera, t, background).data,
+                 cpu.render(v.camera, t, background).data);
+    Image depth_cpu, depth_gpu;
+    const Image rgba_cpu = cpu.render_rgba(v.camera, t, {}, Colors::kModel, &depth_cpu);
+    const Image rgba_gpu = gpu.render_rgba(v.camera, t, {}, Colors::kModel, &depth_gpu);
+    expect_close(what + " rgba", premultiplied(rgba_gpu), premultiplied(rgba_cpu));
+    expect_close(what + " depth", composited_depth(depth_gpu, rgba_gpu),
+                 composited_depth(depth_cpu, rgba_cpu));
+  }
+}
+
 TEST(ModelRendererCuda, NearPlaneAppliesOnTheGpu) {
   RETIMEGS_REQUIRE_GPU();
   const model::Model model = cloud();

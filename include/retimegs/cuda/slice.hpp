@@ -34,6 +34,8 @@ struct DeviceSliceOptions {
   bool compensate = false;
   bool flow_features = false;
   double min_opacity = 1.0 / 255.0;
+  model::SeamSide side = model::SeamSide::kNone;
+  double side_seam = 0;  // frames
   // The ascending rows to consider (device, row_count entries); nullptr: all rows.
   const std::int32_t* rows = nullptr;
   std::size_t row_count = 0;

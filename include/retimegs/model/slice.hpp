@@ -24,6 +24,9 @@ struct SliceOptions {
   // Primitives whose opacity σ·σ_τ falls below this are left out; 1/255 is exact for the
   // renderer, which skips alpha below one 8-bit step anyway. Gradient tests set 0.
   double min_opacity = 1.0 / 255.0;
+  // One side of a seam (RetimeWindow::side): what playback draws near a merged model's seams.
+  SeamSide side = SeamSide::kNone;
+  double side_seam = 0;  // frames
   // The ascending rows to consider (nullptr: all rows). The batch is the full scan's, byte for
   // byte, whenever the list holds every row the full scan selects (TemporalIndex::rows_at).
   const std::vector<std::int32_t>* rows = nullptr;
@@ -93,7 +96,8 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
 template <typename T>
 SliceParams<T> slice_params(const ModelConfig& config, const TimeGrid& grid, double t,
                             const Camera& camera, Group group, bool compensate, bool flow_features,
-                            double min_opacity);
+                            double min_opacity, SeamSide side = SeamSide::kNone,
+                            double side_seam = 0);
 
 // Whether primitive i belongs to `group` at time t (always true for kAll).
 template <typename T>

@@ -89,7 +89,9 @@ struct SliceParams {
   T gamma = 1, epsilon = 0;   // γ in frames, ε
   int seams[kMaxSeams] = {};  // [seam_count] ModelConfig::seams, by value for the kernels
   int seam_count = 0;
-  T seam_scale = 1;      // frames (seam_scale_frames)
+  T seam_scale = 1;                 // frames (seam_scale_frames)
+  SeamSide side = SeamSide::kNone;  // RetimeWindow::side, side_seam
+  T side_seam = 0;
   T eye[3] = {0, 0, 0};  // the camera centre: the view directions start there
   PinholeT<T> pinhole;   // projects the flow features' control points
   Group group = Group::kAll;
@@ -103,8 +105,8 @@ struct SliceParams {
 template <typename T>
 RETIMEGS_HD inline RetimeWindow<T> window_of(const SliceParams<T>& s, const PrimitiveArrays<T>& p,
                                              std::size_t i) {
-  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i], s.t_first,    s.t_last,    s.gamma,
-          s.epsilon,   s.step,     s.seams,    s.seam_count, s.seam_scale};
+  return {p.mu_tau[i], p.tau_l[i], p.tau_r[i],   s.t_first,    s.t_last, s.gamma,    s.epsilon,
+          s.step,      s.seams,    s.seam_count, s.seam_scale, s.side,   s.side_seam};
 }
 
 // σ_τ(t) of primitive i: the STGS Gaussian or the RetimeGS window.

@@ -13,6 +13,7 @@
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/memory.hpp"
 #include "retimegs/cuda/device.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/playback/render_model.hpp"
 #include "retimegs/render/options.hpp"
 
@@ -49,9 +50,14 @@ class ModelRenderer {
   struct Gpu;  // the device's arrays, reused by every image: one image at a time
 
   // The image over `background` before any colour map, its alpha into `alpha` and its depth pass
-  // into `depth` when given.
+  // into `depth` when given. Near a merged model's seams, the cross-fade of the two sides' images
+  // (model::seam_handover).
   Image draw(const Camera& camera, double t, const float* background,
              const render::RenderOptions& options, UninitVector<float>* alpha, Image* depth) const;
+  // One image of `side` of the seam at time `seam`, its alpha and composited depth when given.
+  Image draw_side(const Camera& camera, double t, const float* background,
+                  const render::RenderOptions& options, model::SeamSide side, double seam,
+                  UninitVector<float>* alpha, UninitVector<float>* composited_depth) const;
 
   LoadedModel model_;
   cuda::Device device_;

@@ -23,7 +23,8 @@ namespace retimegs::playback {
 // background included, as training compared it.
 enum class Colors { kModel, kCamera };
 
-// background: 3 values (RGB).
+// background: 3 values (RGB). One image on the CPU, as ModelRenderer draws it (from a copy of the
+// model: ModelRenderer draws many).
 Image render_model(const model::Model& model, const Camera& camera, double t,
                    const float* background, const render::RenderOptions& options = {},
                    Colors colors = Colors::kModel);
