@@ -177,6 +177,7 @@ Packed pack(const model::Model& model, const PackScene& pack_scene) {
   for (const int seam : model.config.seams) seams.push_back(model.grid.at(seam));
   m["seams"] = seams;
   m["seam_scale_frames"] = model::seam_scale_frames(model.config, model.grid);
+  m["handover_tail"] = model::kHandoverTail;  // the viewer's seam_handover reads it here
   m["sh_degree"] = degree;
   m["min_opacity"] = 1.0 / 255.0;
   double centre[3], radius;

@@ -18,6 +18,7 @@
 #include "cli/cli_run.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/model/temporal_opacity.hpp"
 #include "retimegs/view/pack.hpp"
 #include "retimegs/view/web.hpp"
 #include "test_util.hpp"
@@ -138,6 +139,7 @@ TEST(ViewPack, ManifestCarriesEvaluatesSettingsAndTheScene) {
   EXPECT_EQ(m["training_frames"], json({0.0, 2.0, 4.0, 6.0, 8.0}));
   EXPECT_DOUBLE_EQ(m["gamma_frames"].get<double>(), 0.02 * 8);
   EXPECT_DOUBLE_EQ(m["epsilon"].get<double>(), f.model.config.epsilon);
+  EXPECT_EQ(m["handover_tail"].get<double>(), model::kHandoverTail);
   EXPECT_EQ(m["sh_degree"], 3);
   EXPECT_DOUBLE_EQ(m["near"].get<double>(), io::scene_near_plane(f.scene));
   EXPECT_EQ(m["up"], json({0.0, -1.0, 0.0}));
