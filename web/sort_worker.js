@@ -1,8 +1,10 @@
 // Depth sort at the current time, off the main thread. Given the packed positions and windows
 // (posted once) and a request {id, t, zRow, near}, it evaluates every primitive's position at t,
 // keeps those the vertex shader draws (σ·σ_τ(t) >= 1/255, camera z >= near) and returns their
-// indices ordered back to front by camera z, the order the renderer composites in reverse.
-import { rowPosition, rowTemporalOpacity } from './time_model.js';
+// indices ordered back to front by camera z, the order the renderer composites in reverse. Near a
+// merged model's seam the renderer draws two images, one per side (imagesAt), in this one order:
+// a primitive is kept when either side draws it.
+import { imagesAt, rowPosition, rowTemporalOpacity } from './time_model.js';
 
 let model = null;  // timeRows (model_data.js)
 let depthBits = new Uint32Array(0), keysA = new Uint32Array(0), keysB = new Uint32Array(0);
@@ -45,9 +47,13 @@ function sortAt(request) {
   const tz = request.tz, near = request.near, t = request.t;
   const c = new Float64Array(3), x = new Float64Array(3);
   const f32 = new Float32Array(1), bits = new Uint32Array(f32.buffer);
+  const images = imagesAt(model.settings, t);
   let visible = 0;
   for (let i = 0; i < count; ++i) {
-    if (opacity[i] * rowTemporalOpacity(model, i, t) < minOpacity) continue;
+    let drawn = false;
+    for (const { side, seam } of images)
+      drawn ||= !(opacity[i] * rowTemporalOpacity(model, i, t, side, seam) < minOpacity);
+    if (!drawn) continue;
     rowPosition(model, i, t, c, x);
     const depth = r0 * x[0] + r1 * x[1] + r2 * x[2] + tz;
     if (!(depth >= near)) continue;

@@ -11,6 +11,12 @@
 // and on its linear continuation. The values are in double, by the functions export uses, from
 // the model's float parameters: what the viewer's JavaScript computes from model.bin. The render's
 // own float path (model::evaluate) is checked against them here.
+//
+// A merged model (two seams) adds, at each case time, σ_τ of every row drawn with each side of
+// the seam nearest that time (model::SeamSide, the image-domain handover), and the handover itself
+// (model::seam_handover: the nearest seam, the weight before it, which sides are drawn) at times
+// across the clip, at and around each seam and on both sides of where a side's weight reaches the
+// tail (model::kHandoverTail).
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -112,18 +118,22 @@ std::vector<CaseModel> case_models() {
                               model::TrajectoryKind::kCatmullRom, even, 0.005, windows, 11));
   models.push_back(case_model("linear", model::Representation::kRetime,
                               model::TrajectoryKind::kLinear, unit, 0.01, linear_windows, 12));
-  // A merged model: windows meeting at t = 8 (training frame 4), cross-faded over 0.3 intervals.
+  // A merged model: windows meeting at t = 8 and t = 12 (training frames 4 and 6), their seam
+  // edges on a scale of 0.3 intervals.
   const std::vector<RowTime> merged_windows = {
       {7, 1, 1, no_scale},     // [6, 8]: the first window's, its right edge at the seam
       {9, 1, 1, no_scale},     // [8, 10]: the second's, its left edge at the seam
       {5, 3, 3, no_scale},     // stretched over [2, 8]
       {9, 1, 0.5f, no_scale},  // an edge at 9.5: γ
       {8.5f, 1, 1, no_scale},  // edges at 7.5 and 9.5, off the seam: γ
+      {10, 2, 2, no_scale},    // [8, 12]: the second window's, from seam to seam
+      {11, 1, 1, no_scale},    // [10, 12]: its right edge at the second seam
+      {13, 1, 1, no_scale},    // [12, 14]: the third window's, its left edge there
   };
   CaseModel merged =
       case_model("merged", model::Representation::kRetime, model::TrajectoryKind::kCatmullRom, even,
                  0.005, merged_windows, 14);
-  merged.model.config.seams = {4};
+  merged.model.config.seams = {4, 6};
   merged.model.config.seam_fade = 0.3;
   models.push_back(std::move(merged));
   models.push_back(case_model("stgs", model::Representation::kStgs,
@@ -162,6 +172,15 @@ struct CaseValues {
   double x[3];
 };
 
+// σ_τ(t) of row i drawn with `side` of the seam at `seam` (frames).
+double side_temporal(const model::Model& m, std::size_t i, double t, model::SeamSide side,
+                     double seam) {
+  model::RetimeWindow<double> w =
+      model::retime_window<float, double>(m.primitives, i, m.config, m.grid);
+  w.side = side, w.side_seam = seam;
+  return w(t);
+}
+
 CaseValues case_values(const model::Model& m, std::size_t i, double t) {
   const model::Primitives& p = m.primitives;
   CaseValues v;
@@ -187,13 +206,15 @@ struct Rendered {
   float temporal;
   float x[3];
 };
-std::optional<Rendered> rendered(const model::Model& m, std::size_t i, double t) {
+std::optional<Rendered> rendered(const model::Model& m, std::size_t i, double t,
+                                 model::SeamSide side = model::SeamSide::kNone, double seam = 0) {
   Camera camera;
   camera.width = camera.height = 64;
   camera.fx = camera.fy = 50, camera.cx = camera.cy = 32;
   camera.world_to_camera(2, 3) = 5;
   model::SliceOptions options;
   options.min_opacity = 0;
+  options.side = side, options.side_seam = seam;
   const model::TimeSlice e = model::slice(m.primitives, m.config, m.grid, t, camera, options);
   for (std::size_t row = 0; row < e.primitive_from_gaussian.size(); ++row)
     if (std::size_t(e.primitive_from_gaussian[row]) == i) {
@@ -218,12 +239,60 @@ void write_file(const fs::path& path, const void* data, std::size_t bytes) {
   ASSERT_TRUE(out) << path;
 }
 
+// The render's float path against the double values of row i at t, within float rounding: σ_τ
+// within that of a window edge's argument (t - edge) / γ (up to 3.4e-6 relative on these cases; a
+// subnormal σ_τ within its last bit), x (when given) within that of its terms (up to 2.8e-7). It
+// leaves out the rows whose σ_τ underflows to 0 in float, below float's smallest normal, and
+// those that `side` leaves out.
+void expect_rendered(const CaseModel& c, std::size_t i, double t, double temporal, const double* x,
+                     model::SeamSide side = model::SeamSide::kNone, double seam = 0) {
+  const std::optional<Rendered> r = rendered(c.model, i, t, side, seam);
+  if (!r) {
+    EXPECT_LT(temporal, std::numeric_limits<float>::min())
+        << c.name << " row " << i << " t " << t << " side " << int(side);
+    return;
+  }
+  EXPECT_NEAR(r->temporal, temporal, 2e-5 * temporal + std::numeric_limits<float>::denorm_min())
+      << c.name << " row " << i << " t " << t << " side " << int(side);
+  for (int a = 0; x && a < 3; ++a)
+    EXPECT_NEAR(r->x[a], x[a], 2e-6 * (1 + std::abs(x[a])))
+        << c.name << " row " << i << " t " << t << " axis " << a;
+}
+
+// The times of a merged model's handover cases: every eighth of a frame over the clip, and around
+// each seam at multiples of its scale F (at the seam, before = 1/2) and a millionth of a frame
+// either side of where the far side's weight reaches the tail (F ln(1/tail - 1) from the seam).
+// None for a model without seams.
+std::vector<double> handover_times(const model::Model& m) {
+  if (m.config.seams.empty()) return {};
+  std::set<double> times;
+  const double first = m.grid.first, last = m.grid.last();
+  for (double t = first; t <= last; t += 0.125) times.insert(t);
+  const double scale = model::seam_scale_frames(m.config, m.grid);
+  const double tail = scale * std::log(1 / model::kHandoverTail - 1);
+  for (const int k : m.config.seams) {
+    const double seam = m.grid.at(k);
+    for (const double d : {0.0, 0.5, 1.0, 3.0})
+      times.insert(seam - d * scale), times.insert(seam + d * scale);
+    for (const double d : {tail - 1e-6, tail + 1e-6})
+      times.insert(seam - d), times.insert(seam + d);
+  }
+  std::vector<double> in_clip;
+  for (const double t : times)
+    if (t >= first && t <= last) in_clip.push_back(t);
+  return in_clip;
+}
+
 TEST(TimeModelCases, WritesTheCasesTheViewerIsCheckedAgainst) {
   const test::TempDir scratch;
   const fs::path dir = output_dir(scratch);
   fs::create_directories(dir);
   json models = json::array();
   std::size_t count = 0;
+  // Side cases where one side leaves the row out (σ_τ = 0) while the other draws it, and where a
+  // side draws it (nearly) whole, its edge at the seam open, while the model without sides fades
+  // it.
+  std::size_t left_out = 0, opened = 0;
   for (const CaseModel& c : case_models()) {
     const model::Model& m = c.model;
     const view::Packed packed = view::pack(m, {});
@@ -234,32 +303,36 @@ TEST(TimeModelCases, WritesTheCasesTheViewerIsCheckedAgainst) {
     for (std::size_t i = 0; i < m.primitives.size(); ++i) {
       for (const double t : case_times(m, i)) {
         const CaseValues v = case_values(m, i, t);
-        cases.push_back({{"row", i},
-                         {"t", t},
-                         {"temporal", v.temporal},
-                         {"opacity", viewer_opacity(m.primitives.opacity_logit[i])},
-                         {"coefficients", v.coefficients},
-                         {"x", v.x}});
-        ++count;
-        // The render's float path, within float rounding: σ_τ within that of a window edge's
-        // argument (t - edge) / γ (up to 3.4e-6 relative on these cases; a subnormal σ_τ within
-        // its last bit), x within that of its terms (up to 2.8e-7). It leaves out the rows whose
-        // σ_τ underflows to 0 in float, below float's smallest normal.
-        const std::optional<Rendered> r = rendered(m, i, t);
-        if (!r) {
-          EXPECT_LT(v.temporal, std::numeric_limits<float>::min())
-              << c.name << " row " << i << " t " << t;
-          continue;
+        json k = {{"row", i},
+                  {"t", t},
+                  {"temporal", v.temporal},
+                  {"opacity", viewer_opacity(m.primitives.opacity_logit[i])},
+                  {"coefficients", v.coefficients},
+                  {"x", v.x}};
+        expect_rendered(c, i, t, v.temporal, v.x);
+        if (const auto h = model::seam_handover(m.config, m.grid, t)) {
+          const double before = side_temporal(m, i, t, model::SeamSide::kBefore, h->seam);
+          const double after = side_temporal(m, i, t, model::SeamSide::kAfter, h->seam);
+          k["side_seam"] = h->seam, k["temporal_before"] = before, k["temporal_after"] = after;
+          expect_rendered(c, i, t, before, nullptr, model::SeamSide::kBefore, h->seam);
+          expect_rendered(c, i, t, after, nullptr, model::SeamSide::kAfter, h->seam);
+          left_out += (before == 0) != (after == 0);
+          opened += (before > 0.99 || after > 0.99) && v.temporal < 0.99;
         }
-        EXPECT_NEAR(r->temporal, v.temporal,
-                    2e-5 * v.temporal + std::numeric_limits<float>::denorm_min())
-            << c.name << " row " << i << " t " << t;
-        for (int a = 0; a < 3; ++a)
-          EXPECT_NEAR(r->x[a], v.x[a], 2e-6 * (1 + std::abs(v.x[a])))
-              << c.name << " row " << i << " t " << t << " axis " << a;
+        cases.push_back(std::move(k));
+        ++count;
       }
     }
-    models.push_back({{"name", c.name}, {"cases", cases}});
+    json handovers = json::array();
+    for (const double t : handover_times(m)) {
+      const model::SeamHandover h = *model::seam_handover(m.config, m.grid, t);
+      handovers.push_back({{"t", t},
+                           {"seam", h.seam},
+                           {"before", h.before},
+                           {"draws_before", h.draws(model::SeamSide::kBefore)},
+                           {"draws_after", h.draws(model::SeamSide::kAfter)}});
+    }
+    models.push_back({{"name", c.name}, {"cases", cases}, {"handovers", handovers}});
   }
   std::vector<float> halves(0x10000);
   for (std::uint32_t h = 0; h < 0x10000; ++h) halves[h] = view::float_from_half(std::uint16_t(h));
@@ -267,6 +340,8 @@ TEST(TimeModelCases, WritesTheCasesTheViewerIsCheckedAgainst) {
   const std::string manifest = json({{"models", models}, {"halves", "halves.f32"}}).dump(1);
   write_file(dir / "cases.json", manifest.data(), manifest.size());
   EXPECT_GT(count, 200u);
+  EXPECT_GT(left_out, 10u);
+  EXPECT_GT(opened, 10u);
 }
 
 }  // namespace
