@@ -5,7 +5,10 @@
 // plane, pixel centres at +0.5); pass 2 draws one instanced quad per primitive from those
 // records, composited back to front with premultiplied alpha: the same
 // sum as the CPU renderer's front-to-back blend (alpha = min(0.99, opacity · G), skipped below
-// 1/255).
+// 1/255). Pass 2 composites into an offscreen image; near a merged model's seam into two, one per
+// side of the seam (time_model.js imagesAt, model::seam_handover), and a final pass mixes them by
+// their weights, as playback::ModelRenderer::draw does, and applies the colour map.
+import { imagesAt, timeSettings } from './time_model.js';
 
 // Pass 1, per primitive (points, rasteriser off): the Gaussian at time t in image space.
 const PREPARE_SHADER = `#version 300 es
@@ -25,6 +28,10 @@ uniform float u_t, u_step, u_first, u_last, u_gamma, u_epsilon, u_min_opacity;
 uniform vec4 u_seams[64];
 uniform int u_seam_count;
 uniform float u_seam_scale;
+// The side of the seam at u_side_seam (frames) this image draws: -1 before, 1 after, 0 neither
+// (time_model.js SIDE_*, model::SeamSide).
+uniform int u_side;
+uniform float u_side_seam;
 uniform mat3 u_rotation;      // world to camera (OpenCV), column-major as GLSL stores it
 uniform vec3 u_translation;
 uniform vec4 u_intrinsics;    // fx, fy, cx, cy (pixels)
@@ -48,6 +55,7 @@ float edge_scale(float edge) {
     if (abs(edge - u_seams[k / 4][k % 4]) <= u_epsilon) return u_seam_scale;
   return u_gamma;
 }
+bool at_side_seam(float edge) { return u_side != 0 && abs(edge - u_side_seam) <= u_epsilon; }
 
 const float SH_C0 = 0.28209479177387814;
 const float SH_C1 = 0.4886025119029199;
@@ -127,7 +135,9 @@ void main() {
   vec4 shape = texelFetch(u_shape, at, 0);  // log-scale, opacity logit
   float mu_tau = mu.w, t = u_t;
 
-  // Temporal opacity σ_τ(t) (RetimeWindow, or the STGS Gaussian window).
+  // Temporal opacity σ_τ(t) (RetimeWindow, or the STGS Gaussian window). Drawn for one side of a
+  // seam, an edge at that seam is open, and a primitive that starts (before) or ends (after)
+  // there belongs to the other side: time_model.js temporalOpacity.
   float window;
   if (u_representation == 1) {
     float d = (t - mu_tau) * exp(-v3.w);
@@ -136,8 +146,13 @@ void main() {
     float a = mu_tau - v1.w, b = mu_tau + v2.w;
     bool open_left = a <= u_first + u_epsilon;
     bool open_right = b >= u_last - u_epsilon;
-    float left = open_left ? 1.0 : sigmoid((t - a) / edge_scale(a));
-    float right = open_right ? 1.0 : sigmoid((b - t) / edge_scale(b));
+    bool at_left = at_side_seam(a), at_right = at_side_seam(b);
+    if ((u_side == -1 && !open_left && at_left) || (u_side == 1 && !open_right && at_right)) {
+      cull();
+      return;
+    }
+    float left = open_left || at_left ? 1.0 : sigmoid((t - a) / edge_scale(a));
+    float right = open_right || at_right ? 1.0 : sigmoid((b - t) / edge_scale(b));
     window = left * right;
   }
   float opacity = sigmoid(shape.w) * window;
@@ -269,20 +284,25 @@ void main() {
 }
 `;
 
-// Final pass over a half-float image: the camera's colour map, after compositing as `render`
-// applies it; the canvas clamps to [0, 1] as a PNG does.
+// Final pass: the images of the two sides of a seam mixed, w · before + (1 - w) · after (one
+// image: both samplers read it, w = 1), then the camera's colour map, after compositing as
+// `render` applies it; the canvas clamps to [0, 1] as a PNG does.
 const FULLSCREEN_SHADER = `#version 300 es
 void main() {
   gl_Position = vec4(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID & 2) * 2 - 1), 0.0, 1.0);
 }
 `;
-const COLOR_MAP_SHADER = `#version 300 es
+const MIX_SHADER = `#version 300 es
 precision highp float;
-uniform sampler2D u_image;
+uniform sampler2D u_before, u_after;
+uniform float u_weight;
 uniform vec3 u_gain, u_offset;
 out vec4 color;
 void main() {
-  color = vec4(u_gain * texelFetch(u_image, ivec2(gl_FragCoord.xy), 0).rgb + u_offset, 1.0);
+  ivec2 at = ivec2(gl_FragCoord.xy);
+  vec3 rgb = u_weight * texelFetch(u_before, at, 0).rgb +
+             (1.0 - u_weight) * texelFetch(u_after, at, 0).rgb;
+  color = vec4(u_gain * rgb + u_offset, 1.0);
 }
 `;
 
@@ -349,6 +369,7 @@ export class Renderer {
                     t.height, 0, gl.RGBA, t.half ? gl.HALF_FLOAT : gl.FLOAT, t.data);
       gl.uniform1i(this.uniforms[`u_${name}`], unit);
     });
+    this.settings = timeSettings(manifest);
     const u = this.uniforms;
     gl.uniform1i(u.u_width_texels, manifest.texture_width);
     gl.uniform1i(u.u_sh_texels, textures.sh.texelsPerPrimitive);
@@ -360,12 +381,11 @@ export class Renderer {
     gl.uniform1f(u.u_last, manifest.time.last);
     gl.uniform1f(u.u_gamma, manifest.gamma_frames);
     gl.uniform1f(u.u_epsilon, manifest.epsilon);
-    const seams = manifest.seams ?? [];
     const packed = new Float32Array(4 * 64);
-    packed.set(seams);
+    packed.set(this.settings.seams);
     gl.uniform4fv(u.u_seams, packed);
-    gl.uniform1i(u.u_seam_count, seams.length);
-    gl.uniform1f(u.u_seam_scale, manifest.seam_scale_frames ?? manifest.gamma_frames);
+    gl.uniform1i(u.u_seam_count, this.settings.seams.length);
+    gl.uniform1f(u.u_seam_scale, this.settings.seamScale);
     gl.uniform1f(u.u_min_opacity, manifest.min_opacity);
     gl.uniform1f(u.u_low_pass, 0.3);      // render::RenderOptions::low_pass, px²
     gl.uniform1f(u.u_fov_guard, 0.3);     // render/constants.hpp kFovGuard
@@ -397,22 +417,22 @@ export class Renderer {
     gl.bindVertexArray(null);
     this.feedback = gl.createTransformFeedback();
 
-    // Composite into a half-float image where the GPU can (EXT_color_buffer_float): no 8-bit
+    // Composite into half-float images where the GPU can (EXT_color_buffer_float): no 8-bit
     // rounding per blended splat, and the colour map applied to the result, not per splat.
-    if (gl.getExtension('EXT_color_buffer_float')) {
-      this.mapProgram = link(gl, FULLSCREEN_SHADER, COLOR_MAP_SHADER, null);
-      this.mapUniforms = uniformsOf(gl, this.mapProgram);
-      this.imageUnit = this.recordUnit + 1;
-      this.image = gl.createTexture();
-      gl.activeTexture(gl.TEXTURE0 + this.imageUnit);
-      gl.bindTexture(gl.TEXTURE_2D, this.image);
+    // Elsewhere into 8-bit images, the canvas's own precision, with the colour map per splat: a
+    // seam's mix of two of them adds at most one rounding, half an 8-bit level, to each side's.
+    this.halfFloat = gl.getExtension('EXT_color_buffer_float') !== null;
+    this.mixProgram = link(gl, FULLSCREEN_SHADER, MIX_SHADER, null);
+    this.mixUniforms = uniformsOf(gl, this.mixProgram);
+    this.images = [1, 2].map((k) => ({ unit: this.recordUnit + k, texture: gl.createTexture(),
+                                        framebuffer: gl.createFramebuffer() }));
+    for (const image of this.images) {
+      gl.activeTexture(gl.TEXTURE0 + image.unit);
+      gl.bindTexture(gl.TEXTURE_2D, image.texture);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-      this.framebuffer = gl.createFramebuffer();
-      this.imageSize = [0, 0];
-      gl.useProgram(this.mapProgram);
-      gl.uniform1i(this.mapUniforms.u_image, this.imageUnit);
     }
+    this.imageSize = [0, 0];
     this.instances = 0;
     this.capacity = 0;
   }
@@ -438,32 +458,37 @@ export class Renderer {
     gl.bindBuffer(gl.ARRAY_BUFFER, null);
   }
 
+  // The offscreen images at the view's size.
+  resizeImages(width, height) {
+    const gl = this.gl;
+    if (this.imageSize[0] === width && this.imageSize[1] === height) return;
+    this.imageSize = [width, height];
+    for (const image of this.images) {
+      gl.activeTexture(gl.TEXTURE0 + image.unit);
+      gl.bindTexture(gl.TEXTURE_2D, image.texture);
+      const [format, type] = this.halfFloat ? [gl.RGBA16F, gl.HALF_FLOAT]
+                                            : [gl.RGBA8, gl.UNSIGNED_BYTE];
+      gl.texImage2D(gl.TEXTURE_2D, 0, format, width, height, 0, gl.RGBA, type, null);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, image.framebuffer);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, image.texture,
+                              0);
+    }
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  }
+
   // view: {rotation [9] row-major world to camera, translation [3], fx, fy, cx, cy, width,
   // height, eye [3], color {m, c} or null}; background [3].
   draw(view, t, background) {
     const gl = this.gl, u = this.uniforms;
     gl.viewport(0, 0, view.width, view.height);
+    this.resizeImages(view.width, view.height);
     const mapGain = view.color ? view.color.m.map(Math.exp) : [1, 1, 1];
     const mapOffset = view.color ? view.color.c : [0, 0, 0];
-    let gain = mapGain, offset = mapOffset;
-    if (this.framebuffer) {
-      if (this.imageSize[0] !== view.width || this.imageSize[1] !== view.height) {
-        this.imageSize = [view.width, view.height];
-        gl.activeTexture(gl.TEXTURE0 + this.imageUnit);
-        gl.bindTexture(gl.TEXTURE_2D, this.image);
-        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA16F, view.width, view.height, 0, gl.RGBA,
-                      gl.HALF_FLOAT, null);
-        gl.bindFramebuffer(gl.FRAMEBUFFER, this.framebuffer);
-        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, this.image, 0);
-      }
-      gl.bindFramebuffer(gl.FRAMEBUFFER, this.framebuffer);
-      gain = [1, 1, 1], offset = [0, 0, 0];  // mapped in the final pass
-    }
-    // Without the half-float image: the colour map is affine and the blend weights (Σ αT plus the
-    // transmittance left) sum to one, so mapping every splat's colour and the background maps
-    // the image (up to the 8-bit clamping of each step).
-    gl.clearColor(...background.map((b, k) => gain[k] * b + offset[k]), 1);
-    gl.clear(gl.COLOR_BUFFER_BIT);
+    // In 8-bit images the colour map goes with every splat's colour and the background: it is
+    // affine and the blend weights (Σ αT plus the transmittance left) sum to one, so that maps
+    // the image (up to the 8-bit clamping of each step); so does a seam's mix, whose weights sum
+    // to one too.
+    const [gain, offset] = this.halfFloat ? [[1, 1, 1], [0, 0, 0]] : [mapGain, mapOffset];
     gl.useProgram(this.program);
     gl.uniform1f(u.u_t, t);
     gl.uniformMatrix3fv(u.u_rotation, true, view.rotation);
@@ -473,17 +498,28 @@ export class Renderer {
     gl.uniform3fv(u.u_eye, view.eye);
     gl.uniform3fv(u.u_gain, gain);
     gl.uniform3fv(u.u_offset, offset);
-    if (this.instances > 0) this.drawSplats(view);
-    if (this.framebuffer) {
-      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-      gl.disable(gl.BLEND);
-      gl.useProgram(this.mapProgram);
-      gl.uniform3fv(this.mapUniforms.u_gain, mapGain);
-      gl.uniform3fv(this.mapUniforms.u_offset, mapOffset);
-      gl.bindVertexArray(this.splatVao);
-      gl.drawArrays(gl.TRIANGLES, 0, 3);
-      gl.bindVertexArray(null);
-    }
+    const images = imagesAt(this.settings, t);
+    images.forEach(({ side, seam }, k) => {
+      gl.bindFramebuffer(gl.FRAMEBUFFER, this.images[k].framebuffer);
+      gl.clearColor(...background.map((b, c) => gain[c] * b + offset[c]), 1);
+      gl.clear(gl.COLOR_BUFFER_BIT);
+      gl.useProgram(this.program);
+      gl.uniform1i(u.u_side, side);
+      gl.uniform1f(u.u_side_seam, seam);
+      if (this.instances > 0) this.drawSplats(view);
+    });
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.disable(gl.BLEND);
+    gl.useProgram(this.mixProgram);
+    const m = this.mixUniforms;
+    gl.uniform1i(m.u_before, this.images[0].unit);
+    gl.uniform1i(m.u_after, this.images[images.length - 1].unit);
+    gl.uniform1f(m.u_weight, images[0].weight);
+    gl.uniform3fv(m.u_gain, this.halfFloat ? mapGain : [1, 1, 1]);
+    gl.uniform3fv(m.u_offset, this.halfFloat ? mapOffset : [0, 0, 0]);
+    gl.bindVertexArray(this.splatVao);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.bindVertexArray(null);
   }
 
   drawSplats(view) {

@@ -4,6 +4,7 @@
 // both clip ends, positions on the Catmull-Rom curve's linear continuation), per-interval
 // primitives whose windows open at the first and last training time, windows with a soft edge in
 // the middle of an interval, rotating primitives, degree-3 SH, and a colour map on one camera.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <random>
@@ -59,6 +60,33 @@ inline model::Model view_fixture_model(std::size_t count, unsigned seed) {
     }
   }
   m.camera_colors["cam0"] = {{0.15f, -0.1f, 0.05f}, {0.03f, 0.0f, -0.02f}};
+  return m;
+}
+
+// A merged model on the fixture's scene: the fixture's primitives held still (no motion, no
+// rotation over time), a seam at t = 4 (training frame 2) with a fade of 0.25 intervals (F = 0.5
+// frames: each side's weight is within model::kHandoverTail of 1 beyond 3.12 frames of the seam).
+// The background belongs to both windows ([0, 8]); of the other primitives, alternate groups of
+// four to the window before the seam ([0, 4]) or after it ([4, 8]). Each side alone then draws
+// the same image at every time: the one before at t = 0, the one after at t = 8, and the frame
+// at t is their mix by the handover's weight (playback::ModelRenderer::draw). Colours lie in
+// [0.1, 0.9] whatever the view (the SH beyond degree 0 are zero), so no image over black clamps:
+// the mix of two 8-bit images is the 8-bit image of the mix.
+inline model::Model view_fixture_merged_model(std::size_t count, unsigned seed) {
+  model::Model m = view_fixture_model(count, seed);
+  m.config.seams = {2};
+  m.config.seam_fade = 0.25;
+  model::Primitives& p = m.primitives;
+  constexpr int kSh = model::Primitives::kShWidth;
+  for (std::size_t i = 0; i < count; ++i) {
+    std::fill_n(&p.velocity[9 * i], 9, 0.0f);
+    std::fill_n(&p.q1[4 * i], 4, 0.0f);
+    // colour = 0.2821 h0 + 0.5 (model/sh.cpp): |h0| <= 1.4 keeps it within [0.1, 0.9].
+    for (int k = 0; k < 3; ++k) p.sh[kSh * i + k] = std::clamp(p.sh[kSh * i + k], -1.4f, 1.4f);
+    std::fill(&p.sh[kSh * i + 3], &p.sh[kSh * (i + 1)], 0.0f);
+    if (i % 4 == 3) continue;  // the background: [0, 8]
+    p.mu_tau[i] = (i / 4) % 2 ? 2.0f : 6.0f, p.tau_l[i] = 2.0f, p.tau_r[i] = 2.0f;
+  }
   return m;
 }
 

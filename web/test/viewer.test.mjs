@@ -3,8 +3,11 @@
 // view_helper (stretched primitives over the whole clip, open windows at both clip ends, soft
 // window edges, degree-3 SH, a colour map on cam0) and for a small model trained here, and
 // compares canvas screenshots with `retimegs render` of the same camera and time: PSNR >= 28 dB and SSIM >= 0.9 with the project's own
-// metrics (view_helper compare). Also: scrubbing the slider changes the frame to the slider's
-// time, the exported static site draws the same frame, a missing WebGL2 shows a message.
+// metrics (view_helper compare). A merged model (view_helper merged) near its seam: the frame is
+// the mix of the two sides' images by the handover's weight, and render's frame, with half-float
+// images and without (the 8-bit path of a browser without EXT_color_buffer_float). Also:
+// scrubbing the slider changes the frame to the slider's time, the exported static site draws
+// the same frame, a missing WebGL2 shows a message.
 //
 //   node web/test/viewer.test.mjs RETIMEGS_BINARY VIEW_HELPER_BINARY
 // Exit 0 passed, 1 failed, 77 skipped (no Chromium or no web/node_modules: the reason is printed).
@@ -14,6 +17,8 @@ import { existsSync, mkdtempSync, mkdirSync, copyFileSync, readFileSync, rmSync,
 import { createServer } from 'node:http';
 import { tmpdir } from 'node:os';
 import { join, extname } from 'node:path';
+
+import { imagesAt, seamHandover, timeSettings } from '../time_model.js';
 
 const [retimegs, helper] = process.argv.slice(2);
 if (!retimegs || !helper) {
@@ -81,10 +86,15 @@ function serveFolder(folder) {
     () => resolve(`http://127.0.0.1:${staticServer.address().port}/`)));
 }
 
+// `retimegs render` of `which` at camera and t, rendered once.
+const renders = new Map();
 function render(camera, t, which = { model, scene }) {
-  const out = join(work, `render_${camera}_t${t}.png`);
+  const key = JSON.stringify([which.model, camera, t]);
+  if (renders.has(key)) return renders.get(key);
+  const out = join(work, `render${renders.size}_${camera}_t${t}.png`);
   execFileSync(retimegs, ['render', '--model', which.model, '--scene', which.scene, '--camera',
                           camera, '--time', String(t), '--out', out]);
+  renders.set(key, out);
   return out;
 }
 
@@ -118,8 +128,9 @@ async function compareWithRender(page, url, which, cases, prefix, size) {
   }
 }
 
-function compare(a, b) {
-  const text = execFileSync(helper, ['compare', a, b]).toString();
+// PSNR and SSIM of image a against image b, or against the mix w b + (1 - w) c.
+function compare(a, b, c = null, w = 1) {
+  const text = execFileSync(helper, ['compare', a, b, ...(c ? [c, String(w)] : [])]).toString();
   const [, psnr, ssim] = text.match(/psnr (\S+) ssim (\S+)/);
   // psnr prints inf for identical images.
   return { psnr: /inf/.test(psnr) ? Infinity : Number(psnr), ssim: Number(ssim) };
@@ -145,6 +156,34 @@ async function screenshot(page, name) {
   return path;
 }
 
+// The merged fixture (view_fixture_merged_model): still primitives, one group the window before
+// the seam at t = 4, one the window after it, the background in both, colours that never clamp.
+// Each side alone draws one image at every time, so the frame at a time near the seam must be the
+// mix of the frames at the clip's ends (each side alone there) by the handover's weight: within
+// 8-bit rounding (one level everywhere would be 48 dB). Checked on cam1 (no colour map, whose
+// clamping of dark pixels would not commute with the mix), and the frames against render.
+async function checkSeam(page, url, which, prefix) {
+  const response = await fetch(new URL('model.json', url));
+  const settings = timeSettings(await response.json());
+  const shotAt = async (camera, t) => {
+    await frame(page, url, `?camera=${camera}&t=${t}&paused=1`);
+    return screenshot(page, `${prefix}_${camera}_t${t}`);
+  };
+  const ends = [settings.first, settings.last];
+  check(ends.every((t) => imagesAt(settings, t).length === 1),
+        `${prefix}: one side alone at the clip's ends`);
+  const before = await shotAt('cam1', ends[0]), after = await shotAt('cam1', ends[1]);
+  const apart = compare(before, after);
+  check(apart.psnr < 25, `${prefix}: the two sides differ (PSNR ${apart.psnr.toFixed(2)} dB)`);
+  for (const t of [4, 4.25]) {
+    const weight = seamHandover(settings, t).before;
+    const mixed = compare(await shotAt('cam1', t), before, after, weight);
+    check(mixed.psnr >= 45, `${prefix} cam1 t=${t}: the sides mixed by ${weight.toFixed(4)} ` +
+                            `(PSNR ${mixed.psnr.toFixed(2)} dB, SSIM ${mixed.ssim.toFixed(4)})`);
+  }
+  await compareWithRender(page, url, which, [['cam0', 4], ['cam1', 4.25]], prefix, [160, 120]);
+}
+
 try {
   execFileSync(helper, ['fixture', work]);
   const url = await serve(['--model', model, '--scene', scene]);
@@ -163,6 +202,21 @@ try {
   await compareWithRender(page, url, { model, scene },
                           [['cam0', 4], ['cam1', 4], ['cam0', 3.5], ['cam1', 3.5], ['cam0', 0],
                            ['cam1', 8]], 'fixture', [160, 120]);
+
+  // A merged model at its seam, with half-float images and with 8-bit ones.
+  execFileSync(helper, ['merged', work]);
+  const merged = { model: join(work, 'merged.rgs'), scene };
+  const mergedUrl = await serve(['--model', merged.model, '--scene', scene]);
+  await checkSeam(page, mergedUrl, merged, 'merged');
+  const eightBit = await context.newPage();
+  await eightBit.addInitScript(() => {
+    const original = WebGL2RenderingContext.prototype.getExtension;
+    WebGL2RenderingContext.prototype.getExtension = function (name) {
+      return name === 'EXT_color_buffer_float' ? null : original.call(this, name);
+    };
+  });
+  await checkSeam(eightBit, mergedUrl, merged, 'merged_8bit');
+  await eightBit.close();
 
   // A trained model: two training cameras (their learned colour maps) at training frame 2 and at
   // the held-out frame 3.
