@@ -161,8 +161,8 @@ TEST(Merge, SeamCrossFadesOverItsOwnScale) {
 // cross-fades); a moving one keeps γ, since the fade would draw it on a path never trained.
 TEST(Merge, OnlyWhatStaysPutFadesAtASeam) {
   Fixture f = fixture();
-  // Over the fade's reach (two of its scales: 1.6 frames), window 0's primitive of [6, 8] moves
-  // 0.032, a sixth of its axis (0.2): it stays put; window 1's of [8, 10] moves 8 axes.
+  // Over the fade's reach (two of its scales: 2 frames), window 0's primitive of [6, 8] moves
+  // 0.04, a fifth of its axis (0.2): it stays put; window 1's of [8, 10] moves 10 axes.
   move(f.left.primitives, 3, 0.02f);
   move(f.right.primitives, 0, 1.0f);
   const Model merged = merge_models({f.left, f.right}, {"a", "b"});
@@ -175,7 +175,7 @@ TEST(Merge, OnlyWhatStaysPutFadesAtASeam) {
                 1 / (1 + std::exp((t - kSeam) / scale)), 1e-4)
         << "t = " << t;
   // The moving one starts 2ε after the seam, with γ (0.08 frames here): nothing of it shows at
-  // the held-out frame before the seam, where the fade would show 22 % of it.
+  // the held-out frame before the seam, where the fade would show 12 % of it.
   EXPECT_LT(temporal_opacity(p, after, merged.config, merged.grid, kSeam - 1), 1e-4);
   EXPECT_NEAR(temporal_opacity(p, after, merged.config, merged.grid, kSeam + 0.002), 0.5, 1e-3);
   EXPECT_GT(temporal_opacity(p, after, merged.config, merged.grid, kSeam + 0.5), 0.99);

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "premultiplied.hpp"
 #include "retimegs/core/camera.hpp"
 #include "retimegs/playback/model_renderer.hpp"
 #include "soft_cloud.hpp"
@@ -33,17 +34,6 @@ constexpr double kFade = 0.4;
 std::vector<float> mix(double a, const std::vector<float>& x, const std::vector<float>& y) {
   std::vector<float> out(x.size());
   for (std::size_t i = 0; i < x.size(); ++i) out[i] = float(a * x[i] + (1 - a) * y[i]);
-  return out;
-}
-
-// The straight RGBA as the premultiplied colour and alpha it composites from.
-std::vector<float> premultiplied(const Image& rgba) {
-  std::vector<float> out(rgba.data.size());
-  for (std::size_t i = 0; i < rgba.pixels(); ++i) {
-    const float a = rgba.data[4 * i + 3];
-    for (int c = 0; c < 3; ++c) out[4 * i + c] = a * rgba.data[4 * i + c];
-    out[4 * i + 3] = a;
-  }
   return out;
 }
 
@@ -94,8 +84,9 @@ TEST(SeamHandover, ImageIsTheCrossFadeOfTheTwoWindowsDrawnWhole) {
     const Image rgba = renderer.render_rgba(cam, t, {}, Colors::kModel, &depth);
     const Image rgba_before = before.render_rgba(cam, t, {}, Colors::kModel, &depth_before);
     const Image rgba_after = after.render_rgba(cam, t, {}, Colors::kModel, &depth_after);
-    expect_near(premultiplied(rgba), mix(w, premultiplied(rgba_before), premultiplied(rgba_after)),
-                1e-5, what + " rgba");
+    expect_near(test::premultiplied(rgba),
+                mix(w, test::premultiplied(rgba_before), test::premultiplied(rgba_after)), 1e-5,
+                what + " rgba");
     expect_near(composited(depth, rgba),
                 mix(w, composited(depth_before, rgba_before), composited(depth_after, rgba_after)),
                 1e-4, what + " depth");

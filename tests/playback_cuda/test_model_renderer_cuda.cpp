@@ -23,6 +23,7 @@
 #include <gtest/gtest.h>
 
 #include "cuda/require_gpu.hpp"
+#include "premultiplied.hpp"
 #include "retimegs/core/camera.hpp"
 #include "retimegs/model/export.hpp"
 #include "retimegs/playback/model_renderer.hpp"
@@ -52,17 +53,6 @@ void expect_close(const std::string& what, const std::vector<float>& gpu,
   EXPECT_LE(outliers, std::size_t(kOutlierShare * double(cpu.size())))
       << what << ": " << outliers << " of " << cpu.size() << " values differ, first [" << first
       << "] gpu " << gpu[first] << " cpu " << cpu[first] << ", worst " << worst;
-}
-
-// The straight RGBA as the image over black it composites to, and its alpha.
-std::vector<float> premultiplied(const Image& rgba) {
-  std::vector<float> out(rgba.data.size());
-  for (std::size_t i = 0; i < rgba.pixels(); ++i) {
-    const float a = rgba.data[4 * i + 3];
-    for (int c = 0; c < 3; ++c) out[4 * i + c] = a * rgba.data[4 * i + c];
-    out[4 * i + 3] = a;
-  }
-  return out;
 }
 
 // The depth pass as the composited depth it came from, over kFarDepth: alpha * depth / kFarDepth
@@ -127,7 +117,7 @@ TEST(ModelRendererCuda, FourDModelMatchesTheCpu) {
       const Image rgba_gpu = gpu.render_rgba(v.camera, v.t, {}, colors);
       const Image rgba_cpu = cpu.render_rgba(v.camera, v.t, {}, colors);
       ASSERT_EQ(rgba_gpu.channels, 4);
-      expect_close(what + " rgba", premultiplied(rgba_gpu), premultiplied(rgba_cpu));
+      expect_close(what + " rgba", test::premultiplied(rgba_gpu), test::premultiplied(rgba_cpu));
       // The view sees the cloud.
       EXPECT_GT(*std::max_element(rgba_cpu.data.begin(), rgba_cpu.data.end()), 0.5f) << what;
     }
@@ -149,7 +139,7 @@ TEST(ModelRendererCuda, SeamHandoverMatchesTheCpu) {
     Image depth_cpu, depth_gpu;
     const Image rgba_cpu = cpu.render_rgba(v.camera, t, {}, Colors::kModel, &depth_cpu);
     const Image rgba_gpu = gpu.render_rgba(v.camera, t, {}, Colors::kModel, &depth_gpu);
-    expect_close(what + " rgba", premultiplied(rgba_gpu), premultiplied(rgba_cpu));
+    expect_close(what + " rgba", test::premultiplied(rgba_gpu), test::premultiplied(rgba_cpu));
     expect_close(what + " depth", composited_depth(depth_gpu, rgba_gpu),
                  composited_depth(depth_cpu, rgba_cpu));
   }
@@ -177,8 +167,8 @@ TEST(ModelRendererCuda, StaticSplatsMatchTheCpu) {
     const std::string what = v.camera.name + " " + std::to_string(v.camera.width);
     expect_close(what + " rgb", gpu.render(v.camera, 0, background).data,
                  cpu.render(v.camera, 0, background).data);
-    expect_close(what + " rgba", premultiplied(gpu.render_rgba(v.camera, 0)),
-                 premultiplied(cpu.render_rgba(v.camera, 0)));
+    expect_close(what + " rgba", test::premultiplied(gpu.render_rgba(v.camera, 0)),
+                 test::premultiplied(cpu.render_rgba(v.camera, 0)));
   }
 }
 
