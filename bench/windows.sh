@@ -53,14 +53,19 @@ for iters in $iters_list; do
       --stability --threads "$threads"
   fi
   split="$work/windows_${windows}x$iters${overlap:+_overlap$overlap}"
-  if [ ! -f "$split/metrics.json" ]; then
+  # Trained windows are kept: remove metrics.json to merge and score them again (after a change to
+  # merge or to how a merged model is drawn), the whole folder to train them again.
+  if [ ! -f "$split/train_seconds" ]; then
     "$bin" slurm --scene "$scene" --out "$split/run" --windows "$windows" --iters "$iters" \
       --cap "$cap" ${overlap:+--overlap "$overlap"} --force
     start=$(date +%s)
     SLURM_CPUS_PER_TASK=$threads "$split/run/slurm/run_local.sh"
     echo $(($(date +%s) - start)) > "$split/train_seconds"
+  fi
+  if [ ! -f "$split/metrics.json" ]; then
+    "$bin" merge --out "$split/run/model.rgs" --force "$split"/run/windows/*/model.rgs
     "$bin" eval --model "$split/run/model.rgs" --scene "$scene" --out "$split/metrics.json" \
-      --stability --threads "$threads"
+      --stability --threads "$threads" --force
     # Each window alone on its own held-out frames, and the merged model on the same frames.
     for dir in "$split"/run/windows/*/; do
       k=$(basename "$dir")
@@ -68,9 +73,9 @@ for iters in $iters_list; do
         sed -n "$((k + 1))p")
       list=$(odd_frames "${range%:*}" "${range#*:}")
       "$bin" eval --model "$dir/model.rgs" --scene "$scene" --frames "$list" \
-        --out "$split/window_$k.json" --threads "$threads"
+        --out "$split/window_$k.json" --threads "$threads" --force
       "$bin" eval --model "$split/run/model.rgs" --scene "$scene" --frames "$list" \
-        --out "$split/merged_$k.json" --threads "$threads"
+        --out "$split/merged_$k.json" --threads "$threads" --force
     done
   fi
   alone=() merged=()

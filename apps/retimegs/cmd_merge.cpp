@@ -32,9 +32,9 @@ void add_merge_command(CLI::App& app) {
       ->expected(1, -1)
       ->check(input_file("a model"));
   cmd->add_option("--seam-fade", args->seam_fade,
-                  "cross-fade at each seam: the sigmoid scale of the edges there, in training "
-                  "intervals, for what stays put or was trained on both sides (0: gamma, a jump "
-                  "within a tenth of a frame)")
+                  "cross-fade at each seam: near one a frame fades from the window before it, "
+                  "drawn whole, into the one after it over a sigmoid of this many training "
+                  "intervals (0: gamma, a jump within a tenth of a frame)")
       ->default_str(fmt::format("{}", model::kDefaultSeamFade));
   cmd->add_flag("--force", args->force, "replace an existing --out");
   cmd->callback([args] {
