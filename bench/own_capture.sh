@@ -95,7 +95,8 @@ fmt() {  # seconds -> "M min SS s"
   echo "| prepare | \`prepare --masks\` (DIS flow, COLMAP points, approximate masks) | $(fmt "${seconds[prepare]}") |"
   echo "| train | \`train --preset $preset\` (even frames) | $(fmt "${seconds[train]}") |"
   echo "| render | \`render --camera 0 --slowmo 8\` (test camera, 129 frames, H.264) | $(fmt "${seconds[render]}") |"
-  echo "| eval | \`eval\` (odd frames of the 27 training cameras) | $(fmt "${seconds[eval]}") |"
+  echo "| eval | \`eval\` (odd frames of the $(tr ',' '\n' <<<"$train_cams" | wc -l) training cameras) |" \
+    "$(fmt "${seconds[eval]}") |"
   echo
   echo "Held-out (odd) frames: training cameras inside the approximate masks and on the whole image;"
   echo "test cameras (never trained on) on the whole image."
@@ -103,8 +104,8 @@ fmt() {  # seconds -> "M min SS s"
   echo "| method | masked PSNR | whole PSNR | test cams PSNR |"
   echo "|---|---|---|---|"
   for m in heldout:test:retimegs flow:flow-test:flow crossfade:crossfade-test:cross-fade; do
-    IFS=: read -r train test name <<<"$m"
-    echo "| $name | $(fmt_metric "$(metric "$work/$train.json" psnr)" 2) |" \
+    IFS=: read -r train test method <<<"$m"
+    echo "| $method | $(fmt_metric "$(metric "$work/$train.json" psnr)" 2) |" \
       "$(fmt_metric "$(metric "$work/$train.json" psnr whole)" 2) |" \
       "$(fmt_metric "$(metric "$work/$test.json" psnr whole)" 2) |"
   done
