@@ -192,7 +192,9 @@ TEST(Merge, OnlyWhatStaysPutFadesAtASeam) {
 TEST(Merge, EachSideOfASeamDrawsItsWindowWhole) {
   const Fixture f = fixture();
   const Model merged = merge_models({f.left, f.right}, {"a", "b"});
-  const auto [before, after] = seam_rows(merged);
+  // Plain names: clang before 16 cannot capture structured bindings in a lambda.
+  const std::pair<std::size_t, std::size_t> rows = seam_rows(merged);
+  const std::size_t before = rows.first, after = rows.second;
   const auto side_sum = [&](SeamSide side, double t) {
     SliceOptions options;
     options.min_opacity = 0;
