@@ -30,7 +30,12 @@ namespace fs = std::filesystem;
 // runs of four, and the fourth places camera 7 95 % off: the two players look alike, so moving
 // features match by chance too, and the focal lengths of the cameras whose views the people fill
 // least drift by 3 to 5 %. Even frame 8's features with every wrong match removed by the true
-// calibration place the cameras within 2.4 % only.
+// calibration place the cameras within 2.4 % only, all 17 frames' so filtered within 5.2 %. The
+// data for 2 % are there: the static features matched again along the true epipolar lines (a
+// 4 px band, ratio test among the band's candidates) place them within 1.7 % (median 0.4 %).
+// Matched along the recovered cameras' own lines instead they stay at 2.7 to 6.8 %: the band
+// keeps the matches that agree with a camera's focal error (5 % of camera 8's then lie over 8 px
+// off the true lines), and further rounds hold it there.
 TEST(PanopticCalibration, DISABLED_CentresWithinTwoPercentOfTheCalibration) {
   const fs::path data = fs::path(RETIMEGS_SHARED_DATA) / "panoptic-basketball";
   if (!fs::is_directory(data / "ims")) GTEST_SKIP() << data << " not present";
