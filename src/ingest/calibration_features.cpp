@@ -175,4 +175,23 @@ double epipolar_distance(const Eigen::Matrix3d& fundamental, const Feature& a, c
   return std::abs(line.dot(Eigen::Vector3d(b.x, b.y, 1))) / std::hypot(line.x(), line.y());
 }
 
+std::vector<Matches> agreeing_matches(const std::vector<std::optional<Placement>>& placed,
+                                      const std::vector<CameraFeatures>& features,
+                                      const std::vector<Matches>& candidates, double tolerance) {
+  std::vector<Matches> kept(candidates.size());
+  std::size_t pair = 0;
+  for (std::size_t a = 0; a < placed.size(); ++a)
+    for (std::size_t b = a + 1; b < placed.size(); ++b, ++pair) {
+      if (!placed[a] || !placed[b]) continue;
+      const Placement &pa = *placed[a], &pb = *placed[b];
+      const Eigen::Matrix3d f =
+          fundamental_matrix(pa.k, pa.world_to_camera, pb.k, pb.world_to_camera);
+      const double limit = tolerance * std::max(pa.larger_side, pb.larger_side);
+      for (const auto& [i, j] : candidates.at(pair))
+        if (epipolar_distance(f, features[a].features[i], features[b].features[j]) < limit)
+          kept[pair].emplace_back(i, j);
+    }
+  return kept;
+}
+
 }  // namespace retimegs::ingest::detail

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -56,5 +57,23 @@ void write_colmap_features(const CameraFeatures& features, const std::filesystem
 double epipolar_distance(const Eigen::Matrix3d& fundamental, const Feature& a, const Feature& b);
 Eigen::Matrix3d fundamental_matrix(const Eigen::Matrix3d& k_a, const Eigen::Matrix4d& pose_a,
                                    const Eigen::Matrix3d& k_b, const Eigen::Matrix4d& pose_b);
+
+// One camera's placement by a model: pinhole intrinsics (COLMAP's pixel convention) and pose.
+struct Placement {
+  Eigen::Matrix3d k;
+  Eigen::Matrix4d world_to_camera;
+  int larger_side = 0;  // pixels
+};
+
+// The matches a refinement maps: for each pair (a, b), a < b, of the cameras in pair order, those
+// of candidates[pair] that lie within tolerance x the larger image side of the epipolar line of
+// the two cameras' placements. A pair with a camera that has no placement gets none: such a
+// camera had all its evidence (its moving matches) in the guide already, so a refinement could
+// only register it from the same too-weak evidence, and when COLMAP did, it was wrong and pulled
+// the cameras around it off (a Panoptic camera that sees the floor and one person: 26-150 % of
+// the rig's extent off, its neighbours 20 %). It stays unregistered, and says so.
+std::vector<Matches> agreeing_matches(const std::vector<std::optional<Placement>>& placed,
+                                      const std::vector<CameraFeatures>& features,
+                                      const std::vector<Matches>& candidates, double tolerance);
 
 }  // namespace retimegs::ingest::detail

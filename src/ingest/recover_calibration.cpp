@@ -2,6 +2,7 @@
 // recover_calibration), for `import videos` without --calib.
 #include <algorithm>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -118,16 +119,11 @@ io::ColmapModel map_reference_frame(const fs::path& exe, const fs::path& work_di
   return map_largest(exe, mapper_args(database, images, sparse, options), sparse, log_dir, options);
 }
 
-// One camera's placement in a model: pinhole intrinsics (the distortion left out: the
-// tolerances above are far wider than its effect near the centre) and pose.
-struct Placement {
-  Eigen::Matrix3d k;
-  Eigen::Matrix4d world_to_camera;
-  int larger_side = 0;  // pixels
-};
-
-std::map<std::string, Placement> placements(const io::ColmapModel& model) {
-  std::map<std::string, Placement> out;
+// Each camera's placement in a model, in the order of `cameras` (none where it is not placed).
+// The distortion is left out: the tolerances above are far wider than its effect near the centre.
+std::vector<std::optional<Placement>> placements(const io::ColmapModel& model,
+                                                 const std::vector<std::string>& cameras) {
+  std::map<std::string, Placement> by_name;
   for (const io::ColmapImage& image : model.images) {
     const io::ColmapCamera& camera = model.camera(image.camera_id);
     Placement p;
@@ -135,8 +131,11 @@ std::map<std::string, Placement> placements(const io::ColmapModel& model) {
     p.k << camera.params[0], 0, camera.params[1], 0, camera.params[0], camera.params[2], 0, 0, 1;
     p.world_to_camera = image.world_to_camera();
     p.larger_side = std::max(camera.width, camera.height);
-    out[fs::path(image.name).stem().string()] = p;
+    by_name[fs::path(image.name).stem().string()] = p;
   }
+  std::vector<std::optional<Placement>> out(cameras.size());
+  for (std::size_t c = 0; c < cameras.size(); ++c)
+    if (const auto it = by_name.find(cameras[c]); it != by_name.end()) out[c] = it->second;
   return out;
 }
 
@@ -178,7 +177,8 @@ io::ColmapModel map_matches(const fs::path& exe, const fs::path& work_dir, const
 
 // The moving-feature calibration (calibration_features.hpp): the guide from moving features
 // alone, then refinements that add the static ones and keep every match that agrees with the
-// previous placement. Empty when the footage moves too little for a guide.
+// previous placement (agreeing_matches: among the cameras it placed). Empty when the footage moves
+// too little for a guide.
 io::ColmapModel map_moving_features(const fs::path& exe, const std::vector<std::string>& cameras,
                                     const CalibrationFrames& frames, const fs::path& work_dir,
                                     const fs::path& log_dir, const colmap::ColmapOptions& options,
@@ -211,27 +211,11 @@ io::ColmapModel map_moving_features(const fs::path& exe, const std::vector<std::
   if (int(model.images.size()) < kMinGuideCameras) return {};
   int round = 0;
   for (const double tolerance : kRefineTolerance) {
-    const std::map<std::string, Placement> placed = placements(model);
-    std::vector<Matches> kept(pairs.size());
-    for (std::size_t p = 0; p < pairs.size(); ++p) {
-      const auto [a, b] = pairs[p];
-      const auto pa = placed.find(cameras[a]), pb = placed.find(cameras[b]);
-      if (pa == placed.end() || pb == placed.end()) {
-        // A camera the placement has not: its moving matches alone, which cannot pair the wrong
-        // places of a repeated background.
-        kept[p] = moving[p];
-        continue;
-      }
-      const Eigen::Matrix3d f = fundamental_matrix(pa->second.k, pa->second.world_to_camera,
-                                                   pb->second.k, pb->second.world_to_camera);
-      const double limit = tolerance * std::max(pa->second.larger_side, pb->second.larger_side);
-      for (const auto& [i, j] : all[p])
-        if (epipolar_distance(f, features[a].features[i], features[b].features[j]) < limit)
-          kept[p].emplace_back(i, j);
-    }
+    const std::vector<Matches> kept =
+        agreeing_matches(placements(model, cameras), features, all, tolerance);
     io::ColmapModel refined = map_matches(exe, work_dir, fmt::format("refine{}", ++round), cameras,
                                           kept, log_dir, options);
-    if (refined.images.size() < model.images.size()) break;  // keep the one that places more
+    if (refined.images.size() < model.images.size()) break;  // one that places fewer is dropped
     model = std::move(refined);
   }
   return model;

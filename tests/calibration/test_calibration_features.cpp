@@ -126,5 +126,46 @@ TEST(CalibrationFeatures, EpipolarDistanceOfTwoPinholeCameras) {
   EXPECT_NEAR(epipolar_distance(f, fa, moved), 3, 1e-3);
 }
 
+// A refinement keeps a placed pair's matches within the tolerance of their epipolar lines, and
+// none of a camera the previous placement has not: its moving matches were in the guide already,
+// and a registration from them alone was wrong on the Panoptic clip.
+TEST(CalibrationFeatures, RefinementsKeepAgreeingMatchesOfPlacedCamerasOnly) {
+  Placement a, b;
+  a.k << 400, 0, 160, 0, 400, 120, 0, 0, 1;
+  b.k = a.k;
+  a.world_to_camera = b.world_to_camera = Eigen::Matrix4d::Identity();
+  b.world_to_camera.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).matrix();
+  b.world_to_camera.topRightCorner<3, 1>() = Eigen::Vector3d(-1, 0.1, 0.2);
+  a.larger_side = b.larger_side = 320;
+  auto project = [](const Placement& p, const Eigen::Vector3d& x) {
+    const Eigen::Vector3d q = p.k * (p.world_to_camera * x.homogeneous()).head<3>();
+    return Feature{float(q.x() / q.z()), float(q.y() / q.z())};
+  };
+  // Feature 0 of each placed camera is one point's projection; feature 1 of camera b lies 6 px
+  // across the epipolar line of camera a's feature 1.
+  std::vector<CameraFeatures> features(3);
+  const Eigen::Vector3d x(0.3, -0.2, 5), y(-0.4, 0.1, 6);
+  features[0].features = {project(a, x), project(a, y)};
+  const Feature by = project(b, y);
+  const Eigen::Vector3d line =
+      fundamental_matrix(a.k, a.world_to_camera, b.k, b.world_to_camera) *
+      Eigen::Vector3d(features[0].features[1].x, features[0].features[1].y, 1);
+  const Eigen::Vector2d normal = line.head<2>().normalized();
+  features[1].features = {project(b, x),
+                          Feature{by.x + float(6 * normal.x()), by.y + float(6 * normal.y())}};
+  features[2].features = {Feature{50, 60}, Feature{70, 80}};
+  // Pairs (0, 1), (0, 2), (1, 2); camera 2 is not placed.
+  const std::vector<Matches> candidates = {{{0, 0}, {1, 1}}, {{0, 0}, {1, 1}}, {{0, 0}, {1, 1}}};
+  const std::vector<Matches> kept =
+      agreeing_matches({a, b, std::nullopt}, features, candidates, 4.0 / 320);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_EQ(kept[0], (Matches{{0, 0}}));
+  EXPECT_TRUE(kept[1].empty());
+  EXPECT_TRUE(kept[2].empty());
+  // 6 px is within a tolerance of 8 px.
+  EXPECT_EQ(agreeing_matches({a, b, std::nullopt}, features, candidates, 8.0 / 320)[0].size(), 2u);
+}
+
 }  // namespace
 }  // namespace retimegs::ingest::detail
