@@ -19,8 +19,9 @@
 # scripts/gpu_panoptic.sh and bench/ablations.sh run it with BIN (the retimegs to run), DEVICE
 # (train's and eval's --device), ITERS and CAP (train's --iters, --cap), METHODS (which of full,
 # stgs, the ablations no-flow-init, no-flow-loss, no-triple, no-stretch, linear (train --ablate),
-# and the baselines flow, crossfade, nearest to score; the sheets need full, flow and crossfade)
-# and RESULTS (the table's file).
+# and the baselines flow, crossfade, nearest to score; the sheets need full, flow and crossfade),
+# FLOW (prepare's --flow, for a scene whose flows are not written yet) and RESULTS (the table's
+# file).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 preset=${PRESET:-fast}
@@ -51,10 +52,57 @@ stability_cams=5,18
 num_frames=$(grep -o '"num_frames": *[0-9]*' "$scene/scene.json" | grep -o '[0-9]*$')
 train_frames=$(seq -s, 0 2 $((num_frames - 1)))
 start=$(date +%s)
-"$bin" prepare --scene "$scene" ${points:+--points "$points"}
+"$bin" prepare --scene "$scene" ${points:+--points "$points"} ${FLOW:+--flow "$FLOW"}
 # A rerun resumes a prepared scene in a second: keep the first run's time.
 [ -f "$work/prepare_seconds" ] || echo $(( $(date +%s) - start )) > "$work/prepare_seconds"
 
+# cell FILE KEY SECTION DIGITS: one formatted figure, "–" when the file does not exist.
+cell() {
+  if [ -f "$1" ]; then fmt_metric "$(metric "$1" "$2" "$3")" "$4"; else echo "–"; fi
+}
+# write_table: the results table of every method scored so far, replaced whole.
+write_table() {
+  local v seconds primitives rss gpu t s
+  {
+    echo "# CMU Panoptic basketball: train even frames, score odd frames"
+    echo
+    echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" \
+      "with \`PRESET=$preset${FLOW:+ FLOW=$FLOW}${DEVICE:+ DEVICE=$DEVICE}${ITERS:+ ITERS=$ITERS}${CAP:+ CAP=$CAP} bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
+    echo
+    echo "Preset $preset, points: ${points:-the default of prepare}; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
+    echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
+    echo "boxes, LPIPS on black-masked images), then the whole image. Fit: masked PSNR on the training"
+    echo "frames themselves. Test cameras (0, 10, 15, 30; never trained on; no masks): whole image,"
+    echo "models rendered with a near plane of $near_text (a rig camera's own body, learned from the"
+    echo "other views, is not drawn in its render)."
+    echo "Stability: largest mean absolute change between consecutive frames of the 8x slow motion over"
+    echo "static pixels (outside the dilated masks) of cameras $stability_cams, in 8-bit levels."
+    echo "Peak RSS and primitives from the train log (on a GPU also the most its buffers held)."
+    echo
+    echo "| method | train cams PSNR | SSIM | LPIPS | whole PSNR | whole SSIM | whole LPIPS | fit PSNR | test cams PSNR | SSIM | LPIPS | stability | primitives | peak RSS (MB) (GPU) | train time (s) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    for v in "${methods[@]}"; do
+      seconds=– primitives=– rss=– gpu=
+      [ -f "$work/$v/train_seconds" ] && seconds=$(cat "$work/$v/train_seconds")
+      if [ -f "$work/$v/train.log" ]; then
+        primitives=$(grep -o '([0-9]* primitives); peak memory' "$work/$v/train.log" | tail -1 |
+          grep -o '[0-9]*' | head -1)
+        rss=$(grep -o 'peak memory [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*')
+        gpu=$(grep -o ', GPU [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*' || true)
+      fi
+      t="$work/${v}_train.json" s="$work/${v}_test.json"
+      echo "| $v | $(cell "$t" psnr "" 2) | $(cell "$t" ssim "" 4) | $(cell "$t" lpips "" 4) |" \
+        "$(cell "$t" psnr whole 2) | $(cell "$t" ssim whole 4) | $(cell "$t" lpips whole 4) |" \
+        "$(cell "$work/${v}_fit.json" psnr "" 2) | $(cell "$s" psnr "" 2) | $(cell "$s" ssim "" 4) |" \
+        "$(cell "$s" lpips "" 4) | $(cell "$work/${v}_stability.json" max stability 2) |" \
+        "${primitives:-–} | ${rss:-–}${gpu:+ ($gpu)} | $seconds |"
+    done
+  } > "$results.tmp"
+  mv "$results.tmp" "$results"
+}
+
+# Each method trained, then scored, then the table written again: a run stopped part way (a GPU
+# call's time limit) leaves the rows of the methods it finished.
 for v in "${methods[@]}"; do
   run="$work/$v"
   if trained "$v" && [ ! -f "$run/model.rgs" ]; then
@@ -70,8 +118,6 @@ for v in "${methods[@]}"; do
       tee "$run/train.log"
     echo $(( $(date +%s) - start )) > "$run/train_seconds"
   fi
-done
-for v in "${methods[@]}"; do
   case "$v" in
     flow|crossfade|nearest) source=(--baseline "$v") ;;
     *) source=(--model "$work/$v/model.rgs" ${near:+--near "$near"} "${device[@]}") ;;
@@ -94,6 +140,7 @@ for v in "${methods[@]}"; do
     [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" "${flags[@]}" \
       --out "$work/${v}_$split.json" --force
   done
+  write_table
 done
 for split in train test; do
   if ! { scored full && scored flow && scored crossfade; }; then break; fi
@@ -104,43 +151,4 @@ for split in train test; do
     --out "$root/bench/results/panoptic_sheet_$split.png" --force
 done
 
-# cell FILE KEY SECTION DIGITS: one formatted figure, "–" when the file does not exist.
-cell() {
-  if [ -f "$1" ]; then fmt_metric "$(metric "$1" "$2" "$3")" "$4"; else echo "–"; fi
-}
-{
-  echo "# CMU Panoptic basketball: train even frames, score odd frames"
-  echo
-  echo "Recorded $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '?')" \
-    "with \`PRESET=$preset${DEVICE:+ DEVICE=$DEVICE}${ITERS:+ ITERS=$ITERS}${CAP:+ CAP=$CAP} bash bench/panoptic.sh\`; prepare took $(cat "$work/prepare_seconds") s."
-  echo
-  echo "Preset $preset, points: ${points:-the default of prepare}; 27 training cameras x $(( (num_frames + 1) / 2 )) frames at 640x360."
-  echo "Training cameras, held-out (odd) frames: masked metrics (PSNR in the masks, SSIM on their"
-  echo "boxes, LPIPS on black-masked images), then the whole image. Fit: masked PSNR on the training"
-  echo "frames themselves. Test cameras (0, 10, 15, 30; never trained on; no masks): whole image,"
-  echo "models rendered with a near plane of $near_text (a rig camera's own body, learned from the"
-  echo "other views, is not drawn in its render)."
-  echo "Stability: largest mean absolute change between consecutive frames of the 8x slow motion over"
-  echo "static pixels (outside the dilated masks) of cameras $stability_cams, in 8-bit levels."
-  echo "Peak RSS and primitives from the train log (on a GPU also the most its buffers held)."
-  echo
-  echo "| method | train cams PSNR | SSIM | LPIPS | whole PSNR | whole SSIM | whole LPIPS | fit PSNR | test cams PSNR | SSIM | LPIPS | stability | primitives | peak RSS (MB) (GPU) | train time (s) |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-  for v in "${methods[@]}"; do
-    seconds=– primitives=– rss=– gpu=
-    [ -f "$work/$v/train_seconds" ] && seconds=$(cat "$work/$v/train_seconds")
-    if [ -f "$work/$v/train.log" ]; then
-      primitives=$(grep -o '([0-9]* primitives); peak memory' "$work/$v/train.log" | tail -1 |
-        grep -o '[0-9]*' | head -1)
-      rss=$(grep -o 'peak memory [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*')
-      gpu=$(grep -o ', GPU [0-9]* MB' "$work/$v/train.log" | tail -1 | grep -o '[0-9]*' || true)
-    fi
-    t="$work/${v}_train.json" s="$work/${v}_test.json"
-    echo "| $v | $(cell "$t" psnr "" 2) | $(cell "$t" ssim "" 4) | $(cell "$t" lpips "" 4) |" \
-      "$(cell "$t" psnr whole 2) | $(cell "$t" ssim whole 4) | $(cell "$t" lpips whole 4) |" \
-      "$(cell "$work/${v}_fit.json" psnr "" 2) | $(cell "$s" psnr "" 2) | $(cell "$s" ssim "" 4) |" \
-      "$(cell "$s" lpips "" 4) | $(cell "$work/${v}_stability.json" max stability 2) |" \
-      "${primitives:-–} | ${rss:-–}${gpu:+ ($gpu)} | $seconds |"
-  done
-} > "$results"
 cat "$results"
