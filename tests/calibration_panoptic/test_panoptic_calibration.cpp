@@ -26,10 +26,10 @@ namespace fs = std::filesystem;
 // (scripts/colmap_pairs.py), the model folds into two groups rotated ~140 degrees from each
 // other (121 % after alignment), and no threshold on a pair's inliers separates them (a wrong
 // pair holds 104). Placed by what moves first (calibration_features.hpp), 30 or 31 register at
-// 0.75 to 0.8 px with the centres within 1 % (median) but 4 to 5 % (worst: cameras 2, 8) in three
-// runs of four, and the fourth places camera 7 95 % off: the two players look alike, so moving
-// features match by chance too, and the focal lengths of the cameras whose views the people fill
-// least drift by 3 to 5 %. Even frame 8's features with every wrong match removed by the true
+// 0.75 px with the centres within 0.8 to 1.0 % (median) but 3.0 to 3.8 % (worst: cameras 8, 16)
+// over six runs: the focal lengths of the cameras that face a flat, patterned wall come out 2 to
+// 4 % long. (Before the refinements left out the cameras the guide could not place, one run in
+// four placed camera 7 26 to 150 % off.) Even frame 8's features with every wrong match removed by the true
 // calibration place the cameras within 2.4 % only, all 17 frames' so filtered within 5.2 %. The
 // data for 2 % are there: the static features matched again along the true epipolar lines (a
 // 4 px band, ratio test among the band's candidates) place them within 1.7 % (median 0.4 %).
