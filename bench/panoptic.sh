@@ -18,8 +18,9 @@
 #   bash bench/panoptic.sh                 # PRESET=fast NEAR= (the scene's) POINTS= (prepare's default)
 # scripts/gpu_panoptic.sh and bench/ablations.sh run it with BIN (the retimegs to run), DEVICE
 # (train's and eval's --device), ITERS and CAP (train's --iters, --cap), METHODS (which of full,
-# stgs, the ablations no-flow-init, no-flow-loss, no-triple, no-stretch, linear (train --ablate),
-# and the baselines flow, crossfade, nearest to score; the sheets need full, flow and crossfade),
+# stgs, the ablations no-flow-init, no-flow-loss, no-triple, no-stretch, linear, no-static-init
+# (train --ablate), a config key of the paper's readings (flow_hold, ...: set to true), and the
+# baselines flow, crossfade, nearest to score; the sheets need full, flow and crossfade),
 # FLOW (prepare's --flow, for a scene whose flows are not written yet) and RESULTS (the table's
 # file).
 set -euo pipefail
@@ -34,7 +35,12 @@ results=${RESULTS:-$root/bench/results/panoptic.md}
 read -r -a methods <<< "${METHODS:-full stgs flow crossfade nearest}"
 # scored "$v": whether METHODS names it; trained "$v": whether it is a model this script trains.
 scored() { [[ " ${methods[*]} " == *" $1 "* ]]; }
-trained() { [[ $1 =~ ^(full|stgs|no-flow-init|no-flow-loss|no-triple|no-stretch|linear)$ ]]; }
+# A method with an underscore is a training config key set to true (one of the paper's readings,
+# docs/method.md's departures: flow_hold, relocate_per_duration, ...).
+trained() {
+  [[ $1 =~ ^(full|stgs|no-flow-init|no-flow-loss|no-triple|no-stretch|linear|no-static-init)$ ||
+    $1 =~ ^[a-z0-9]+(_[a-z0-9]+)+$ ]]
+}
 for v in "${methods[@]}"; do
   trained "$v" || [[ $v =~ ^(flow|crossfade|nearest)$ ]] ||
     { echo "panoptic.sh: unknown method '$v' in METHODS" >&2; exit 2; }
@@ -110,10 +116,12 @@ for v in "${methods[@]}"; do
     case "$v" in
       full) ;;
       stgs) flags+=(--baseline stgs) ;;
+      *_*) flags+=(--config "$run/paper_reading.json") ;;
       *) flags+=(--ablate "$v") ;;
     esac
     start=$(date +%s)
     mkdir -p "$run"
+    [[ $v == *_* ]] && echo "{\"$v\": true}" > "$run/paper_reading.json"
     "$bin" train --scene "$scene" --out "$run" --preset "$preset" "${flags[@]}" 2>&1 |
       tee "$run/train.log"
     echo $(( $(date +%s) - start )) > "$run/train_seconds"
