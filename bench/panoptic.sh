@@ -113,15 +113,17 @@ for v in "${methods[@]}"; do
   run="$work/$v"
   if trained "$v" && [ ! -f "$run/model.rgs" ]; then
     flags=("${device[@]}" ${ITERS:+--iters "$ITERS"} ${CAP:+--cap "$CAP"})
+    mkdir -p "$run"
     case "$v" in
       full) ;;
       stgs) flags+=(--baseline stgs) ;;
-      *_*) flags+=(--config "$run/paper_reading.json") ;;
+      *_*)
+        # Beside the run's folder: train --out refuses a folder that holds other files.
+        echo "{\"$v\": true}" > "$work/$v.config.json"
+        flags+=(--config "$work/$v.config.json") ;;
       *) flags+=(--ablate "$v") ;;
     esac
     start=$(date +%s)
-    mkdir -p "$run"
-    [[ $v == *_* ]] && echo "{\"$v\": true}" > "$run/paper_reading.json"
     "$bin" train --scene "$scene" --out "$run" --preset "$preset" "${flags[@]}" 2>&1 |
       tee "$run/train.log"
     echo $(( $(date +%s) - start )) > "$run/train_seconds"

@@ -28,14 +28,13 @@ namespace fs = std::filesystem;
 // pair holds 104). Placed by what moves first (calibration_features.hpp), 30 or 31 register at
 // 0.75 px with the centres within 0.8 to 1.0 % (median) but 3.0 to 3.8 % (worst: cameras 8, 16)
 // over six runs: the focal lengths of the cameras that face a flat, patterned wall come out 2 to
-// 4 % long. (Before the refinements left out the cameras the guide could not place, one run in
-// four placed camera 7 26 to 150 % off.) Even frame 8's features with every wrong match removed by the true
-// calibration place the cameras within 2.4 % only, all 17 frames' so filtered within 5.2 %. The
-// data for 2 % are there: the static features matched again along the true epipolar lines (a
-// 4 px band, ratio test among the band's candidates) place them within 1.7 % (median 0.4 %).
-// Matched along the recovered cameras' own lines instead they stay at 2.7 to 6.8 %: the band
-// keeps the matches that agree with a camera's focal error (5 % of camera 8's then lie over 8 px
-// off the true lines), and further rounds hold it there.
+// 4 % long. Even frame 8's features with every wrong match removed by the true calibration place
+// the cameras within 2.4 % only, all 17 frames' so filtered within 5.2 %. The data for 2 % are
+// there: the static features matched again along the true epipolar lines (a 4 px band, ratio
+// test among the band's candidates) place them within 1.7 % (median 0.4 %). Matched along the
+// recovered cameras' own lines instead they stay at 2.7 to 6.8 %: the band keeps the matches that
+// agree with a camera's focal error (5 % of camera 8's then lie over 8 px off the true lines), and
+// further rounds hold it there.
 TEST(PanopticCalibration, DISABLED_CentresWithinTwoPercentOfTheCalibration) {
   const fs::path data = fs::path(RETIMEGS_SHARED_DATA) / "panoptic-basketball";
   if (!fs::is_directory(data / "ims")) GTEST_SKIP() << data << " not present";
