@@ -6,7 +6,7 @@
 # project's recipe and once with the paper's reading of every departure (--preset paper), at one
 # budget. Writes results/ablations_project.md and results/ablations_paper.md.
 #
-#   bash bench/ablations.sh     # BUDGET=fast (the CPU: 12 runs of 8 min each with AVX-512, 36 without) | default
+#   bash bench/ablations.sh     # BUDGET=fast (the CPU: 12 runs, 8 min each with AVX-512, 22-40 without) | default
 #
 # On a bare GPU machine, scripts/gpu_panoptic.sh --preset default|paper --methods "LIST" trains
 # and scores the same rows at the default budget, a few to a call.
