@@ -66,12 +66,13 @@ struct CommandResult {
   std::string out, err;  // stdout, stderr
 };
 
-// Runs the retimegs binary with `args`; captures stdout, stderr and the exit status.
-inline CommandResult run_cli(const std::string& args) {
+// Runs the retimegs binary with `args` (after `launcher`, a shell command such as `env -u X`, where
+// given); captures stdout, stderr and the exit status.
+inline CommandResult run_cli(const std::string& args, const std::string& launcher = "") {
   TempDir scratch;
   const auto out_file = scratch / "stdout.txt", err_file = scratch / "stderr.txt";
-  const std::string command = std::string(RETIMEGS_BINARY) + " " + args + " >" + out_file.string() +
-                              " 2>" + err_file.string();
+  const std::string command = launcher + (launcher.empty() ? "" : " ") + RETIMEGS_BINARY + " " +
+                              args + " >" + out_file.string() + " 2>" + err_file.string();
   const int raw = std::system(command.c_str());
   CommandResult result;
   result.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;

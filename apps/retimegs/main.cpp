@@ -27,7 +27,7 @@ namespace {
 // program runs itself again with a short spin unless the user chose a wait policy.
 void use_short_openmp_spin(char** argv) {
   if (std::getenv("GOMP_SPINCOUNT") || std::getenv("OMP_WAIT_POLICY")) return;
-  setenv("GOMP_SPINCOUNT", "10000", 1);
+  setenv("GOMP_SPINCOUNT", RETIMEGS_GOMP_SPINCOUNT, 1);
   execv("/proc/self/exe", argv);  // returns only on failure: then run with libgomp's default
 }
 
