@@ -17,7 +17,7 @@ struct SoftCloud {
   float spread = 1.0f;
   float scale = 0.15f;
   float drift = 0.0f;  // velocity's x component, world units per unit time
-  std::optional<float> opacity_logit;
+  std::optional<float> opacity_logit = std::nullopt;
 };
 
 inline model::Model soft_cloud(const SoftCloud& spec) {
