@@ -75,20 +75,32 @@ struct CalibrationFrames {
 // (calibration_features.hpp: a repeated static background cannot mislead them), matched within
 // each instant, then refined with every feature, static ones included, that agrees with that
 // placement; each step imports the features and matches into COLMAP (feature_importer,
-// matches_importer: COLMAP verifies each pair's geometry) and runs its mapper, logs in
-// log_dir/<step>/. Where the footage moves too little to place three cameras so, or with fewer
-// instants, COLMAP's own features of the reference frames are matched and mapped instead
-// (feature_extractor, exhaustive_matcher, mapper; logs in log_dir). Every camera is a
-// SIMPLE_RADIAL camera of its own (the cameras of a rig differ). The model that registers the
-// most cameras is written to model_dir as a COLMAP text model (a later `import videos --calib
-// model_dir` reads it back). Poses are up to a similarity (COLMAP's frame and scale). Throws
-// Error when a command fails (colmap/run.hpp) or when fewer than two cameras register, naming
-// the mapper's log and what to try.
+// matches_importer: COLMAP verifies each pair's geometry) and runs its mapper, each refinement's
+// model then tightened (tighten, below), logs in log_dir/<step>/. Where the footage moves too
+// little to place three cameras so, or with fewer instants, COLMAP's own features of the reference
+// frames are matched and mapped instead (feature_extractor, exhaustive_matcher, mapper; logs in
+// log_dir). Every camera is a SIMPLE_RADIAL camera of its own (the cameras of a rig differ). The
+// model that registers the most cameras is written to model_dir as a COLMAP text model (a later
+// `import videos --calib model_dir` reads it back). Poses are up to a similarity (COLMAP's frame
+// and scale). Throws Error when a command fails (colmap/run.hpp) or when fewer than two cameras
+// register, naming the mapper's log and what to try.
 RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
                                          const CalibrationFrames& frames,
                                          const std::filesystem::path& work_dir,
                                          const std::filesystem::path& model_dir,
                                          const std::filesystem::path& log_dir,
                                          const colmap::ColmapOptions& options, bool progress);
+
+// A refinement's COLMAP model (model_dir, with its tracks, as the mapper writes them) with its
+// observations trimmed: those farther than a step's reprojection error from their point's
+// projection removed (point_filtering) and the model adjusted again (bundle_adjuster, principal
+// points included), one round per step (recover_calibration.cpp says which and why), each into
+// work_dir/{filtered,adjusted}<round>, logs in log_dir/tighten<round>/. Returns the last adjusted
+// model's folder.
+std::filesystem::path tighten(const std::filesystem::path& exe,
+                              const std::filesystem::path& model_dir,
+                              const std::filesystem::path& work_dir,
+                              const std::filesystem::path& log_dir,
+                              const colmap::ColmapOptions& options);
 
 }  // namespace retimegs::ingest::detail
