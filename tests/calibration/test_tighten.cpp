@@ -28,6 +28,7 @@ constexpr int kCameras = 24, kWidth = 640, kHeight = 360;
 constexpr double kFocal = 500, kCx = 332, kCy = 171;  // the lenses: 12 px and -9 px off centre
 
 struct Observation {
+  std::size_t point = 0;
   Eigen::Vector2d pixel;
   bool off = false;  // moved 1.5-3.5 px off its point's projection
 };
@@ -50,7 +51,6 @@ std::vector<std::vector<Observation>> write_rig_model(const fs::path& dir) {
 
   std::vector<Camera> cameras(kCameras);
   std::vector<std::vector<Observation>> observations(kCameras);
-  std::vector<std::vector<std::size_t>> observed(kCameras);  // the point of each observation
   std::vector<int> seen(points.size(), 0);
   for (int c = 0; c < kCameras; ++c) {
     const double a = 2 * M_PI * c / kCameras;
@@ -65,7 +65,7 @@ std::vector<std::vector<Observation>> write_rig_model(const fs::path& dir) {
     camera.world_to_camera.topRightCorner<3, 1>() = -rotation * centre;
     for (std::size_t p = 0; p < points.size(); ++p) {
       if (camera.world_to_cam(points[p]).z() < 0.1) continue;
-      Observation o{camera.project(points[p])};
+      Observation o{p, camera.project(points[p])};
       if (o.pixel.x() < 0 || o.pixel.y() < 0 || o.pixel.x() > kWidth || o.pixel.y() > kHeight)
         continue;
       if (unit(rng) < 0.15) {
@@ -75,7 +75,6 @@ std::vector<std::vector<Observation>> write_rig_model(const fs::path& dir) {
       }
       o.pixel += Eigen::Vector2d(noise(rng), noise(rng));
       observations[c].push_back(o);
-      observed[c].push_back(p);
       ++seen[p];
     }
   }
@@ -90,7 +89,7 @@ std::vector<std::vector<Observation>> write_rig_model(const fs::path& dir) {
     images_txt += fmt::format("{} {} {} {} {} {} {} {} {} cam{}.png\n", c + 1, q.w(), q.x(), q.y(),
                               q.z(), t.x(), t.y(), t.z(), c + 1, c);
     for (std::size_t i = 0; i < observations[c].size(); ++i) {
-      const std::size_t p = observed[c][i];
+      const std::size_t p = observations[c][i].point;
       const bool tracked = seen[p] >= 2;
       images_txt += fmt::format("{}{} {} {}", i == 0 ? "" : " ", observations[c][i].pixel.x(),
                                 observations[c][i].pixel.y(), tracked ? int(p) + 1 : -1);
@@ -154,9 +153,15 @@ TEST(Tighten, DropsTheOffObservationsAndAdjustsThePrincipalPoints) {
   int off = 0, off_kept = 0, precise = 0, precise_kept = 0;
   for (int c = 0; c < kCameras; ++c) {
     ASSERT_EQ(kept[c].size(), observations[c].size()) << "camera " << c;
-    for (std::size_t i = 0; i < kept[c].size(); ++i)
-      (observations[c][i].off ? off_kept : precise_kept) += kept[c][i],
-          ++(observations[c][i].off ? off : precise);
+    for (std::size_t i = 0; i < kept[c].size(); ++i) {
+      if (observations[c][i].off) {
+        ++off;
+        off_kept += kept[c][i];
+      } else {
+        ++precise;
+        precise_kept += kept[c][i];
+      }
+    }
   }
   std::printf("kept %d of %d off observations, %d of %d precise ones\n", off_kept, off,
               precise_kept, precise);
