@@ -145,6 +145,11 @@ void add_videos_command(CLI::App* cmd) {
           "COLMAP registered {} of {} cameras, {} points, mean reprojection error {:.2f} px; "
           "the cameras keep these poses and intrinsics over the whole clip",
           r.registered, total, r.points, r.reprojection_error);
+      if (r.reconstructions > 1)
+        spdlog::info(
+            "{} reconstructions combined, each camera placed where the others agree most; they "
+            "differ by up to {:.2f} % of the rig's extent (camera {})",
+            r.reconstructions, 100 * r.spread, escape_control_chars(r.spread_camera));
       if (!r.unregistered.empty())
         spdlog::warn(
             "{} camera{} not registered, left out: {} (more texture in view, another "

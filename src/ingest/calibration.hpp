@@ -57,6 +57,11 @@ struct RecoveredCalibration {
   std::size_t points = 0;                 // 3-D points of the model
   double reprojection_error = 0;          // pixels, mean over every observation of those points
   bool moving = false;  // placed by moving features (else from the reference frame alone)
+  // The reconstructions combined (combine_reconstructions), the largest spread of a camera there,
+  // and which camera.
+  int reconstructions = 0;
+  double spread = 0;
+  std::string spread_camera;
 };
 
 // A per-pixel median needs three frames to tell what stands still from what passes.
@@ -80,7 +85,11 @@ struct CalibrationFrames {
 // little to place three cameras so, or with fewer instants, COLMAP's own features of the reference
 // frames are matched and mapped instead (feature_extractor, exhaustive_matcher, mapper; logs in
 // log_dir). Every camera is a SIMPLE_RADIAL camera of its own (the cameras of a rig differ). The
-// model that registers the most cameras is written to model_dir as a COLMAP text model (a later
+// placement from the mapping on (the mapper's models keep the one that registers the most cameras)
+// runs kReconstructions times (recover_calibration.cpp says why), the second's and third's logs in
+// log_dir/run2, run3; the runs are combined (combine_reconstructions, in the frame of the one that
+// registers the most cameras), the points triangulated anew with those cameras held
+// (point_triangulator), and the model written to model_dir as a COLMAP text model (a later
 // `import videos --calib model_dir` reads it back). Poses are up to a similarity (COLMAP's frame
 // and scale). Throws Error when a command fails (colmap/run.hpp) or when fewer than two cameras
 // register, naming the mapper's log and what to try.
@@ -90,6 +99,21 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
                                          const std::filesystem::path& model_dir,
                                          const std::filesystem::path& log_dir,
                                          const colmap::ColmapOptions& options, bool progress);
+
+// Reconstructions of one rig (COLMAP models whose images are the rig's cameras, each image with a
+// camera of its own) combined into one in the first's frame: each of the others aligned to the
+// first by the similarity (Eigen::umeyama, with scale) between the centres of the cameras both
+// placed (three or more; one sharing fewer is left out), then every camera of the first takes the
+// placement, pose and intrinsics from one reconstruction, whose centre lies nearest the others'
+// (the smallest sum of distances; the earlier on ties): a camera one run places apart does not
+// move it. The first's images and cameras, no points.
+struct CombinedReconstructions {
+  io::ColmapModel model;
+  // Per image of the first, in its order: the largest distance of a reconstruction's (aligned)
+  // centre from the chosen one, over the largest distance of the first's centres from their mean.
+  std::vector<double> spread;
+};
+CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapModel>& models);
 
 // A refinement's COLMAP model (model_dir, with its tracks, as the mapper writes them) with its
 // observations trimmed: those farther than a step's reprojection error from their point's

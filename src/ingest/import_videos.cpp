@@ -290,6 +290,9 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
   report.points = recovered.points;
   report.reprojection_error = recovered.reprojection_error;
   report.moving_features = recovered.moving;
+  report.reconstructions = recovered.reconstructions;
+  report.spread = recovered.spread;
+  report.spread_camera = std::move(recovered.spread_camera);
   return std::move(recovered.cameras);
 }
 

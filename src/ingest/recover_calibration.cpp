@@ -1,8 +1,11 @@
 // A calibration recovered from the footage by COLMAP's mapper (calibration.hpp:
 // recover_calibration), for `import videos` without --calib.
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <optional>
+
+#include <Eigen/Geometry>
 
 #include <fmt/format.h>
 
@@ -11,6 +14,7 @@
 #include "import_common.hpp"
 #include "retimegs/core/atomic_file.hpp"
 #include "retimegs/core/error.hpp"
+#include "retimegs/core/progress.hpp"
 
 namespace retimegs::ingest::detail {
 namespace fs = std::filesystem;
@@ -49,6 +53,17 @@ constexpr std::size_t kMinPairMatches = 15;
 // 640x360): loose while the guide, placed by moving features alone, may be a few degrees off,
 // then as tight as COLMAP's own verification (--SiftMatching.max_error 4 px).
 constexpr double kRefineTolerance[] = {1.0 / 64, 1.0 / 160};
+// Independent reconstructions combined (combine_reconstructions): COLMAP's mapper, run on several
+// threads, registers the cameras in another order each time, and where a camera's observations
+// determine its place weakly, places it elsewhere: on the Panoptic frames the distance of a camera
+// that sees mostly floor or one wall trades with its focal length, and runs on the same matches
+// put that camera up to 3.3 % of the rig's extent from the truth, in either direction. Per camera
+// the placement nearest the other runs' is kept, so that one run placing a camera apart, or
+// folding, does not move it (of runs at 1.7, 1.9, 2.0, 3.1 and 3.3 % the combination is at
+// 1.7 %). Runs that agree on a wrong place, it keeps there: the combination of three is within
+// 2 % in seven imports of nine (1.5 to 2.5 %), a single run in five of eight (1.4 to 2.8 %); five
+// did no better.
+constexpr int kReconstructions = 3;
 // A refinement's observations are trimmed to these reprojection errors, one round each, the model
 // adjusted after each (calibration.hpp: tighten), pixels. COLMAP's mapper keeps every observation
 // within 4 px of its point's projection (--Mapper.filter_max_reproj_error), and its bundle adjuster
@@ -87,20 +102,23 @@ std::vector<std::string> mapper_args(const fs::path& database, const fs::path& i
           colmap::number(options.max_reprojection_error)};
 }
 
-// A model COLMAP wrote: as read, and its folder, whose tracks a later step adjusts.
+// A model COLMAP wrote: as read, its folder, whose tracks a later step adjusts, and the database
+// of the matches it was mapped from.
 struct Mapped {
   io::ColmapModel model;
   fs::path dir;  // empty when there is no model
+  fs::path database;
 };
 
-// Runs the mapper into `sparse` and returns the model that registers the most images (none
-// registered when it made none).
-Mapped map_largest(const fs::path& exe, const std::vector<std::string>& args,
+// Runs the mapper on `database` into `sparse` and returns the model that registers the most
+// images (none registered when it made none).
+Mapped map_largest(const fs::path& exe, const fs::path& database, const fs::path& images,
                    const fs::path& sparse, const fs::path& log_dir,
                    const colmap::ColmapOptions& options) {
   fs::create_directories(sparse);
   try {
-    colmap::run_colmap(exe, "mapper", args, log_dir, options.verbose);
+    colmap::run_colmap(exe, "mapper", mapper_args(database, images, sparse, options), log_dir,
+                       options.verbose);
   } catch (const Error&) {
     // It fails ("failed to create sparse model") when no two images share enough matches to
     // start a model: none registered, as the caller says.
@@ -111,15 +129,16 @@ Mapped map_largest(const fs::path& exe, const std::vector<std::string>& args,
   for (const auto& entry : fs::directory_iterator(sparse)) {
     if (!entry.is_directory()) continue;
     io::ColmapModel model = io::read_colmap_model(entry.path());
-    if (model.images.size() > best.model.images.size()) best = {std::move(model), entry.path()};
+    if (model.images.size() > best.model.images.size())
+      best = {std::move(model), entry.path(), database};
   }
   return best;
 }
 
 // COLMAP's own features and matches of the reference frame (work_dir/images), every pair
-// matched and verified, then the mapper.
-Mapped map_reference_frame(const fs::path& exe, const fs::path& work_dir, const fs::path& log_dir,
-                           const colmap::ColmapOptions& options) {
+// matched and verified, into the returned database.
+fs::path match_reference_frame(const fs::path& exe, const fs::path& work_dir,
+                               const fs::path& log_dir, const colmap::ColmapOptions& options) {
   const fs::path images = work_dir / "images", database = work_dir / "database.db";
   std::vector<std::string> extractor = {"--database_path",
                                         database.string(),
@@ -137,9 +156,7 @@ Mapped map_reference_frame(const fs::path& exe, const fs::path& work_dir, const 
   const std::vector<std::string> matching = colmap::exhaustive_matching_args(options);
   matcher.insert(matcher.end(), matching.begin(), matching.end());
   colmap::run_colmap(exe, "exhaustive_matcher", matcher, log_dir, options.verbose);
-
-  const fs::path sparse = work_dir / "sparse";
-  return map_largest(exe, mapper_args(database, images, sparse, options), sparse, log_dir, options);
+  return database;
 }
 
 // Each camera's placement in a model, in the order of `cameras` (none where it is not placed).
@@ -162,21 +179,21 @@ std::vector<std::optional<Placement>> placements(const io::ColmapModel& model,
   return out;
 }
 
-// One step of the moving-feature calibration in work_dir/<step>: the features imported, the
-// pairs' matches (`matches`: a list per pair of `cameras`, in pair order) verified by COLMAP, and
-// the mapper; logs in log_dir/<step>.
-Mapped map_matches(const fs::path& exe, const fs::path& work_dir, const std::string& step,
-                   const std::vector<std::string>& cameras, const std::vector<Matches>& matches,
-                   const fs::path& log_dir, const colmap::ColmapOptions& options) {
-  const fs::path dir = work_dir / step, database = dir / "database.db",
-                 images = work_dir / "images", logs = log_dir / step;
+// The features of work_dir/features imported into dir/database.db (returned) and the pairs'
+// matches (`matches`: a list per pair of `cameras`, in pair order) verified by COLMAP; logs in
+// log_dir.
+fs::path verify_matches(const fs::path& exe, const fs::path& work_dir, const fs::path& dir,
+                        const std::vector<std::string>& cameras,
+                        const std::vector<Matches>& matches, const fs::path& log_dir,
+                        const colmap::ColmapOptions& options) {
+  const fs::path database = dir / "database.db";
   fs::create_directories(dir);
   colmap::run_colmap(
       exe, "feature_importer",
-      {"--database_path", database.string(), "--image_path", images.string(), "--import_path",
-       (work_dir / "features").string(), "--ImageReader.camera_model", "SIMPLE_RADIAL",
-       "--ImageReader.single_camera_per_image", "1"},
-      logs, options.verbose);
+      {"--database_path", database.string(), "--image_path", (work_dir / "images").string(),
+       "--import_path", (work_dir / "features").string(), "--ImageReader.camera_model",
+       "SIMPLE_RADIAL", "--ImageReader.single_camera_per_image", "1"},
+      log_dir, options.verbose);
   std::string list;
   std::size_t pair = 0;
   for (std::size_t a = 0; a < cameras.size(); ++a)
@@ -192,56 +209,77 @@ Mapped map_matches(const fs::path& exe, const fs::path& work_dir, const std::str
       {"--database_path", database.string(), "--match_list_path", (dir / "matches.txt").string(),
        "--match_type", "raw", "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads",
        std::to_string(options.threads)},
-      logs, options.verbose);
-  return map_largest(exe, mapper_args(database, images, dir / "sparse", options), dir / "sparse",
-                     logs, options);
+      log_dir, options.verbose);
+  return database;
 }
 
-// The moving-feature calibration (calibration_features.hpp): the guide from moving features
-// alone, then refinements that add the static ones and keep every match that agrees with the
-// previous placement (agreeing_matches: among the cameras it placed), each refinement's model
-// tightened. None registered when the footage moves too little for a guide.
-Mapped map_moving_features(const fs::path& exe, const std::vector<std::string>& cameras,
-                           const CalibrationFrames& frames, const fs::path& work_dir,
-                           const fs::path& log_dir, const colmap::ColmapOptions& options,
-                           bool progress) {
-  std::vector<CameraFeatures> features(cameras.size());
+// The features of the moving-feature calibration (calibration_features.hpp), written to
+// work_dir/features, and per pair of cameras (in pair order) the matches of the moving ones and
+// of every one.
+struct MovingMatches {
+  std::vector<CameraFeatures> features;
+  std::vector<Matches> moving, all;
+};
+
+MovingMatches moving_matches(const std::vector<std::string>& cameras,
+                             const CalibrationFrames& frames, const fs::path& work_dir,
+                             const colmap::ColmapOptions& options, bool progress) {
+  MovingMatches out;
+  out.features.resize(cameras.size());
   parallel_jobs(
       cameras.size(), cameras.size(), "calibration features", progress,
       [&](std::size_t c, Progress& bar) {
-        features[c] = camera_features(
+        out.features[c] = camera_features(
             frames.instants, [&](int k) { return frames.frame(c, k); }, options.max_num_features);
-        write_colmap_features(features[c], work_dir / "features" / (cameras[c] + ".png.txt"));
+        write_colmap_features(out.features[c], work_dir / "features" / (cameras[c] + ".png.txt"));
         bar.tick();
       });
   std::vector<std::pair<std::size_t, std::size_t>> pairs;
   for (std::size_t a = 0; a < cameras.size(); ++a)
     for (std::size_t b = a + 1; b < cameras.size(); ++b) pairs.emplace_back(a, b);
-  std::vector<Matches> moving(pairs.size()), all(pairs.size());
+  out.moving.resize(pairs.size());
+  out.all.resize(pairs.size());
   parallel_jobs(pairs.size(), pairs.size(), "calibration matches", progress,
                 [&](std::size_t p, Progress& bar) {
                   const auto [a, b] = pairs[p];
-                  moving[p] = match_features(features[a], features[b], true, false);
+                  const CameraFeatures &fa = out.features[a], &fb = out.features[b];
+                  out.moving[p] = match_features(fa, fb, true, false);
                   // The groups match apart (calibration_features.hpp): the still ones, then the
                   // moving ones as above, is every match.
-                  all[p] = match_features(features[a], features[b], false, true);
-                  all[p].insert(all[p].end(), moving[p].begin(), moving[p].end());
+                  out.all[p] = match_features(fa, fb, false, true);
+                  out.all[p].insert(out.all[p].end(), out.moving[p].begin(), out.moving[p].end());
                   bar.tick();
                 });
+  return out;
+}
 
-  Mapped placed = map_matches(exe, work_dir, "guide", cameras, moving, log_dir, options);
+// One reconstruction by the moving features in run_dir, logs in log_dir: the guide mapped from
+// the verified moving matches (`guide`, a database: COLMAP's verification is the same every run),
+// then refinements that add the static matches and keep every one that agrees with the previous
+// placement (agreeing_matches: among the cameras it placed), each refinement's model tightened.
+// None registered when the footage moves too little for a guide.
+Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::string>& cameras,
+                                const MovingMatches& matches, const fs::path& guide,
+                                const fs::path& work_dir, const fs::path& run_dir,
+                                const fs::path& log_dir, const colmap::ColmapOptions& options) {
+  const fs::path images = work_dir / "images";
+  Mapped placed =
+      map_largest(exe, guide, images, run_dir / "guide" / "sparse", log_dir / "guide", options);
   if (int(placed.model.images.size()) < kMinGuideCameras) return {};
   int round = 0;
   for (const double tolerance : kRefineTolerance) {
-    const std::vector<Matches> kept =
-        agreeing_matches(placements(placed.model, cameras), features, all, tolerance);
+    const std::vector<Matches> kept = agreeing_matches(placements(placed.model, cameras),
+                                                       matches.features, matches.all, tolerance);
     const std::string step = fmt::format("refine{}", ++round);
-    Mapped refined = map_matches(exe, work_dir, step, cameras, kept, log_dir, options);
+    const fs::path database =
+        verify_matches(exe, work_dir, run_dir / step, cameras, kept, log_dir / step, options);
+    Mapped refined =
+        map_largest(exe, database, images, run_dir / step / "sparse", log_dir / step, options);
     // One that places fewer is dropped.
     if (refined.model.images.size() < placed.model.images.size()) break;
     const fs::path tightened =
-        tighten(exe, refined.dir, work_dir / step / "tightened", log_dir / step, options);
-    placed = {io::read_colmap_model(tightened), tightened};
+        tighten(exe, refined.dir, run_dir / step / "tightened", log_dir / step, options);
+    placed = {io::read_colmap_model(tightened), tightened, database};
   }
   return placed;
 }
@@ -278,18 +316,124 @@ fs::path tighten(const fs::path& exe, const fs::path& model_dir, const fs::path&
   return model;
 }
 
+CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapModel>& models) {
+  const io::ColmapModel& first = models.front();
+  CombinedReconstructions out;
+  out.model.cameras = first.cameras;
+  out.model.images = first.images;
+  out.spread.assign(first.images.size(), 0);
+  std::map<std::string, std::size_t> index;
+  for (std::size_t i = 0; i < first.images.size(); ++i) index[first.images[i].name] = i;
+
+  // Per image of the first, its placements in the first's frame.
+  struct Candidate {
+    Eigen::Matrix3d rotation;  // world to camera
+    Eigen::Vector3d centre;
+    const io::ColmapCamera* camera;
+  };
+  std::vector<std::vector<Candidate>> candidates(first.images.size());
+  for (const io::ColmapModel& model : models) {
+    std::vector<std::pair<std::size_t, const io::ColmapImage*>> shared;
+    for (const io::ColmapImage& image : model.images)
+      if (const auto it = index.find(image.name); it != index.end())
+        shared.emplace_back(it->second, &image);
+    const auto centre = [](const io::ColmapImage& image) -> Eigen::Vector3d {
+      const Eigen::Matrix4d w2c = image.world_to_camera();
+      return -w2c.topLeftCorner<3, 3>().transpose() * w2c.topRightCorner<3, 1>();
+    };
+    Eigen::Matrix4d similarity = Eigen::Matrix4d::Identity();
+    if (&model != &first) {
+      if (shared.size() < 3) continue;
+      Eigen::Matrix3Xd from(3, shared.size()), to(3, shared.size());
+      for (std::size_t k = 0; k < shared.size(); ++k)
+        from.col(k) = centre(*shared[k].second), to.col(k) = centre(first.images[shared[k].first]);
+      similarity = Eigen::umeyama(from, to, /*with_scaling=*/true);
+    }
+    const Eigen::Matrix3d scaled_rotation = similarity.topLeftCorner<3, 3>();
+    const Eigen::Matrix3d rotation = scaled_rotation / scaled_rotation.col(0).norm();
+    for (const auto& [i, image] : shared)
+      candidates[i].push_back(
+          {image->world_to_camera().topLeftCorner<3, 3>() * rotation.transpose(),
+           (similarity * centre(*image).homogeneous()).head<3>(), &model.camera(image->camera_id)});
+  }
+
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& c : candidates) mean += c.front().centre;
+  mean /= double(candidates.size());
+  double radius = 0;
+  for (const auto& c : candidates) radius = std::max(radius, (c.front().centre - mean).norm());
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const std::vector<Candidate>& placed = candidates[i];
+    std::size_t best = 0;
+    double best_sum = std::numeric_limits<double>::infinity();
+    for (std::size_t a = 0; a < placed.size(); ++a) {
+      double sum = 0;
+      for (const Candidate& b : placed) sum += (placed[a].centre - b.centre).norm();
+      if (sum < best_sum) best = a, best_sum = sum;
+    }
+    const Candidate& chosen = placed[best];
+    Eigen::Matrix4d w2c = Eigen::Matrix4d::Identity();
+    w2c.topLeftCorner<3, 3>() = chosen.rotation;
+    w2c.topRightCorner<3, 1>() = -chosen.rotation * chosen.centre;
+    io::ColmapImage& image = out.model.images[i];
+    image = io::ColmapImage::from_world_to_camera(image.id, image.camera_id, image.name, w2c);
+    for (io::ColmapCamera& camera : out.model.cameras)
+      if (camera.id == image.camera_id) camera.params = chosen.camera->params;
+    for (const Candidate& b : placed)
+      out.spread[i] = std::max(out.spread[i], (b.centre - chosen.centre).norm() / radius);
+  }
+  return out;
+}
+
 RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
                                          const CalibrationFrames& frames, const fs::path& work_dir,
                                          const fs::path& model_dir, const fs::path& log_dir,
                                          const colmap::ColmapOptions& options, bool progress) {
   const fs::path exe = colmap::find_colmap(options);
+  // Reconstruction k (from 0) works in <folder>/run<k+1> of its work and log folders, the first
+  // in the folders themselves (its mapper's log where the refusal below points).
+  const auto run_dir = [](const fs::path& dir, int k) {
+    return k == 0 ? dir : dir / fmt::format("run{}", k + 1);
+  };
   RecoveredCalibration out;
-  Mapped mapped;
-  if (frames.instants >= kMinInstants)
-    mapped = map_moving_features(exe, cameras, frames, work_dir, log_dir, options, progress);
-  out.moving = !mapped.model.images.empty();
-  if (!out.moving) mapped = map_reference_frame(exe, work_dir, log_dir, options);
-  const io::ColmapModel& best = mapped.model;
+  std::vector<Mapped> runs;
+  if (frames.instants >= kMinInstants) {
+    const MovingMatches matches = moving_matches(cameras, frames, work_dir, options, progress);
+    const fs::path guide = verify_matches(exe, work_dir, work_dir / "guide", cameras,
+                                          matches.moving, log_dir / "guide", options);
+    Progress bar("calibration reconstructions", kReconstructions, progress);
+    for (int k = 0; k < kReconstructions; ++k) {
+      Mapped placed =
+          place_by_moving_features(exe, cameras, matches, guide, work_dir,
+                                   run_dir(work_dir / "moving", k), run_dir(log_dir, k), options);
+      bar.tick();
+      // The footage moves too little for a guide: the reference frame instead.
+      if (placed.model.images.empty() && k == 0) break;
+      if (!placed.model.images.empty()) runs.push_back(std::move(placed));
+    }
+  }
+  out.moving = !runs.empty();
+  if (!out.moving) {
+    const fs::path database = match_reference_frame(exe, work_dir, log_dir, options);
+    Progress bar("calibration reconstructions", kReconstructions, progress);
+    for (int k = 0; k < kReconstructions; ++k) {
+      Mapped mapped =
+          map_largest(exe, database, work_dir / "images",
+                      run_dir(work_dir / "reference", k) / "sparse", run_dir(log_dir, k), options);
+      bar.tick();
+      // Nothing to combine: refused below.
+      if (mapped.model.images.size() < 2 && k == 0) {
+        runs.push_back(std::move(mapped));
+        break;
+      }
+      if (mapped.model.images.size() >= 2) runs.push_back(std::move(mapped));
+    }
+  }
+  // The one that registers the most cameras (the earliest on ties) sets the frame.
+  std::stable_sort(runs.begin(), runs.end(), [](const Mapped& a, const Mapped& b) {
+    return a.model.images.size() > b.model.images.size();
+  });
+  const io::ColmapModel& best = runs.front().model;
 
   std::vector<std::string> registered;
   for (const io::ColmapImage& image : best.images)
@@ -306,10 +450,46 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
         "help; log: {})",
         registered.size(), cameras.size(), shown_path(log_dir / "mapper.log"));
 
-  io::write_colmap_model_txt(best, model_dir);
+  std::vector<io::ColmapModel> models;
+  for (Mapped& run : runs) models.push_back(std::move(run.model));
+  const CombinedReconstructions combined = combine_reconstructions(models);
+  out.reconstructions = int(models.size());
+  for (std::size_t i = 0; i < combined.spread.size(); ++i)
+    if (combined.spread[i] > out.spread)
+      out.spread = combined.spread[i],
+      out.spread_camera = fs::path(combined.model.images[i].name).stem().string();
+
+  // The points of the combined cameras: the first's matches triangulated with them held.
+  const fs::path known = work_dir / "combined", triangulated = work_dir / "triangulated";
+  io::write_colmap_model_txt(combined.model, known);
+  fs::create_directories(triangulated);
+  colmap::run_colmap(exe, "point_triangulator",
+                     {"--database_path",
+                      runs.front().database.string(),
+                      "--image_path",
+                      (work_dir / "images").string(),
+                      "--input_path",
+                      known.string(),
+                      "--output_path",
+                      triangulated.string(),
+                      "--clear_points",
+                      "1",
+                      "--Mapper.num_threads",
+                      std::to_string(options.threads),
+                      "--Mapper.ba_refine_focal_length",
+                      "0",
+                      "--Mapper.ba_refine_principal_point",
+                      "0",
+                      "--Mapper.ba_refine_extra_params",
+                      "0",
+                      "--Mapper.filter_max_reproj_error",
+                      colmap::number(options.max_reprojection_error)},
+                     log_dir, options.verbose);
+  const io::ColmapModel model = io::read_colmap_model(triangulated);
+  io::write_colmap_model_txt(model, model_dir);
   out.cameras = read_colmap_calibration(model_dir);
-  out.points = best.points.size();
-  out.reprojection_error = mean_reprojection_error(best);
+  out.points = model.points.size();
+  out.reprojection_error = mean_reprojection_error(model);
   return out;
 }
 

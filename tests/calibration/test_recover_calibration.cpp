@@ -55,6 +55,8 @@ TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
   EXPECT_TRUE(r.unregistered.empty());
   EXPECT_GT(r.points, 100u);
   EXPECT_LT(r.reprojection_error, 1.0);
+  EXPECT_EQ(r.reconstructions, 3);
+  EXPECT_LT(r.spread, 0.05) << r.spread_camera;
   const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), truth.cameras.size());
   const double error = test::centre_error_after_alignment(truth.cameras, scene.cameras);

@@ -93,7 +93,13 @@ struct VideosReport {
   std::size_t points = 0;
   double reprojection_error = 0;
   bool moving_features = false;  // placed by what moves (else from the calibration frame alone)
-  int undistorted = 0;           // cameras resampled from a distorted model into pinhole ones
+  // COLMAP's reconstructions combined into the calibration; the largest distance of one's centre
+  // for a camera from the centre kept, as a fraction of the rig's extent (the largest distance of
+  // a camera centre from their mean), and which camera.
+  int reconstructions = 0;
+  double spread = 0;
+  std::string spread_camera;
+  int undistorted = 0;  // cameras resampled from a distorted model into pinhole ones
   std::vector<std::string> without_footage;  // calibrated cameras without footage (left out)
 };
 
