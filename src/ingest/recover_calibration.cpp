@@ -1,6 +1,7 @@
 // A calibration recovered from the footage by COLMAP's mapper (calibration.hpp:
 // recover_calibration), for `import videos` without --calib.
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -61,8 +62,8 @@ constexpr double kRefineTolerance[] = {1.0 / 64, 1.0 / 160};
 // the placement nearest the other runs' is kept, so that one run placing a camera apart, or
 // folding, does not move it (of runs at 1.7, 1.9, 2.0, 3.1 and 3.3 % the combination is at
 // 1.7 %). Runs that agree on a wrong place, it keeps there: the combination of three is within
-// 2 % in nine imports of twelve (1.5 to 2.5 %), a single run in five of eight (1.4 to 2.8 %); five
-// did no better.
+// 2 % in nine imports of thirteen (1.5 to 2.7 %), a single run in five of eight (1.4 to 2.8 %);
+// five did no better.
 constexpr int kReconstructions = 3;
 // A refinement's observations are trimmed to these reprojection errors, one round each, the model
 // adjusted after each (calibration.hpp: tighten), pixels. COLMAP's mapper keeps every observation
@@ -395,39 +396,41 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
   const auto run_dir = [](const fs::path& dir, int k) {
     return k == 0 ? dir : dir / fmt::format("run{}", k + 1);
   };
+  // place(k) for each reconstruction k under one progress bar: those that place two cameras or
+  // more, or the first alone when it does not (there is nothing the others could add to).
+  const auto reconstruct = [&](const std::function<Mapped(int)>& place) {
+    std::vector<Mapped> runs;
+    Progress bar("calibration reconstructions", kReconstructions, progress);
+    for (int k = 0; k < kReconstructions; ++k) {
+      Mapped mapped = place(k);
+      bar.tick();
+      const bool placed = mapped.model.images.size() >= 2;
+      if (placed || k == 0) runs.push_back(std::move(mapped));
+      if (!placed && k == 0) break;
+    }
+    return runs;
+  };
   RecoveredCalibration out;
   std::vector<Mapped> runs;
   if (frames.instants >= kMinInstants) {
     const MovingMatches matches = moving_matches(cameras, frames, work_dir, options, progress);
     const fs::path guide = verify_matches(exe, work_dir, work_dir / "guide", cameras,
                                           matches.moving, log_dir / "guide", options);
-    Progress bar("calibration reconstructions", kReconstructions, progress);
-    for (int k = 0; k < kReconstructions; ++k) {
-      Mapped placed =
-          place_by_moving_features(exe, cameras, matches, guide, work_dir,
-                                   run_dir(work_dir / "moving", k), run_dir(log_dir, k), options);
-      bar.tick();
-      // The footage moves too little for a guide: the reference frame instead.
-      if (placed.model.images.empty() && k == 0) break;
-      if (!placed.model.images.empty()) runs.push_back(std::move(placed));
-    }
+    runs = reconstruct([&](int k) {
+      return place_by_moving_features(exe, cameras, matches, guide, work_dir,
+                                      run_dir(work_dir / "moving", k), run_dir(log_dir, k),
+                                      options);
+    });
   }
-  out.moving = !runs.empty();
+  // The footage moves too little for a guide: the reference frame instead.
+  out.moving = !runs.empty() && !runs.front().model.images.empty();
   if (!out.moving) {
     const fs::path database = match_reference_frame(exe, work_dir, log_dir, options);
-    Progress bar("calibration reconstructions", kReconstructions, progress);
-    for (int k = 0; k < kReconstructions; ++k) {
-      Mapped mapped =
-          map_largest(exe, database, work_dir / "images",
-                      run_dir(work_dir / "reference", k) / "sparse", run_dir(log_dir, k), options);
-      bar.tick();
-      // Nothing to combine: refused below.
-      if (mapped.model.images.size() < 2 && k == 0) {
-        runs.push_back(std::move(mapped));
-        break;
-      }
-      if (mapped.model.images.size() >= 2) runs.push_back(std::move(mapped));
-    }
+    runs = reconstruct([&](int k) {
+      return map_largest(exe, database, work_dir / "images",
+                         run_dir(work_dir / "reference", k) / "sparse", run_dir(log_dir, k),
+                         options);
+    });
   }
   // The one that registers the most cameras (the earliest on ties) sets the frame.
   std::stable_sort(runs.begin(), runs.end(), [](const Mapped& a, const Mapped& b) {
