@@ -332,16 +332,16 @@ CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapMode
     Eigen::Vector3d centre;
     const io::ColmapCamera* camera;
   };
+  const auto centre = [](const io::ColmapImage& image) -> Eigen::Vector3d {
+    const Eigen::Matrix4d w2c = image.world_to_camera();
+    return -w2c.topLeftCorner<3, 3>().transpose() * w2c.topRightCorner<3, 1>();
+  };
   std::vector<std::vector<Candidate>> candidates(first.images.size());
   for (const io::ColmapModel& model : models) {
     std::vector<std::pair<std::size_t, const io::ColmapImage*>> shared;
     for (const io::ColmapImage& image : model.images)
       if (const auto it = index.find(image.name); it != index.end())
         shared.emplace_back(it->second, &image);
-    const auto centre = [](const io::ColmapImage& image) -> Eigen::Vector3d {
-      const Eigen::Matrix4d w2c = image.world_to_camera();
-      return -w2c.topLeftCorner<3, 3>().transpose() * w2c.topRightCorner<3, 1>();
-    };
     Eigen::Matrix4d similarity = Eigen::Matrix4d::Identity();
     if (&model != &first) {
       if (shared.size() < 3) continue;

@@ -2,7 +2,7 @@
 // (RETIMEGS_SHARED_DATA/panoptic-basketball, 31 cameras at 640x360) as image folders, against the
 // Panoptic calibration. Labelled `slow` (tests/CMakeLists.txt): calibrating 31 views takes
 // minutes of CPU.
-#include <cstdlib>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
