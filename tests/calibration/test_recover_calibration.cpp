@@ -2,11 +2,15 @@
 // every camera (ingest/recover_calibration.cpp).
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -25,9 +29,8 @@ namespace fs = std::filesystem;
 
 // A ring of 24 cameras (15 degrees apart) around the textured synthetic scene, at 320x240: SIFT
 // finds ~1000 features per view. With 16 (22.5 degrees), neighbours share 100-180 verified
-// matches but cameras two apart only ~30, and the poses drift to 2.6 % of the ring; with 24 they
-// stay within 2 % (0.9 to 1.7 % over runs: COLMAP's RANSAC is random). COLMAP takes about a minute
-// of CPU for it.
+// matches but cameras two apart only ~30, and the poses drift to 2.6 % of the ring. COLMAP takes
+// about a minute of CPU for it.
 io::Scene textured_rig(const fs::path& root) {
   synth::SynthOptions options;
   options.preset = "textured";
@@ -42,7 +45,13 @@ io::Scene textured_rig(const fs::path& root) {
 // The scene's images/<camera>/ folders are a capture of image folders: COLMAP must place every
 // camera where the synthetic rig has it, up to a similarity, with the rig's focal length; the
 // recovered calibration is written to SCENE/calibration, from which a second import (--calib)
-// gives the same cameras.
+// gives the same cameras. The rig as a whole (median camera) comes out within 0.3-0.5 % of its
+// extent and 0.35-0.5 % of its focal length; single cameras less so: each has its own focal length
+// and radial distortion (SIMPLE_RADIAL, as a real rig needs), which trade against each other where
+// a view's features leave them weakly told apart, and with the focal length the camera's distance
+// (the rig's cameras 04 and 09: focal lengths 3 % long and 2.5 % short, k -0.034 and +0.037 where
+// the truth has none; placed 1.5 % of the extent off). Thirty-nine runs put the worst camera at
+// 0.8-2.1 % and its focal length up to 3.1 % off: the limits leave a third more.
 TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
   if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;
@@ -59,14 +68,22 @@ TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
   EXPECT_LT(r.spread, 0.05) << r.spread_camera;
   const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), truth.cameras.size());
-  const double error = test::centre_error_after_alignment(truth.cameras, scene.cameras);
-  std::printf("camera centres within %.3f %% of the rig's extent\n", 100 * error);
-  EXPECT_LT(error, 0.02);
+  const test::CentreErrors error = test::centre_error_after_alignment(truth.cameras, scene.cameras);
+  std::vector<double> focal_errors;
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
     EXPECT_EQ(scene.cameras[c].width, truth.cameras[c].width);
-    EXPECT_NEAR(scene.cameras[c].fx, truth.cameras[c].fx, 0.03 * truth.cameras[c].fx)
-        << scene.cameras[c].name;
+    focal_errors.push_back(std::abs(scene.cameras[c].fx / truth.cameras[c].fx - 1));
   }
+  std::sort(focal_errors.begin(), focal_errors.end());
+  std::printf(
+      "camera centres within %.3f %% of the rig's extent (median %.3f %%), focal lengths within "
+      "%.2f %% (median %.2f %%)\n",
+      100 * error.worst, 100 * error.median, 100 * focal_errors.back(),
+      100 * focal_errors[focal_errors.size() / 2]);
+  EXPECT_LT(error.worst, 0.03);
+  EXPECT_LT(error.median, 0.01);
+  EXPECT_LT(focal_errors.back(), 0.05);
+  EXPECT_LT(focal_errors[focal_errors.size() / 2], 0.01);
 
   VideosOptions reuse;
   reuse.calibration = dir / "scene" / "calibration";
