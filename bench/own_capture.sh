@@ -55,12 +55,13 @@ scene="$work/scene"
 run="$work/run"
 calib_args=(--calib "$work/rig.json")
 calib_text="--calib rig.json"
+# The shared frames are undistorted (Panoptic's calibration has no distortion): a user who knows
+# that says so, and COLMAP fits no distortion term.
 if [ "$calib" = none ]; then
-  calib_args=()
-  calib_text="(no --calib: COLMAP)"
+  calib_args=(--camera-model SIMPLE_PINHOLE)
+  calib_text="--camera-model SIMPLE_PINHOLE (no --calib: COLMAP)"
 fi
-# ${a[@]+"${a[@]}"}: an empty array under set -u aborts bash < 4.4.
-step import "$bin" import videos --in "$data/ims" ${calib_args[@]+"${calib_args[@]}"} \
+step import "$bin" import videos --in "$data/ims" "${calib_args[@]}" \
   --out "$scene" --test-cameras 0,10,15,30
 step prepare "$bin" prepare --scene "$scene" --masks
 step train "$bin" train --scene "$scene" --out "$run" --preset "$preset"

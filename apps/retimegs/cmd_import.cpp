@@ -1,5 +1,6 @@
 // retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
-// retimegs import videos --in DIR [--calib PATH | --calib-frames K --calib-frame N] --out SCENE
+// retimegs import videos --in DIR
+//                        [--calib PATH | --calib-frames K --calib-frame N --camera-model M]
 //                        [--test-cameras ...] [--offsets ...]
 #include <charconv>
 #include <map>
@@ -87,6 +88,7 @@ void add_videos_command(CLI::App* cmd) {
     std::optional<double> fps;
     std::optional<int> calib_frame;
     std::optional<int> calib_frames;
+    std::optional<std::string> camera_model;
   };
   auto args = std::make_shared<VideoArgs>();
   CLI::App* sub = cmd->add_subcommand(
@@ -108,6 +110,12 @@ void add_videos_command(CLI::App* cmd) {
   sub->add_option("--calib-frames", args->calib_frames,
                   "without --calib: frames per camera, spread over the footage, in which COLMAP "
                   "places the cameras by what moves (default 17; below 3: --calib-frame alone)");
+  sub->add_option(
+      "--camera-model", args->camera_model,
+      fmt::format("without --calib: COLMAP's model for every camera, {} (default: "
+                  "a lens as it comes, one radial distortion term) or {} (footage "
+                  "undistorted already)",
+                  ingest::kRecoveredCameraModels[0], ingest::kRecoveredCameraModels[1]));
   sub->add_option("--test-cameras", args->test_cameras,
                   "comma-separated cameras held out for evaluation (split test)");
   sub->add_option("--offsets", args->offsets,
@@ -126,6 +134,7 @@ void add_videos_command(CLI::App* cmd) {
     videos.fps = args->fps;
     videos.calibration_frame = args->calib_frame;
     videos.calibration_instants = args->calib_frames;
+    videos.camera_model = args->camera_model;
     const ingest::VideosReport r = ingest::import_videos(args->in, args->out, options, videos);
     const std::string start =
         videos.offsets.empty() && r.first_frame == 0

@@ -84,7 +84,8 @@ struct CalibrationFrames {
 // model then tightened (tighten, below), logs in log_dir/<step>/. Where the footage moves too
 // little to place three cameras so, or with fewer instants, COLMAP's own features of the reference
 // frames are matched and mapped instead (feature_extractor, exhaustive_matcher, mapper; logs in
-// log_dir). Every camera is a SIMPLE_RADIAL camera of its own (the cameras of a rig differ). The
+// log_dir). Every camera is one of its own (the cameras of a rig differ), of options.camera_model
+// (one of kRecoveredCameraModels). The
 // placement from the mapping on (the mapper's models keep the one that registers the most cameras)
 // runs kReconstructions times (recover_calibration.cpp says why), the second's and third's logs in
 // log_dir/run2, run3; the runs are combined (combine_reconstructions, in the frame of the one that

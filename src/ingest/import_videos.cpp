@@ -251,6 +251,7 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
                                               std::vector<int>& offsets, int frame,
                                               const std::vector<int>& instants,
                                               const fs::path& scene_root,
+                                              const std::string& camera_model,
                                               const ImportOptions& options, VideosReport& report) {
   const colmap::WorkFolder work("calibration");
   std::vector<std::string> names;
@@ -263,6 +264,7 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
   for (const Footage& f : footage) names.push_back(f.name);
   colmap::ColmapOptions colmap_options;
   colmap_options.threads = max_threads();
+  colmap_options.camera_model = camera_model;
   detail::CalibrationFrames frames;
   frames.instants = int(instants.size());
   frames.frame = [&](std::size_t c, int k) {
@@ -311,6 +313,14 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
     fail("--calib-frames: only without --calib (it chooses the frames COLMAP calibrates from)");
   const int instant_count = videos.calibration_instants.value_or(kDefaultCalibrationInstants);
   if (instant_count < 1) fail("--calib-frames: {} is not a positive count", instant_count);
+  if (!recovering && videos.camera_model)
+    fail("--camera-model: only without --calib (the calibration gives each camera's model)");
+  const std::string camera_model =
+      videos.camera_model.value_or(std::string(kRecoveredCameraModels.front()));
+  if (std::find(kRecoveredCameraModels.begin(), kRecoveredCameraModels.end(), camera_model) ==
+      kRecoveredCameraModels.end())
+    fail("--camera-model: {} is not one a calibration is recovered with ({})", camera_model,
+         fmt::join(kRecoveredCameraModels, ", "));
 
   VideosReport report;
   std::vector<detail::CalibratedCamera> calibration;
@@ -349,7 +359,7 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
       calibration = recover(
           footage, offsets, scene_start + frame,
           instants.size() >= std::size_t(detail::kMinInstants) ? instants : std::vector<int>(),
-          scene.root, options, report);
+          scene.root, camera_model, options, report);
     } catch (const Error&) {
       // The logs outlive the scene, where the message says they are.
       if (fs::is_directory(scene.root / kCalibrationLogs)) {

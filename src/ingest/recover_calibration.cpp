@@ -146,7 +146,7 @@ fs::path match_reference_frame(const fs::path& exe, const fs::path& work_dir,
                                         "--image_path",
                                         images.string(),
                                         "--ImageReader.camera_model",
-                                        "SIMPLE_RADIAL",
+                                        options.camera_model,
                                         "--ImageReader.single_camera_per_image",
                                         "1"};
   const std::vector<std::string> sift = colmap::sift_extraction_args(options);
@@ -168,7 +168,7 @@ std::vector<std::optional<Placement>> placements(const io::ColmapModel& model,
   for (const io::ColmapImage& image : model.images) {
     const io::ColmapCamera& camera = model.camera(image.camera_id);
     Placement p;
-    // SIMPLE_RADIAL, as every camera is made here: f, cx, cy, k.
+    // A single-focal model (kRecoveredCameraModels): f, cx, cy, then its distortion.
     p.k << camera.params[0], 0, camera.params[1], 0, camera.params[0], camera.params[2], 0, 0, 1;
     p.world_to_camera = image.world_to_camera();
     p.larger_side = std::max(camera.width, camera.height);
@@ -193,7 +193,7 @@ fs::path verify_matches(const fs::path& exe, const fs::path& work_dir, const fs:
       exe, "feature_importer",
       {"--database_path", database.string(), "--image_path", (work_dir / "images").string(),
        "--import_path", (work_dir / "features").string(), "--ImageReader.camera_model",
-       "SIMPLE_RADIAL", "--ImageReader.single_camera_per_image", "1"},
+       options.camera_model, "--ImageReader.single_camera_per_image", "1"},
       log_dir, options.verbose);
   std::string list;
   std::size_t pair = 0;

@@ -46,12 +46,12 @@ io::Scene textured_rig(const fs::path& root) {
 // camera where the synthetic rig has it, up to a similarity, with the rig's focal length; the
 // recovered calibration is written to SCENE/calibration, from which a second import (--calib)
 // gives the same cameras. The rig as a whole (median camera) comes out within 0.3-0.5 % of its
-// extent and 0.35-0.5 % of its focal length; single cameras less so: each has its own focal length
-// and radial distortion (SIMPLE_RADIAL, as a real rig needs), which trade against each other where
-// a view's features leave them weakly told apart, and with the focal length the camera's distance
-// (the rig's cameras 04 and 09: focal lengths 3 % long and 2.5 % short, k -0.034 and +0.037 where
-// the truth has none; placed 1.5 % of the extent off). Thirty-nine runs put the worst camera at
-// 0.8-2.1 % and its focal length up to 3.1 % off: the limits leave a third more.
+// extent and 0.35-0.5 % of its focal length; single cameras less so: a camera's focal length
+// trades against its distance along its view where its features tell the two apart weakly (the
+// rig's cameras 04 and 09: focal lengths 3 % long and 2.5 % short, placed 1.5 % of the extent
+// off; their radial distortion, -0.034 and +0.037 where the truth has none, comes along, but
+// without it, a pinhole model, the focal lengths are as far off). Thirty-nine runs put the worst
+// camera at 0.8-2.1 % and its focal length up to 3.1 % off: the limits leave a third more.
 TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
   if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
   test::TempDir dir;

@@ -554,6 +554,16 @@ TEST_F(VideosBadInput, CalibrationFramesNeedNoCalibrationAndACount) {
   expect_refused({"--calib-frames", "0 is not a positive count"});
 }
 
+// --camera-model chooses the model COLMAP fits to every camera: meaningless beside --calib, and
+// one of the models a calibration is recovered with.
+TEST_F(VideosBadInput, CameraModelNeedsNoCalibrationAndARecoveredModel) {
+  options_.camera_model = "SIMPLE_PINHOLE";
+  expect_refused({"--camera-model", "only without --calib"});
+  options_.calibration.clear();
+  options_.camera_model = "OPENCV";
+  expect_refused({"--camera-model", "OPENCV is not one", "SIMPLE_RADIAL, SIMPLE_PINHOLE"});
+}
+
 TEST_F(VideosBadInput, OffsetsThatLeaveNoFrame) {
   options_.offsets = {{"cam01", 3}};  // 3 frames each
   expect_refused({"--offsets", "cam01:3", "no frame", "3 frames"});

@@ -22,6 +22,9 @@ struct ColmapOptions {
   // --SiftMatching.guided_matching: once a pair's geometry is verified, match again along it,
   // recovering matches of repeated or faint texture that the ratio test alone rejects.
   bool guided_matching = true;
+  // --ImageReader.camera_model of the cameras a calibration is recovered for, each its own: set by
+  // `import videos` without --calib (ingest/import.hpp: VideosOptions::camera_model).
+  std::string camera_model;
   int threads = -1;                   // COLMAP's num_threads (-1 = all cores)
   double max_reprojection_error = 4;  // --Mapper.filter_max_reproj_error, pixels
   // `prepare --points colmap`: points seen by fewer cameras are dropped: a two-view point only

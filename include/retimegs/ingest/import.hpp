@@ -1,10 +1,12 @@
 #pragma once
 // Importers from public dataset layouts and from your own capture into the scene format
 // (docs/cli.md, `retimegs import`; docs/formats.md).
+#include <array>
 #include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace retimegs::ingest {
@@ -46,6 +48,13 @@ void import_colmap(const std::filesystem::path& source, const std::filesystem::p
 void import_nerfstudio(const std::filesystem::path& source, const std::filesystem::path& out,
                        const ImportOptions& options);
 
+// The COLMAP camera models a calibration is recovered with (VideosOptions::camera_model), one
+// focal length each: SIMPLE_RADIAL with one radial distortion term (a lens as it comes),
+// SIMPLE_PINHOLE without (footage undistorted already: a distortion term fitted there trades
+// against the focal length and, with it, the camera's distance).
+inline constexpr std::array<std::string_view, 2> kRecoveredCameraModels = {"SIMPLE_RADIAL",
+                                                                           "SIMPLE_PINHOLE"};
+
 // A user's own capture (`retimegs import videos`; docs/cli.md gives the rig file format). Source:
 // one video per camera (<camera>.mp4 / .mov / .mkv / .avi, decoded with OpenCV's FFmpeg backend)
 // or one folder of images per camera (<camera>/, PNG / JPEG sorted by name); folders without
@@ -71,6 +80,8 @@ struct VideosOptions {
   // has (before --frames), COLMAP places the cameras by what moves in (at least 3 for that; fewer
   // or a static capture: the calibration frame alone); absent: 17.
   std::optional<int> calibration_instants;
+  // Without a calibration: the camera model (one of kRecoveredCameraModels); absent: the first.
+  std::optional<std::string> camera_model;
   std::vector<std::string> test_cameras;  // get split "test"
   // Synchronisation: scene frame k of camera c is source frame k + offsets[c] (0 when absent).
   // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
