@@ -51,7 +51,7 @@ void import_nerfstudio(const std::filesystem::path& source, const std::filesyste
 // The COLMAP camera models a calibration is recovered with (VideosOptions::camera_model), one
 // focal length each: SIMPLE_RADIAL with one radial distortion term (a lens as it comes),
 // SIMPLE_PINHOLE without (footage undistorted already: a distortion term fitted there trades
-// against the focal length and, with it, the camera's distance).
+// against the focal length and, with it, the camera's distance, and has the frames resampled).
 inline constexpr std::array<std::string_view, 2> kRecoveredCameraModels = {"SIMPLE_RADIAL",
                                                                            "SIMPLE_PINHOLE"};
 
