@@ -85,15 +85,15 @@ struct CalibrationFrames {
 // little to place three cameras so, or with fewer instants, COLMAP's own features of the reference
 // frames are matched and mapped instead (feature_extractor, exhaustive_matcher, mapper; logs in
 // log_dir). Every camera is one of its own (the cameras of a rig differ), of options.camera_model
-// (one of kRecoveredCameraModels). The
-// placement from the mapping on (the mapper's models keep the one that registers the most cameras)
-// runs kReconstructions times (recover_calibration.cpp says why), the second's and third's logs in
-// log_dir/run2, run3; the runs are combined (combine_reconstructions, in the frame of the one that
-// registers the most cameras), the points triangulated anew with those cameras held
-// (point_triangulator), and the model written to model_dir as a COLMAP text model (a later
-// `import videos --calib model_dir` reads it back). Poses are up to a similarity (COLMAP's frame
-// and scale). Throws Error when a command fails (colmap/run.hpp) or when fewer than two cameras
-// register, naming the mapper's log and what to try.
+// (one of kRecoveredCameraModels). The placement from the mapping on (the mapper's models keep the
+// one that registers the most cameras) runs kReconstructions times (recover_calibration.cpp says
+// why), the second's and third's logs in log_dir/run2, run3; the runs are combined
+// (combine_reconstructions, in the frame of the one that registers the most cameras), the points
+// triangulated anew with those cameras held (point_triangulator), and the model written to
+// model_dir as a COLMAP text model (a later `import videos --calib model_dir` reads it back). Poses
+// are up to a similarity (COLMAP's frame and scale). Throws Error when a command fails
+// (colmap/run.hpp) or when fewer than two cameras register, naming the mapper's log and what to
+// try.
 RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
                                          const CalibrationFrames& frames,
                                          const std::filesystem::path& work_dir,

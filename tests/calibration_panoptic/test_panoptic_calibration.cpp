@@ -22,12 +22,12 @@ namespace fs = std::filesystem;
 
 // Recovered from the 17 frames of ims/<camera>/ (the folder names are the Panoptic camera ids,
 // as `import panoptic` names its cameras), scene frame 8, with COLMAP's camera model
-// `camera_model`, once per model for the tests below (in one process); the error is the worst
-// camera centre after a similarity to the Panoptic calibration, as a fraction of the rig's
-// extent. From frame 8 alone COLMAP folds the dome (cameras on opposite sides match each other's
-// view of the wall behind the other, whose panels, holes and camera pods repeat all round: 121 %
-// after alignment). Placed by what moves first (calibration_features.hpp), each refinement
-// tightened (calibration.hpp: tighten) and three reconstructions combined
+// `camera_model`, once per model for the tests below (in one process); the errors are those of
+// the camera centres (the worst, the median) after a similarity to the Panoptic calibration, as
+// fractions of the rig's extent. From frame 8 alone COLMAP folds the dome (cameras on opposite
+// sides match each other's view of the wall behind the other, whose panels, holes and camera pods
+// repeat all round: 121 % after alignment). Placed by what moves first (calibration_features.hpp),
+// each refinement tightened (calibration.hpp: tighten) and three reconstructions combined
 // (combine_reconstructions), 30 or 31 register (at 0.8 px over the points triangulated with the
 // combined cameras) with the worst centre within 1.4 to 2.7 % over twenty-three runs of the
 // default model, SIMPLE_RADIAL (a single reconstruction: 1.4 to 2.8 % over eight; not tightened,
