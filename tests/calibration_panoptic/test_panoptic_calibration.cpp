@@ -88,8 +88,8 @@ const Recovered& recovered(const std::string& camera_model) {
 
 // What every run reaches, with a margin. The rig as a whole, its median camera (0.4 to 1.0 % in
 // eleven runs), shows a change that places the cameras worse; a single camera, only when it runs
-// off (a fold: 121 %; matches along epipolar bands: 10 to 23 %): two imports run at once put
-// camera 2, which sees mostly floor, 6.7 % and 28 % off (tests/CMakeLists.txt).
+// off (a fold: 121 %; matches along epipolar bands: 10 to 23 %): two runs of thirty put camera 2,
+// which sees mostly floor, 6.7 % and 28 % off (tests/CMakeLists.txt).
 void expect_registered(const std::string& camera_model) {
   const Recovered& r = recovered(camera_model);
   if (!r.skipped.empty()) GTEST_SKIP() << r.skipped;
