@@ -140,11 +140,12 @@ for v in "${methods[@]}"; do
       fit) flags=(--frames "$train_frames" --cameras "$train_cams") ;;
       stability) flags+=(--cameras "$stability_cams" --stability) ;;
     esac
-    # A baseline returns the training frames themselves: no fit to measure.
-    [ "$split" = fit ] && ! trained "$v" && continue
+    # A baseline returns the training frames themselves: no fit to measure; and it blends a
+    # camera's own training frames, which a test camera has none of.
+    [[ $split =~ ^(fit|test)$ ]] && ! trained "$v" && continue
     # --save-renders replaces its folder: one per method and split.
     case "$v-$split" in
-      full-train|full-test|flow-train|flow-test|crossfade-train|crossfade-test)
+      full-train|full-test|flow-train|crossfade-train)
         flags+=(--save-renders "$work/renders/$v-$split") ;;
     esac
     [ -f "$work/${v}_$split.json" ] || "$bin" eval "${source[@]}" --scene "$scene" "${flags[@]}" \
@@ -155,9 +156,10 @@ done
 for split in train test; do
   if ! { scored full && scored flow && scored crossfade; }; then break; fi
   cams=5,18
-  [ "$split" = test ] && cams=0,30
-  "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 \
-    --renders "$work/renders/full-$split,$work/renders/flow-$split,$work/renders/crossfade-$split" \
+  renders="$work/renders/full-$split,$work/renders/flow-$split,$work/renders/crossfade-$split"
+  # No baseline for a test camera: ground truth | ours.
+  [ "$split" = test ] && cams=0,30 renders="$work/renders/full-$split"
+  "$bin" sheet --scene "$scene" --cameras "$cams" --frames 7 --tile-width 320 --renders "$renders" \
     --out "$root/bench/results/panoptic_sheet_$split.png" --force
 done
 

@@ -85,11 +85,16 @@ void add_eval_command(CLI::App& app) {
     const double near_plane = playback::near_plane(args->near, scene);
     eval::EvalOptions options;
     options.frames = eval::parse_frames(args->frames, scene.num_frames, "--frames");
-    if (args->cameras.empty())
-      for (int c = 0; c < int(scene.cameras.size()); ++c) options.cameras.push_back(c);
-    else
+    if (!args->cameras.empty()) {
       for (const auto& name : split_list(args->cameras, "--cameras"))
         options.cameras.push_back(scene.camera_index(name));
+      if (!args->baseline.empty())
+        eval::check_baseline_cameras(scene, options.cameras, "--cameras");
+    } else if (!args->baseline.empty()) {
+      options.cameras = io::training_cameras(scene);
+    } else {
+      for (int c = 0; c < int(scene.cameras.size()); ++c) options.cameras.push_back(c);
+    }
     if (!args->lpips.empty()) {
       if (!fs::is_directory(args->lpips)) fail("--lpips-weights: {}: no such folder", args->lpips);
       options.lpips_weights = fs::path(args->lpips);
@@ -125,12 +130,20 @@ void add_eval_command(CLI::App& app) {
     const auto text = [](const std::optional<double>& v, int digits) {
       return v ? fmt::format("{:.{}f}", *v, digits) : std::string("null");
     };
-    spdlog::info("psnr {:.3f}  ssim {:.4f}  lpips {}  ({} views{}) -> {}", result.psnr, result.ssim,
-                 text(result.lpips, 4), result.per_view.size(), result.masked ? ", masked" : "",
-                 args->out);
-    if (result.masked)
-      spdlog::info("whole image: psnr {:.3f}  ssim {:.4f}  lpips {}", result.whole.psnr,
-                   result.whole.ssim, text(result.whole.lpips, 4));
+    // One row per kind of view, so that a training camera's held-out frames (time filled in) and
+    // a test camera (a view no training camera had) are never read as one figure.
+    spdlog::info("{:<34} {:>5}  {:>7}  {:>6}  {:>6}  {:>10}", "", "views",
+                 result.masked ? "psnr*" : "psnr", "ssim", "lpips", "whole psnr");
+    const auto row = [&](const char* what, const eval::Summary& s) {
+      spdlog::info("{:<34} {:>5}  {:>7.3f}  {:>6.4f}  {:>6}  {:>10.3f}", what, s.views, s.psnr,
+                   s.ssim, text(s.lpips, 4), s.whole.psnr);
+    };
+    if (result.train_views) row("training cameras, held-out frames", *result.train_views);
+    if (result.test_views) row("test cameras (novel views)", *result.test_views);
+    if (result.train_views && result.test_views)
+      row("all views", {result.per_view.size(), result.psnr, result.ssim, result.lpips,
+                        result.masked, result.whole});
+    spdlog::info("{}-> {}", result.masked ? "* inside the masks; " : "", args->out);
     if (const auto& s = result.stability) {
       spdlog::info("stability: largest change {} levels (mean over cameras {})", text(s->max, 3),
                    text(s->mean, 3));

@@ -145,6 +145,11 @@ void add_prepare_command(CLI::App& app) {
     } else {
       spdlog::info("points: {} kept", r.points_kept);
     }
+    if (r.coverage) {
+      spdlog::info("{}", escape_control_chars(io::describe_coverage(scene, *r.coverage)));
+      for (const std::string& line : io::coverage_warnings(scene, *r.coverage))
+        spdlog::warn("{}", escape_control_chars(line));
+    }
   });
 }
 

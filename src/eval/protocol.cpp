@@ -72,6 +72,7 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
       ViewScore& v = result.per_view[first + b];
       v.camera = scene.cameras[c].name;
       v.frame = k;
+      v.test_camera = scene.cameras[c].split == Split::kTest;
       v.masked = mask.has_value();
       v.whole.psnr = psnr(image, truth);
       v.whole.ssim = ssim_in_box(image, truth);
@@ -93,23 +94,32 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
     }
   }
   progress.finish();
-  result.masked = std::all_of(result.per_view.begin(), result.per_view.end(),
-                              [](const ViewScore& v) { return v.masked; });
   if (renders) renders->commit();
-  Scores masked_sum, whole_sum;
-  for (const ViewScore& v : result.per_view) {
-    masked_sum.psnr += v.psnr, masked_sum.ssim += v.ssim;
-    whole_sum.psnr += v.whole.psnr, whole_sum.ssim += v.whole.ssim;
-    if (lpips) {
-      masked_sum.lpips = masked_sum.lpips.value_or(0) + *v.lpips;
-      whole_sum.lpips = whole_sum.lpips.value_or(0) + *v.whole.lpips;
+  const auto summary = [&](auto&& keep) -> std::optional<Summary> {
+    Summary s;
+    s.masked = true;
+    for (const ViewScore& v : result.per_view) {
+      if (!keep(v)) continue;
+      ++s.views;
+      s.masked = s.masked && v.masked;
+      s.psnr += v.psnr, s.ssim += v.ssim;
+      s.whole.psnr += v.whole.psnr, s.whole.ssim += v.whole.ssim;
+      if (lpips) {
+        s.lpips = s.lpips.value_or(0) + *v.lpips;
+        s.whole.lpips = s.whole.lpips.value_or(0) + *v.whole.lpips;
+      }
     }
-  }
-  const double n = double(result.per_view.size());
-  result.psnr = masked_sum.psnr / n, result.ssim = masked_sum.ssim / n;
-  if (lpips) result.lpips = *masked_sum.lpips / n;
-  result.whole = {whole_sum.psnr / n, whole_sum.ssim / n, std::nullopt};
-  if (lpips) result.whole.lpips = *whole_sum.lpips / n;
+    if (s.views == 0) return std::nullopt;
+    const double n = double(s.views);
+    s.psnr /= n, s.ssim /= n, s.whole.psnr /= n, s.whole.ssim /= n;
+    if (s.lpips) *s.lpips /= n, *s.whole.lpips /= n;
+    return s;
+  };
+  const Summary all = *summary([](const ViewScore&) { return true; });
+  result.psnr = all.psnr, result.ssim = all.ssim, result.lpips = all.lpips;
+  result.masked = all.masked, result.whole = all.whole;
+  result.train_views = summary([](const ViewScore& v) { return !v.test_camera; });
+  result.test_views = summary([](const ViewScore& v) { return v.test_camera; });
   if (!options.stability_frames.empty())
     result.stability = temporal_stability(scene, render, options.cameras, options.stability_frames,
                                           options.seams, /*steps=*/8, options.progress);
@@ -126,6 +136,13 @@ json optional_json(const std::optional<double>& value) {
 
 json scores_json(const Scores& s) {
   return {{"psnr", s.psnr}, {"ssim", s.ssim}, {"lpips", optional_json(s.lpips)}};
+}
+
+json summary_json(const std::optional<Summary>& s) {
+  if (!s) return nullptr;
+  return {{"views", s->views},   {"psnr", s->psnr},
+          {"ssim", s->ssim},     {"lpips", optional_json(s->lpips)},
+          {"masked", s->masked}, {"whole", scores_json(s->whole)}};
 }
 
 json stability_json(const Stability& s) {
@@ -157,6 +174,7 @@ std::string to_json(const EvalResult& r) {
   for (const ViewScore& v : r.per_view)
     views.push_back({{"camera", v.camera},
                      {"frame", v.frame},
+                     {"split", v.test_camera ? "test" : "train"},
                      {"psnr", v.psnr},
                      {"ssim", v.ssim},
                      {"lpips", optional_json(v.lpips)},
@@ -167,6 +185,8 @@ std::string to_json(const EvalResult& r) {
             {"lpips", optional_json(r.lpips)},
             {"masked", r.masked},
             {"whole", scores_json(r.whole)},
+            {"train_views", summary_json(r.train_views)},
+            {"test_views", summary_json(r.test_views)},
             {"near", optional_json(r.near)},
             {"frames", r.frames},
             {"per_view", views}};
@@ -228,6 +248,16 @@ FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model
     const float black[3] = {0, 0, 0};
     return renderer->render(scene.cameras[camera], time, black, options, playback::Colors::kCamera);
   };
+}
+
+void check_baseline_cameras(const io::Scene& scene, const std::vector<int>& cameras,
+                            const std::string& flag) {
+  for (int c : cameras)
+    if (scene.cameras[c].split == Split::kTest)
+      fail(
+          "{}: camera {} is a test camera: a baseline blends a camera's own training frames, which "
+          "a test camera has none of (score test cameras with --model)",
+          flag, scene.cameras[c].name);
 }
 
 Baseline parse_baseline(const std::string& name, const std::string& flag) {

@@ -355,6 +355,22 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
     }
   }
   report.points_seconds = clock.lap();
+
+  // What the points cover, once every training frame has them: the warnings of a rig that cannot
+  // give what is asked come before the training, not after it. In the masks eval scores in.
+  if (std::all_of(frames.begin(), frames.end(),
+                  [&](int k) { return fs::exists(scene.points_path(k)); })) {
+    io::CoverageCounter coverage(scene);
+    for (int k : frames) {
+      std::vector<std::optional<Image>> masks;
+      std::vector<const Image*> mask_views;
+      for (std::size_t c = 0; c < scene.cameras.size(); ++c)
+        masks.push_back(media::load_mask(scene, int(c), k));
+      for (const std::optional<Image>& m : masks) mask_views.push_back(m ? &*m : nullptr);
+      coverage.add(*io::load_points(scene, k), mask_views);
+    }
+    report.coverage = coverage.result();
+  }
   return report;
 }
 

@@ -14,6 +14,7 @@
 #include "retimegs/core/interrupt.hpp"
 #include "retimegs/core/memory.hpp"
 #include "retimegs/core/progress.hpp"
+#include "retimegs/io/coverage.hpp"
 #include "retimegs/model/window.hpp"
 #include "retimegs/train/background.hpp"
 #include "retimegs/train/dataset.hpp"
@@ -233,6 +234,24 @@ std::string describe_background(bool random, bool given) {
   return fmt::format("{} ({})", random ? "a random colour per step" : "black", why);
 }
 
+// What the training set's points cover (io/coverage.hpp), and its warnings, in the log: a sparse
+// rig's fog is said before the run, not found in its scores. Test cameras count every pixel (their
+// masks are not part of the set). Nothing when no frame has points (initialize's note says so).
+void log_coverage(const TrainingSet& set) {
+  if (std::none_of(set.points.begin(), set.points.end(), [](const auto& p) { return p; })) return;
+  io::CoverageCounter coverage(set.scene);
+  for (std::size_t f = 0; f < set.frames.size(); ++f) {
+    if (!set.points[f]) continue;
+    std::vector<const Image*> masks(set.scene.cameras.size(), nullptr);
+    for (std::size_t c = 0; c < set.cameras.size(); ++c)
+      if (!set.masks[c].empty() && set.masks[c][f]) masks[set.cameras[c]] = &*set.masks[c][f];
+    coverage.add(*set.points[f], masks);
+  }
+  const io::Coverage result = coverage.result();
+  spdlog::info("{}", io::describe_coverage(set.scene, result));
+  for (const std::string& line : io::coverage_warnings(set.scene, result)) spdlog::warn("{}", line);
+}
+
 // The progress line's smoothed loss and PSNR (exponential moving average).
 struct Smoothed {
   double loss = 0, psnr = 0;
@@ -279,6 +298,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
     fs::remove(folder.file("log.jsonl"), ec);  // of a run killed before its first checkpoint
     write_text_file(folder.file("config.json"), to_json(config) + "\n");
     spdlog::info("{}", note);
+    log_coverage(set);
   }
   folder.commit();
   spdlog::info(

@@ -245,5 +245,41 @@ TEST(ModelCli, EvalStabilityReportsAMergedModelsSeams) {
   EXPECT_GT(j["max_at_seams"].get<double>(), 0.0);
 }
 
+// eval prints a training camera's held-out frames and a test camera on rows of their own; a
+// baseline scores the training cameras by default and refuses a test camera.
+TEST(ModelCli, EvalScoresTrainingAndTestCamerasApart) {
+  test::TempDir dir;
+  Fixture f(dir.path());
+  f.scene.cameras[1].split = Split::kTest;
+  io::write_scene_json(f.scene);
+  for (int c = 0; c < int(f.scene.cameras.size()); ++c)
+    for (int k = 0; k < f.scene.num_frames; ++k) {
+      const Camera& cam = f.scene.cameras[c];
+      media::write_png(f.scene.image_path(c, k), Image(cam.width, cam.height, 3, 0.5f));
+    }
+  const std::string scene = " --scene " + f.scene.root.string();
+  const fs::path out = dir / "metrics.json";
+  const auto logged =
+      test::run_cli("eval --model " + f.model_path.string() + scene + " --out " + out.string());
+  ASSERT_EQ(logged.status, 0) << logged.err;
+  const std::string log = logged.out + logged.err;  // the log goes to stdout
+  EXPECT_NE(log.find("training cameras, held-out frames"), std::string::npos) << log;
+  EXPECT_NE(log.find("test cameras (novel views)"), std::string::npos) << log;
+  const auto j = nlohmann::json::parse(test::read_text(out));
+  EXPECT_EQ(j["train_views"]["views"], 4);
+  EXPECT_EQ(j["test_views"]["views"], 4);
+
+  const fs::path flow = dir / "flow.json";
+  run("eval --baseline crossfade" + scene + " --out " + flow.string());
+  const auto b = nlohmann::json::parse(test::read_text(flow));
+  EXPECT_EQ(b["train_views"]["views"], 4);
+  EXPECT_TRUE(b["test_views"].is_null());
+  const auto r = test::run_cli("eval --baseline crossfade" + scene + " --cameras cam01 --out " +
+                               (dir / "x.json").string());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("cam01 is a test camera"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "x.json"));
+}
+
 }  // namespace
 }  // namespace retimegs

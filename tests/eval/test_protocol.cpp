@@ -14,7 +14,7 @@ namespace {
 
 // 5 frames of 32x32 grey images whose value ramps linearly in time (0.1 per frame); camera 0 has
 // masks covering the left half.
-io::Scene ramp_scene(const std::filesystem::path& root) {
+io::Scene ramp_scene(const std::filesystem::path& root, Split camera1_split = Split::kTrain) {
   io::Scene scene;
   scene.root = root;
   scene.num_frames = 5;
@@ -24,6 +24,7 @@ io::Scene ramp_scene(const std::filesystem::path& root) {
     cam.name = "c" + std::to_string(c);
     cam.width = cam.height = 32;
     cam.fx = cam.fy = 30, cam.cx = cam.cy = 16;
+    if (c == 1) cam.split = camera1_split;
     scene.cameras.push_back(cam);
     for (int k = 0; k < 5; ++k) {
       Image image(32, 32, 3, 0.2f + 0.1f * k);
@@ -109,6 +110,54 @@ TEST(Protocol, MaskedAndWholeImageSideBySide) {
   }
   EXPECT_NEAR(j["whole"]["psnr"].get<double>(), r.whole.psnr, 1e-9);
   EXPECT_FALSE(j.contains("stability"));
+}
+
+// A training camera's held-out frames and a test camera answer two questions; they are scored
+// apart as well as together. Camera 0 (training, masked on its left half) is off by 0.01 (40 dB),
+// the test camera 1 by 0.1 (20 dB).
+TEST(Protocol, TrainingAndTestCamerasApart) {
+  test::TempDir dir;
+  const io::Scene scene = ramp_scene(dir / "s", Split::kTest);
+  EvalOptions options;
+  options.frames = {1, 3};
+  options.cameras = {0, 1};
+  options.progress = false;
+  const FrameRenderer off = [&scene](int camera, double time) {
+    Image image = media::load_image(scene, camera, int(time));
+    for (float& v : image.data) v += camera == 0 ? 0.01f : 0.1f;
+    return image;
+  };
+  const EvalResult r = evaluate_views(scene, off, options);
+  ASSERT_TRUE(r.train_views && r.test_views);
+  EXPECT_EQ(r.train_views->views, 2u);
+  EXPECT_EQ(r.test_views->views, 2u);
+  EXPECT_NEAR(r.train_views->psnr, 40.0, 0.01);
+  EXPECT_TRUE(r.train_views->masked);
+  EXPECT_NEAR(r.test_views->psnr, 20.0, 0.01);
+  EXPECT_NEAR(r.test_views->whole.psnr, 20.0, 0.01);
+  EXPECT_FALSE(r.test_views->masked);
+  EXPECT_NEAR(r.psnr, 30.0, 0.01);
+  const auto j = nlohmann::json::parse(to_json(r));
+  EXPECT_NEAR(j["train_views"]["psnr"].get<double>(), 40.0, 0.01);
+  EXPECT_EQ(j["test_views"]["views"], 2);
+  EXPECT_NEAR(j["test_views"]["whole"]["psnr"].get<double>(), 20.0, 0.01);
+  EXPECT_EQ(j["per_view"][0]["split"], "train");
+  EXPECT_EQ(j["per_view"][2]["split"], "test");
+
+  // Training cameras alone: no test figure.
+  options.cameras = {0};
+  const EvalResult train_only = evaluate_views(scene, off, options);
+  EXPECT_TRUE(train_only.train_views.has_value());
+  EXPECT_FALSE(train_only.test_views.has_value());
+  EXPECT_TRUE(nlohmann::json::parse(to_json(train_only))["test_views"].is_null());
+
+  // A baseline blends a camera's own training frames: none for a test camera.
+  EXPECT_NO_THROW(check_baseline_cameras(scene, {0}, "--cameras"));
+  test::expect_error(
+      [&] {
+        check_baseline_cameras(scene, {0, 1}, "--cameras");
+      },
+      {"--cameras", "c1", "test camera"});
 }
 
 TEST(Protocol, SavesRendersAndParsesFrameLists) {

@@ -4,6 +4,7 @@
 // bounding box, LPIPS-squeeze on both images with the background outside the mask set to black
 // (whole images when the scene has no masks), and the same three on the whole image — and average
 // over views. Optionally also the temporal stability of an 8x slow-motion render.
+#include <cstddef>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -45,6 +46,9 @@ struct Scores {
 struct ViewScore {
   std::string camera;
   int frame = 0;
+  // A test camera (split "test": never trained on, a novel view) rather than a training camera's
+  // held-out frame.
+  bool test_camera = false;
   double psnr = 0, ssim = 0;  // inside the mask when `masked`
   std::optional<double> lpips;
   bool masked = false;
@@ -75,11 +79,26 @@ struct Stability {
   std::optional<double> max_at_seams, max_at_training_frames;  // over the cameras
 };
 
+// The mean over a set of views.
+struct Summary {
+  std::size_t views = 0;
+  double psnr = 0, ssim = 0;  // inside the masks where the views have them
+  std::optional<double> lpips;
+  bool masked = false;  // every view was scored inside a mask
+  Scores whole;
+};
+
 struct EvalResult {
+  // Over every view scored.
   double psnr = 0, ssim = 0;
   std::optional<double> lpips;
   bool masked = false;  // every view was scored inside a mask
   Scores whole;
+  // The two questions a held-out score answers, apart: how well the model fills in time for the
+  // cameras it trained on (their held-out frames), and how well it renders views no training
+  // camera had (the test cameras). A sparse rig can do the first well and the second badly; one
+  // mean over both hides which. None where no view of that kind was scored.
+  std::optional<Summary> train_views, test_views;
   std::vector<int> frames;
   std::vector<ViewScore> per_view;
   std::optional<Stability> stability;
@@ -93,7 +112,9 @@ EvalResult evaluate_views(const io::Scene& scene, const FrameRenderer& render,
                           const EvalOptions& options);
 
 // The JSON of docs/method.md, evaluation: {"psnr", "ssim", "lpips" (or null), "masked", "whole":
-// {"psnr", "ssim", "lpips"}, "near" (or null), "frames", "per_view" (each with its own "whole")},
+// {"psnr", "ssim", "lpips"}, "train_views" and "test_views" (each {"views", "psnr", "ssim",
+// "lpips", "masked", "whole"}, or null), "near" (or null), "frames", "per_view" (each with its
+// "split", "train" or "test", and its own "whole")},
 // and "stability": {"steps", "max", "mean", "seams", "max_at_seams", "max_at_training_frames",
 // "per_camera": [{"camera", "max_change", "max_between", "at_seams", "at_training_frames",
 // "static_fraction", "masked", "swept"}]} when measured.
@@ -129,14 +150,20 @@ Stability temporal_stability(const io::Scene& scene, const FrameRenderer& render
                              bool progress = true);
 
 // In-betweening baselines over the training frames `train_frames` (sorted), at any time between
-// them: crossfade blends the two neighbouring training frames by time, nearest copies the closer
-// one (the earlier on a tie), flow interpolates them along the optical flow between them
+// them, of training cameras only (check_baseline_cameras): a test camera's own frames are what
+// the model is scored against without ever seeing them, so blending them is no baseline for it.
+// crossfade blends the two neighbouring training frames by time, nearest copies the closer one (the
+// earlier on a tie), flow interpolates them along the optical flow between them
 // (flow_interpolate.hpp: the scene's flow files, or estimated). Times outside the training range
 // copy the end frame; a training frame is returned as it is. The renderer keeps the last pair's
 // images and flows, so it is not safe to call from several threads.
 enum class Baseline { kCrossfade, kNearest, kFlow };
 FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_frames,
                                 Baseline baseline);
+// Throws Error naming `flag` and the first test camera among `cameras` (scene indices).
+void check_baseline_cameras(const io::Scene& scene, const std::vector<int>& cameras,
+                            const std::string& flag);
+
 // "crossfade" | "nearest" | "flow"; throws Error naming `flag` and the value otherwise.
 Baseline parse_baseline(const std::string& name, const std::string& flag);
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "retimegs/io/coverage.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
 #include "retimegs/prepare/colmap_triangulate.hpp"
@@ -94,6 +95,9 @@ struct PrepareReport {
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double masks_seconds = 0, flow_seconds = 0, points_seconds = 0;
+  // What the points of the training frames cover (io/coverage.hpp), in the scene's masks where it
+  // has them; none unless every training frame has points.
+  std::optional<io::Coverage> coverage;
 };
 
 // Checks every input first (flow_dir files, PLY files, masks for the hull) so that bad input
