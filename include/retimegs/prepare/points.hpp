@@ -17,7 +17,8 @@ struct HullOptions {
   // region and in the fine pass over the coarse hull's bounding box.
   int resolution = 128;
   // k of k-of-n carving: how many of the cameras that see a voxel may have it outside their
-  // silhouette (while at least 2 have it inside): tolerates a missing or bad mask in one view.
+  // silhouette (while at least 2 have it inside), where 10 or more see it or the frame's masks
+  // disagree: tolerates a missing or bad mask in one view.
   int slack = 1;
   std::size_t max_points = 50000;  // visible surface points per frame, subsampled above this
   std::uint64_t seed = 0;          // of the in-voxel jitter and the subsampling
@@ -29,8 +30,10 @@ struct HullOptions {
 //     io::cameras_look_box() when the axes are near-parallel (forward-facing rigs);
 //  2. carve a coarse voxel grid over it, then a fine one over the kept voxels' bounding box. A
 //     voxel is kept when at least half of the cameras (and 2) see it (its centre projects into
-//     the image) and it lies inside the silhouettes of all cameras that see it but `slack`, and
-//     of at least 2 (k-of-n carving). Inside: within half the voxel's projected size of a
+//     the image) and it lies inside the silhouette of every camera that sees it, or of all but
+//     `slack` (and at least 2: k-of-n carving) where 10 or more see it or where the frame's masks
+//     disagree (one blank, missing or partial mask carves away most of what the others keep).
+//     Inside: within half the voxel's projected size of a
 //     foreground pixel (half its diagonal in the coarse pass, which must not lose thin parts).
 //     Cameras that do not see the voxel abstain, so that people cut by the image border of some
 //     views survive;
