@@ -120,8 +120,7 @@ void add_prepare_command(CLI::App& app) {
     if (!r.points_plan.empty()) spdlog::info("points: {}", escape_control_chars(r.points_plan));
     if (!r.points_note.empty()) spdlog::warn("points: {}", escape_control_chars(r.points_note));
     for (const prepare::PrepareReport::PointsFallback& f : r.points_fallbacks)
-      spdlog::warn("points: frame {}: {} only ({})", f.frame, f.used,
-                   escape_control_chars(f.reason));
+      spdlog::warn("points: frame {}: {} ({})", f.frame, f.used, escape_control_chars(f.reason));
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)
                                 : fmt::format("imported from {}", args->flow_dir);

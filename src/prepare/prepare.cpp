@@ -38,6 +38,10 @@ io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions&
   return triangulate_with_colmap(scene, k, work.path(), logs, options);
 }
 
+// The default points build a frame when their sources give at least this many points: fewer (a
+// handful of COLMAP matches across a wide baseline) leave the frame's geometry to chance.
+constexpr std::size_t kMinFramePoints = 100;
+
 // What to try where --points colmap fails.
 constexpr const char* kOtherSources =
     "Other point sources: --points hull (needs a mask for every training view), --points ply DIR "
@@ -391,16 +395,22 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
           }
         };
         for (PointsSource source : sources) attempt(source);
-        for (std::size_t f = 0; f < fallbacks.size() && built.empty(); ++f) attempt(fallbacks[f]);
-        if (built.empty())
+        if (!built.empty() && cloud.size() < kMinFramePoints)
+          failed.push_back(fmt::format("{}: {} point{} in all", fmt::join(built, ","), cloud.size(),
+                                       cloud.size() == 1 ? "" : "s"));
+        for (std::size_t f = 0; f < fallbacks.size() && cloud.size() < kMinFramePoints; ++f)
+          attempt(fallbacks[f]);
+        if (cloud.size() < kMinFramePoints)
           fail(
-              "no points for frame {}: {}. The default points need one of: a mask for every "
+              "too few points for frame {} ({}, at least {} needed): {}. The default points need "
+              "one of: a mask for every "
               "training view (the hull; --masks estimates approximate ones), cameras that "
               "overlap more (COLMAP matches features seen by two cameras at {} degrees or more, "
               "three where the rig has {} or more), or your own clouds (--points ply DIR); "
               "--points random trains without geometry (fog where the images have little "
               "texture)",
-              k, fmt::join(failed, "; "), kTwoViewMinAngleDegrees, kTwoViewTrackCameras);
+              k, cloud.size(), kMinFramePoints, fmt::join(failed, "; "), kTwoViewMinAngleDegrees,
+              kTwoViewTrackCameras);
         if (!failed.empty())
           report.points_fallbacks.push_back({k, fmt::format("{}", fmt::join(built, ",")),
                                              fmt::format("{}", fmt::join(failed, "; "))});

@@ -323,8 +323,9 @@ TEST(Prepare, DefaultPointsFallBackWhereColmapFailsAndSayWhatToBringWhereNothing
   fs::remove_all(scene.root / "points");
   o.points = {};
   test::expect_error([&] { prepare_scene(scene, o); },
-                     {"no points for frame 0", "colmap: colmap feature_extractor failed",
-                      "a mask for every training view", "overlap", "--points ply DIR"});
+                     {"too few points for frame 0 (0, at least 100 needed)",
+                      "colmap: colmap feature_extractor failed", "a mask for every training view",
+                      "overlap", "--points ply DIR"});
   EXPECT_TRUE(files_under(scene.root / "points").empty());
 }
 
