@@ -93,7 +93,8 @@ struct PointsPlan {
 //    (keeps_two_view_tracks);
 //  (a dense stereo source, where a pair's baseline allows, joins them here;)
 //  - random points stand in for COLMAP where it is not installed, and `note` says so.
-// A frame where nothing builds stops prepare with what to bring (masks, overlap, --points ply).
+// A frame where they give fewer than 100 points in all (prepare.cpp: kMinFramePoints) stops
+// prepare with what to bring (masks, overlap, --points ply).
 PointsPlan default_points(const PointsRig& rig);
 
 // One camera's flows estimated by a run, as the forward-backward check judged them: the share of
