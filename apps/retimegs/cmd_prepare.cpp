@@ -55,9 +55,12 @@ void add_prepare_command(CLI::App& app) {
   cmd->add_option("--points", args->points,
                   "per-frame points: hull (visual hull of the masks), colmap (COLMAP "
                   "triangulation with the known poses), random (last resort), ply DIR (import "
-                  "DIR/<frame:05d>.ply); a comma list concatenates them. Default: hull,colmap "
-                  "when every training view has a mask not written by --masks, else colmap; "
-                  "random stands in for colmap when COLMAP is not installed")
+                  "DIR/<frame:05d>.ply); a comma list concatenates them. Default: what the rig "
+                  "supports, said in the log: hull where every training view has a mask not "
+                  "written by --masks, plus colmap (with two-view tracks on a rig of few "
+                  "cameras); where one fails at a frame the other stands, and a frame where none "
+                  "builds stops with what to bring; random stands in for colmap when COLMAP is "
+                  "not installed")
       ->expected(1, 2)
       ->type_name("SOURCE [DIR]");
   CLI::Option* window =
@@ -114,7 +117,10 @@ void add_prepare_command(CLI::App& app) {
           "masks (approximate): {} file{} written ({:.1f} % foreground), {} kept, {:.1f} s",
           r.masks_written, r.masks_written == 1 ? "" : "s", 100 * r.mask_coverage, r.masks_kept,
           r.masks_seconds);
+    if (!r.points_plan.empty()) spdlog::info("points: {}", escape_control_chars(r.points_plan));
     if (!r.points_note.empty()) spdlog::warn("points: {}", escape_control_chars(r.points_note));
+    for (const prepare::PrepareReport::PointsFallback& f : r.points_fallbacks)
+      spdlog::warn("points: frame {}: {} ({})", f.frame, f.used, escape_control_chars(f.reason));
     const std::string how = options.flow_dir.empty()
                                 ? fmt::format("estimated with {}", args->flow)
                                 : fmt::format("imported from {}", args->flow_dir);

@@ -233,8 +233,11 @@ std::vector<ColmapPoint> read_points_bin(const fs::path& path) {
     for (int i = 0; i < 3; ++i) p.rgb[i] = r.get<std::uint8_t>("point colour");
     p.error = r.get<double>("point error");
     p.track_length = r.get_count("track elements", 8);
-    for (std::uint64_t i = 0; i < p.track_length; ++i)
-      r.get<std::uint32_t>("track image id"), r.get<std::uint32_t>("track point index");
+    p.track_images.resize(p.track_length);
+    for (std::uint64_t i = 0; i < p.track_length; ++i) {
+      p.track_images[i] = r.get<std::uint32_t>("track image id");
+      r.get<std::uint32_t>("track point index");
+    }
   }
   r.expect_end();
   return points;
@@ -255,7 +258,10 @@ std::vector<ColmapPoint> read_points_txt(const fs::path& path) {
     }
     p.error = parse<double>(in, file, number, "ERROR");
     std::size_t track = 0;
-    for (std::uint64_t v; in >> v;) ++track;
+    for (std::uint64_t v; in >> v;) {
+      if (track % 2 == 0) p.track_images.push_back(std::uint32_t(v));  // IMAGE_ID POINT2D_IDX
+      ++track;
+    }
     if (!in.eof() || track % 2) fail("{}:{}: malformed TRACK", file, number);
     p.track_length = track / 2;
     points.push_back(p);

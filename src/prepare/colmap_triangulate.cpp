@@ -2,7 +2,9 @@
 // (feature_extractor -> exhaustive_matcher -> point_triangulator), as COLMAP's FAQ "Reconstruct
 // sparse/dense model from known camera poses" describes.
 #include <algorithm>
+#include <cmath>
 #include <map>
+#include <numbers>
 #include <tuple>
 
 #include <fmt/format.h>
@@ -17,6 +19,32 @@ namespace retimegs::prepare {
 namespace fs = std::filesystem;
 using colmap::number;
 using colmap::run_colmap;
+
+bool keeps_two_view_tracks(std::size_t training_cameras) {
+  return training_cameras < kTwoViewTrackCameras;
+}
+
+double triangulation_angle_degrees(const Eigen::Vector3d& x,
+                                   const std::vector<Eigen::Vector3d>& centres) {
+  double widest = 0;
+  for (std::size_t i = 0; i < centres.size(); ++i)
+    for (std::size_t j = i + 1; j < centres.size(); ++j) {
+      const Eigen::Vector3d a = centres[i] - x, b = centres[j] - x;
+      // atan2 of |a x b| and a . b: accurate at small angles, where acos is not.
+      widest = std::max(widest, std::atan2(a.cross(b).norm(), a.dot(b)));
+    }
+  return widest * 180 / std::numbers::pi;
+}
+
+bool keep_triangulated_point(const io::ColmapPoint& point,
+                             const std::vector<Eigen::Vector3d>& centres, bool two_view_tracks,
+                             const ColmapOptions& options) {
+  const std::size_t multi_view = std::size_t(std::max(options.min_track_length, 2));
+  if (centres.size() >= multi_view) return true;
+  return two_view_tracks && centres.size() == 2 &&
+         triangulation_angle_degrees(point.xyz, centres) >= kTwoViewMinAngleDegrees &&
+         point.error <= 0.5 * options.max_reprojection_error;
+}
 
 io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const fs::path& work_dir,
                                        const fs::path& log_dir, const ColmapOptions& options) {
@@ -101,14 +129,31 @@ io::PointCloud triangulate_with_colmap(const io::Scene& scene, int frame, const 
 
   io::ColmapModel result = io::read_colmap_model(sparse);
   const std::size_t triangulated = result.points.size();
+  std::map<std::uint32_t, Eigen::Vector3d> centres;  // by COLMAP image id
+  for (const io::ColmapImage& image : result.images) {
+    const Eigen::Matrix4d w2c = image.world_to_camera();
+    centres[image.id] = -w2c.topLeftCorner<3, 3>().transpose() * w2c.topRightCorner<3, 1>();
+  }
+  const bool two_view = keeps_two_view_tracks(cams.size());
+  std::vector<Eigen::Vector3d> track;
   std::erase_if(result.points, [&](const io::ColmapPoint& p) {
-    return p.track_length < std::uint64_t(std::max(options.min_track_length, 2));
+    track.clear();
+    for (std::uint32_t id : p.track_images) {
+      const auto it = centres.find(id);
+      if (it == centres.end())
+        fail("{}: point {} is seen by image {}, which the model does not have", sparse.string(),
+             p.id, id);
+      track.push_back(it->second);
+    }
+    return !keep_triangulated_point(p, track, two_view, options);
   });
   if (result.points.empty())
     fail(
-        "colmap point_triangulator found no point seen by {} or more cameras for frame {} ({} "
-        "triangulated from {} cameras; too little texture or overlap?); logs in {}",
-        options.min_track_length, frame, triangulated, cams.size(), logs.string());
+        "colmap point_triangulator found no point seen by {} for frame {} ({} triangulated from "
+        "{} cameras; too little texture or overlap?); logs in {}",
+        two_view ? fmt::format("2 or more cameras at {} degrees or wider", kTwoViewMinAngleDegrees)
+                 : fmt::format("{} or more cameras", options.min_track_length),
+        frame, triangulated, cams.size(), logs.string());
   return result.point_cloud();
 }
 

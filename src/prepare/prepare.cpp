@@ -31,20 +31,21 @@ struct FlowJob {
 
 // COLMAP's points of frame k, triangulated in a temporary folder that is removed afterwards,
 // failed or not; its logs stay in the scene (SCENE/logs/colmap/<frame:05d>/), where a failure's
-// message points, with the other point sources to try.
+// message points.
 io::PointCloud colmap_points(const io::Scene& scene, int k, const ColmapOptions& options) {
   const colmap::WorkFolder work(fmt::format("{:05d}", k));
   const fs::path logs = scene.root / "logs" / "colmap" / fmt::format("{:05d}", k);
-  try {
-    return triangulate_with_colmap(scene, k, work.path(), logs, options);
-  } catch (const Error& e) {
-    fail(
-        "{}. Other point sources: --points hull (needs a mask for every training view), "
-        "--points ply DIR (your own clouds), --points random (no geometry: fog where the images "
-        "have little texture)",
-        e.what());
-  }
+  return triangulate_with_colmap(scene, k, work.path(), logs, options);
 }
+
+// The default points build a frame when their sources give at least this many points: fewer (a
+// handful of COLMAP matches across a wide baseline) leave the frame's geometry to chance.
+constexpr std::size_t kMinFramePoints = 100;
+
+// What to try where --points colmap fails.
+constexpr const char* kOtherSources =
+    "Other point sources: --points hull (needs a mask for every training view), --points ply DIR "
+    "(your own clouds), --points random (no geometry: fog where the images have little texture)";
 
 // Appends b to a. When either has colours the result has them, grey where a source had none.
 void append(io::PointCloud& a, const io::PointCloud& b) {
@@ -183,18 +184,41 @@ void write_masks(const io::Scene& scene, const std::vector<int>& train_frames,
 
 }  // namespace
 
-std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
-                                         std::string& note) {
-  note.clear();
-  std::vector<PointsSource> sources;
-  if (every_view_has_mask) sources.push_back(PointsSource::kHull);
-  sources.push_back(colmap_found ? PointsSource::kColmap : PointsSource::kRandom);
-  if (!colmap_found)
-    note = fmt::format(
+PointsPlan default_points(const PointsRig& rig) {
+  PointsPlan plan;
+  std::vector<std::string> used;
+  std::string aside;
+  const bool own_masks = rig.every_view_has_mask && !rig.masks_estimated;
+  if (own_masks) {
+    plan.sources.push_back(PointsSource::kHull);
+    used.push_back("hull (masks at every training view)");
+  } else if (!rig.every_view_has_mask) {
+    aside = "no hull: not every training view has a mask";
+  }
+  if (rig.colmap_found) {
+    plan.sources.push_back(PointsSource::kColmap);
+    used.push_back(
+        fmt::format("colmap{} ({} training cameras)",
+                    keeps_two_view_tracks(rig.training_cameras) ? " with two-view tracks" : "",
+                    rig.training_cameras));
+    // The approximate masks of --masks give a hull of what moves: better than no geometry.
+    if (rig.every_view_has_mask && rig.masks_estimated) {
+      plan.fallbacks.push_back(PointsSource::kHull);
+      aside = "the hull of --masks' approximate masks only where colmap finds no point";
+    }
+  } else {
+    plan.sources.push_back(PointsSource::kRandom);
+    used.push_back("random (COLMAP not found)");
+    plan.note = fmt::format(
         "COLMAP not found: random points stand in for the {}scene (install the Debian package "
         "colmap, as scripts/setup.sh does, for triangulated points)",
-        every_view_has_mask ? "background of the " : "");
-  return sources;
+        own_masks ? "background of the " : "");
+  }
+  // Dense pair stereo (PointsSource::kStereo), where a pair's baseline allows, joins the sources
+  // here.
+  plan.summary = fmt::format("{}", fmt::join(used, " + "));
+  if (!aside.empty()) plan.summary += "; " + aside;
+  return plan;
 }
 
 PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& options) {
@@ -230,13 +254,17 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
     else
       ++report.points_kept;
 
-  std::vector<PointsSource> sources = options.points;
-  if (sources.empty() && !point_frames.empty())
-    // Masks made by --masks, now or earlier, miss what moves little over the clip: no hull from
-    // them unless asked.
-    sources = default_points(!options.masks && !fs::exists(scene.estimated_masks_marker()) &&
-                                 has_every_mask(scene, cameras, frames),
-                             colmap_available(options.colmap), report.points_note);
+  std::vector<PointsSource> sources = options.points, fallbacks;
+  const bool default_points_used = sources.empty();
+  if (default_points_used && !point_frames.empty()) {
+    const PointsPlan plan = default_points({cameras.size(), has_every_mask(scene, cameras, frames),
+                                            fs::exists(scene.estimated_masks_marker()),
+                                            colmap_available(options.colmap)});
+    sources = plan.sources;
+    fallbacks = plan.fallbacks;
+    report.points_plan = plan.summary;
+    report.points_note = plan.note;
+  }
 
   // Check every input before writing anything.
   report.flows_imported = !options.flow_dir.empty();
@@ -327,27 +355,65 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
           (report.points_source.empty() ? "" : ",") + std::string(points_source_name(source));
     const std::size_t random_count =
         std::max(kMinRandomPointsPerFrame, options.random_points_total / views.clip_frames.size());
+    auto build = [&](PointsSource source, std::size_t i) -> io::PointCloud {
+      const int k = point_frames[i];
+      switch (source) {
+        case PointsSource::kHull:
+          return visual_hull(scene, cameras, k, options.hull);
+        case PointsSource::kRandom:
+          return random_points(scene, cameras, k, random_count, options.seed);
+        case PointsSource::kPly:
+          return std::move(imported[i]);
+        case PointsSource::kColmap:
+          return colmap_points(scene, k, options.colmap);
+      }
+      fail("points: unknown source");
+    };
     Progress progress("points", point_frames.size(), options.progress);
     for (std::size_t i = 0; i < point_frames.size(); ++i) {
       const int k = point_frames[i];
       io::PointCloud cloud;
-      for (PointsSource source : sources) {
-        io::PointCloud part;
-        switch (source) {
-          case PointsSource::kHull:
-            part = visual_hull(scene, cameras, k, options.hull);
-            break;
-          case PointsSource::kRandom:
-            part = random_points(scene, cameras, k, random_count, options.seed);
-            break;
-          case PointsSource::kPly:
-            part = std::move(imported[i]);
-            break;
-          case PointsSource::kColmap:
-            part = colmap_points(scene, k, options.colmap);
-            break;
+      if (!default_points_used) {
+        // Asked for: each source must build, a failure stops prepare.
+        for (PointsSource source : sources) {
+          try {
+            append(cloud, build(source, i));
+          } catch (const Error& e) {
+            if (source != PointsSource::kColmap) throw;
+            fail("{}. {}", e.what(), kOtherSources);
+          }
         }
-        append(cloud, part);
+      } else {
+        // The default: what builds stands; a frame where nothing builds stops prepare.
+        std::vector<std::string> built, failed;
+        auto attempt = [&](PointsSource source) {
+          try {
+            append(cloud, build(source, i));
+            built.push_back(points_source_name(source));
+          } catch (const Error& e) {
+            failed.push_back(fmt::format("{}: {}", points_source_name(source), e.what()));
+          }
+        };
+        for (PointsSource source : sources) attempt(source);
+        if (!built.empty() && cloud.size() < kMinFramePoints)
+          failed.push_back(fmt::format("{}: {} point{} in all", fmt::join(built, ","), cloud.size(),
+                                       cloud.size() == 1 ? "" : "s"));
+        for (std::size_t f = 0; f < fallbacks.size() && cloud.size() < kMinFramePoints; ++f)
+          attempt(fallbacks[f]);
+        if (cloud.size() < kMinFramePoints)
+          fail(
+              "too few points for frame {} ({}, at least {} needed): {}. The default points need "
+              "one of: a mask for every "
+              "training view (the hull; --masks estimates approximate ones), cameras that "
+              "overlap more (COLMAP matches features seen by two cameras at {} degrees or more, "
+              "three where the rig has {} or more), or your own clouds (--points ply DIR); "
+              "--points random trains without geometry (fog where the images have little "
+              "texture)",
+              k, cloud.size(), kMinFramePoints, fmt::join(failed, "; "), kTwoViewMinAngleDegrees,
+              kTwoViewTrackCameras);
+        if (!failed.empty())
+          report.points_fallbacks.push_back({k, fmt::format("{}", fmt::join(built, ",")),
+                                             fmt::format("{}", fmt::join(failed, "; "))});
       }
       io::write_points_ply(scene.points_path(k), cloud);
       report.points_written.emplace_back(k, cloud.size());

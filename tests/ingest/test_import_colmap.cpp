@@ -28,8 +28,8 @@ io::ColmapModel sample_model() {
   b.id = 5, b.camera_id = 7, b.name = "left/b.png";
   b.tvec = {0, 0, 2};
   m.images = {a, b};
-  m.points.push_back({1, {1, 0, 5}, {255, 0, 10}, 0.5, 0});
-  m.points.push_back({4, {-1, 2, 3.5}, {0, 128, 255}, 0.25, 0});
+  m.points.push_back({1, {1, 0, 5}, {255, 0, 10}, 0.5, 0, {}});
+  m.points.push_back({4, {-1, 2, 3.5}, {0, 128, 255}, 0.25, 0, {}});
   return m;
 }
 
@@ -65,6 +65,20 @@ TEST(ColmapModelIo, TextAndBinaryRoundTrip) {
   io::write_colmap_model_bin(m, dir / "bin");
   expect_same(io::read_colmap_model(dir / "txt"), m);
   expect_same(io::read_colmap_model(dir / "bin"), m);
+}
+
+// A point's track: the image of each observation (what prepare's two-view check reads).
+TEST(ColmapModelIo, ReadsTheTrackImagesOfTextPoints) {
+  test::TempDir dir;
+  io::write_colmap_model_txt(sample_model(), dir / "txt");
+  test::write_text(dir / "txt" / "points3D.txt",
+                   "1 1 0 5 255 0 10 0.5 3 0 5 7\n4 0 0 1 1 2 3 0.1\n");
+  const io::ColmapModel m = io::read_colmap_model(dir / "txt");
+  ASSERT_EQ(m.points.size(), 2u);
+  EXPECT_EQ(m.points[0].track_length, 2u);
+  EXPECT_EQ(m.points[0].track_images, (std::vector<std::uint32_t>{3, 5}));
+  EXPECT_EQ(m.points[1].track_length, 0u);
+  EXPECT_TRUE(m.points[1].track_images.empty());
 }
 
 // Counts in the binary files are checked against the file's size before allocating (issue 26):

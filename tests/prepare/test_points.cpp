@@ -12,6 +12,7 @@
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
+#include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
 #include "retimegs/prepare/points.hpp"
 #include "retimegs/prepare/prepare.hpp"
@@ -183,6 +184,65 @@ TEST(VisualHull, CoversPanopticPlayersCutByTheImageBorder) {
   std::printf("  panoptic: %zu hull points, %.3f of %zu foreground pixels covered\n", hull.size(),
               coverage, foreground);
   EXPECT_GT(coverage, 0.8);
+}
+
+// Median distance from the hull's points to the nearest exact surface point, in voxels of the
+// fine grid (which spans the hull's bounds plus a coarse voxel: about its longest side over the
+// resolution).
+double median_distance_in_voxels(const io::PointCloud& hull, const io::PointCloud& exact,
+                                 int resolution) {
+  const Nearest to_exact(exact.xyz);
+  std::vector<double> d;
+  for (std::size_t i = 0; i < hull.size(); ++i) d.push_back(to_exact.distance(&hull.xyz[3 * i]));
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2] / (longest_side(hull) / resolution);
+}
+
+// A 6-camera rig at 160x120 (the default synthetic scene: objects on a stage, a ground, a sky):
+// the hull is not empty and lies on the objects' surface.
+TEST(VisualHull, SixCameraRigGivesAHullOnTheSurface) {
+  test::TempDir dir;
+  synth::SynthOptions so;
+  so.cameras = 6;
+  so.frames = 3;
+  so.width = 160, so.height = 120;
+  so.progress = false;
+  synth::synthesize_scene(so, dir / "scene");
+  const io::Scene scene = media::read_scene(dir / "scene");
+  HullOptions options;
+  options.resolution = 64;
+  for (int frame : {0, 2}) {
+    const io::PointCloud hull = visual_hull(scene, training_cameras(scene), frame, options);
+    const double median =
+        median_distance_in_voxels(hull, *io::load_points(scene, frame), options.resolution);
+    std::printf("  frame %d: %zu hull points, median distance to the surface %.2f voxels\n", frame,
+                hull.size(), median);
+    EXPECT_GT(hull.size(), 300u) << frame;
+    EXPECT_LT(median, 1.5) << frame;
+  }
+}
+
+// k-of-n carving: one camera's mask blanked (a failed segmentation) on a 3-camera and a 6-camera
+// rig does not empty the hull, which stays near the surface: within 2 voxels of the hull of the
+// clean masks on 6 cameras, 3 on 3 (where two views are left to carve).
+TEST(VisualHull, ToleratesOneBlankMask) {
+  for (int cameras : {3, 6}) {
+    test::TempDir dir;
+    const io::Scene scene = minimal_scene(dir / "scene", cameras, 96, 72, 2);
+    HullOptions options;
+    options.resolution = 48;
+    const io::PointCloud all = visual_hull(scene, training_cameras(scene), 0, options);
+    media::write_png(scene.mask_path(1, 0), Image(96, 72, 1));
+    const io::PointCloud blank = visual_hull(scene, training_cameras(scene), 0, options);
+    const io::PointCloud exact = *io::load_points(scene, 0);
+    const double voxel = longest_side(all) / options.resolution;
+    const double median = median_distance_in_voxels(blank, exact, options.resolution) *
+                          (longest_side(blank) / options.resolution) / voxel;
+    std::printf("  %d cameras: %zu hull points, %zu with one mask blank (median %.2f voxels)\n",
+                cameras, all.size(), blank.size(), median);
+    EXPECT_GT(blank.size(), 100u) << cameras;
+    EXPECT_LT(median, cameras == 3 ? 3.0 : 2.0) << cameras;
+  }
 }
 
 TEST(VisualHull, NamesTheMissingMask) {

@@ -3,8 +3,8 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <random>
 #include <filesystem>
+#include <random>
 #include <set>
 #include <string>
 #include <vector>
@@ -118,8 +118,7 @@ TEST(Prepare, ReportsTheUnknownShareOfEachCameraWorstFirst) {
   for (const CameraFlowCheck& c : r.flow_by_camera) EXPECT_EQ(c.flows, 4u) << c.camera;
   EXPECT_GT(r.flow_by_camera[0].unknown_fraction, 2 * r.flow_by_camera[1].unknown_fraction);
   EXPECT_GE(r.flow_by_camera[1].unknown_fraction, r.flow_by_camera[2].unknown_fraction);
-  const double mean = (r.flow_by_camera[0].unknown_fraction +
-                       r.flow_by_camera[1].unknown_fraction +
+  const double mean = (r.flow_by_camera[0].unknown_fraction + r.flow_by_camera[1].unknown_fraction +
                        r.flow_by_camera[2].unknown_fraction) /
                       3;
   EXPECT_NEAR(r.unknown_fraction, mean, 1e-12);  // the cameras' flows are the same size
@@ -245,20 +244,89 @@ TEST(Prepare, AColmapFailureNamesALogThatExists) {
   fs::remove_all(log.parent_path().parent_path());
 }
 
-// The default covers the whole scene: the hull's foreground plus COLMAP's background with masks,
-// COLMAP alone without; random stands in for a missing COLMAP, with a note saying so.
+// The default covers the whole scene: the hull's foreground plus COLMAP's background with the
+// capture's own masks, COLMAP alone without (two-view tracks on a rig of few cameras); the hull of
+// --masks' approximate masks only where COLMAP fails; random stands in for a missing COLMAP, with
+// a note saying so. The summary is the one line that says what and why.
 TEST(Prepare, DefaultPointsCoverForegroundAndBackground) {
   using enum PointsSource;
-  std::string note = "stale";
-  EXPECT_EQ(default_points(true, true, note), (std::vector<PointsSource>{kHull, kColmap}));
-  EXPECT_TRUE(note.empty());
-  EXPECT_EQ(default_points(false, true, note), (std::vector<PointsSource>{kColmap}));
-  EXPECT_TRUE(note.empty());
-  EXPECT_EQ(default_points(true, false, note), (std::vector<PointsSource>{kHull, kRandom}));
-  EXPECT_NE(note.find("COLMAP not found"), std::string::npos) << note;
-  EXPECT_NE(note.find("background"), std::string::npos) << note;
-  EXPECT_EQ(default_points(false, false, note), (std::vector<PointsSource>{kRandom}));
-  EXPECT_NE(note.find("COLMAP not found"), std::string::npos) << note;
+  auto plan = [](std::size_t cameras, bool masks, bool estimated, bool colmap) {
+    return default_points({cameras, masks, estimated, colmap});
+  };
+  PointsPlan p = plan(27, true, false, true);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kHull, kColmap}));
+  EXPECT_TRUE(p.fallbacks.empty());
+  EXPECT_TRUE(p.note.empty());
+  EXPECT_EQ(p.summary, "hull (masks at every training view) + colmap (27 training cameras)");
+  p = plan(4, true, false, true);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kHull, kColmap}));
+  EXPECT_EQ(p.summary,
+            "hull (masks at every training view) + colmap with two-view tracks (4 training "
+            "cameras)");
+  p = plan(4, false, false, true);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kColmap}));
+  EXPECT_EQ(p.summary,
+            "colmap with two-view tracks (4 training cameras); no hull: not every training view "
+            "has a mask");
+  p = plan(6, true, true, true);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kColmap}));
+  EXPECT_EQ(p.fallbacks, (std::vector<PointsSource>{kHull}));
+  EXPECT_NE(p.summary.find("approximate masks only where colmap finds no point"), std::string::npos)
+      << p.summary;
+  p = plan(8, true, false, false);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kHull, kRandom}));
+  EXPECT_NE(p.note.find("COLMAP not found"), std::string::npos) << p.note;
+  EXPECT_NE(p.note.find("background"), std::string::npos) << p.note;
+  p = plan(8, false, false, false);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kRandom}));
+  EXPECT_NE(p.note.find("COLMAP not found"), std::string::npos) << p.note;
+  // Two-view tracks: below twelve training cameras (a ring's neighbours 30 degrees apart).
+  EXPECT_TRUE(keeps_two_view_tracks(2));
+  EXPECT_TRUE(keeps_two_view_tracks(11));
+  EXPECT_FALSE(keeps_two_view_tracks(12));
+  EXPECT_FALSE(keeps_two_view_tracks(27));
+}
+
+// A COLMAP that fails at every frame: by default the hull's points stand for every frame and the
+// report names the frames and why; asked for explicitly, colmap still stops prepare; without masks
+// nothing builds, and the error says what to bring.
+TEST(Prepare, DefaultPointsFallBackWhereColmapFailsAndSayWhatToBringWhereNothingBuilds) {
+  test::TempDir dir;
+  const io::Scene scene = bare_scene(dir / "scene", dir / "exact");
+  const fs::path fake = dir / "fake-colmap";
+  test::write_text(fake, "#!/bin/sh\necho \"E0101 error: no features in $1\" >&2\nexit 3\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  PrepareOptions o = quiet();
+  o.colmap.executable = fake.string();
+  const PrepareReport r = prepare_scene(scene, o);
+  EXPECT_EQ(r.points_source, "hull,colmap");
+  EXPECT_EQ(r.points_plan,
+            "hull (masks at every training view) + colmap with two-view tracks (3 training "
+            "cameras)");
+  ASSERT_EQ(r.points_written.size(), 3u);
+  ASSERT_EQ(r.points_fallbacks.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(r.points_fallbacks[i].frame, r.points_written[i].first);
+    EXPECT_EQ(r.points_fallbacks[i].used, "hull");
+    EXPECT_NE(r.points_fallbacks[i].reason.find("colmap: colmap feature_extractor failed"),
+              std::string::npos)
+        << r.points_fallbacks[i].reason;
+    EXPECT_GT(r.points_written[i].second, 100u);
+  }
+
+  o.force = true;
+  o.points = {PointsSource::kHull, PointsSource::kColmap};
+  test::expect_error([&] { prepare_scene(scene, o); },
+                     {"colmap feature_extractor failed", "Other point sources"});
+
+  fs::remove_all(scene.root / "masks");
+  fs::remove_all(scene.root / "points");
+  o.points = {};
+  test::expect_error([&] { prepare_scene(scene, o); },
+                     {"too few points for frame 0 (0, at least 100 needed)",
+                      "colmap: colmap feature_extractor failed", "a mask for every training view",
+                      "overlap", "--points ply DIR"});
+  EXPECT_TRUE(files_under(scene.root / "points").empty());
 }
 
 TEST(Prepare, SeveralPointSourcesAreConcatenated) {
@@ -304,9 +372,10 @@ TEST(Prepare, ColmapFailureIsExplainedWithItsLogAndTheOtherSources) {
   o.colmap.executable = fake.string();
   o.points = {PointsSource::kColmap};
   const fs::path log = scene.root / "logs" / "colmap" / "00000" / "point_triangulator.log";
-  test::expect_error([&] { prepare_scene(scene, o); },
-                     {"colmap point_triangulator failed (crashed with signal 6): its bundle adjustment", "too few matched features",
-                      log.string(), "--points hull", "--points random"});
+  test::expect_error(
+      [&] { prepare_scene(scene, o); },
+      {"colmap point_triangulator failed (crashed with signal 6): its bundle adjustment",
+       "too few matched features", log.string(), "--points hull", "--points random"});
   EXPECT_TRUE(fs::is_regular_file(log));
   EXPECT_TRUE(files_under(scene.root / "points").empty());
   for (const auto& e : fs::directory_iterator(fs::temp_directory_path()))

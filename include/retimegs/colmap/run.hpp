@@ -29,7 +29,8 @@ struct ColmapOptions {
   double max_reprojection_error = 4;  // --Mapper.filter_max_reproj_error, pixels
   // `prepare --points colmap`: points seen by fewer cameras are dropped: a two-view point only
   // has to agree with one epipolar line, so repeated texture makes many wrong ones; a third view
-  // rejects them.
+  // rejects them. A rig too sparse for three-view matches keeps checked two-view points
+  // (prepare/colmap_triangulate.hpp: keeps_two_view_tracks).
   int min_track_length = 3;
   bool verbose = false;  // pass COLMAP's output through to stderr
 };

@@ -40,7 +40,10 @@ struct ColmapPoint {
   Eigen::Vector3d xyz{0, 0, 0};
   std::array<std::uint8_t, 3> rgb{0, 0, 0};
   double error = 0;
-  std::uint64_t track_length = 0;  // observations (the track itself is not kept)
+  std::uint64_t track_length = 0;  // observations
+  // [track_length] the image id of each observation, where the file gives them (read, not
+  // written: write_colmap_model writes empty tracks).
+  std::vector<std::uint32_t> track_images;
 };
 
 struct ColmapModel {

@@ -16,8 +16,9 @@ struct HullOptions {
   // Voxels along the longest side of the grid, in the coarse pass over the cameras' common
   // region and in the fine pass over the coarse hull's bounding box.
   int resolution = 128;
-  // How many of the cameras that see a voxel may have it outside their silhouette, once 10 or
-  // more see it (below, 0): tolerates a bad mask.
+  // k of k-of-n carving: how many of the cameras that see a voxel may have it outside their
+  // silhouette (while at least 2 have it inside), where 10 or more see it or the frame's masks
+  // disagree: tolerates a missing or bad mask in one view.
   int slack = 1;
   std::size_t max_points = 50000;  // visible surface points per frame, subsampled above this
   std::uint64_t seed = 0;          // of the in-voxel jitter and the subsampling
@@ -30,9 +31,12 @@ struct HullOptions {
 //  2. carve a coarse voxel grid over it, then a fine one over the kept voxels' bounding box. A
 //     voxel is kept when at least half of the cameras (and 2) see it (its centre projects into
 //     the image) and it lies inside the silhouette of every camera that sees it, or of all but
-//     `slack`. Inside: within half the voxel's projected size of a foreground pixel (half its
-//     diagonal in the coarse pass, which must not lose thin parts). Cameras that do not see the
-//     voxel abstain, so that people cut by the image border of some views survive;
+//     `slack` (and at least 2: k-of-n carving) where 10 or more see it or where the frame's masks
+//     disagree (one blank, missing or partial mask carves away most of what the others keep).
+//     Inside: within half the voxel's projected size of a
+//     foreground pixel (half its diagonal in the coarse pass, which must not lose thin parts).
+//     Cameras that do not see the voxel abstain, so that people cut by the image border of some
+//     views survive;
 //  3. the surface voxels (kept, with a carved 6-neighbour) give one point each, jittered inside
 //     the voxel; the normal is the negated occupancy gradient over the 3x3x3 neighbourhood;
 //  4. colour: the mean of the image colours of the cameras that see the point unoccluded

@@ -63,13 +63,40 @@ struct PrepareOptions {
 
 constexpr std::size_t kMinRandomPointsPerFrame = 1000;
 
-// The points of the whole scene when --points is not given: the visual hull for the foreground
-// when every training camera has a mask at every training frame, plus COLMAP for the background
-// (walls, floor, dome: a whole-image loss needs points there, or it trains them to fog); COLMAP
-// alone without masks. When COLMAP is not found, random points stand in for it (hull + random,
-// or random alone) and `note` says so (else it is cleared).
-std::vector<PointsSource> default_points(bool every_view_has_mask, bool colmap_found,
-                                         std::string& note);
+// What a rig offers the default points.
+struct PointsRig {
+  std::size_t training_cameras = 0;
+  bool every_view_has_mask = false;  // every training camera at every training frame
+  bool masks_estimated = false;      // written by --masks (io::Scene::estimated_masks_marker)
+  bool colmap_found = false;
+};
+
+// The points of the whole scene when --points is not given, and why, in one line.
+struct PointsPlan {
+  // Built at every frame and concatenated. Where one fails at a frame (COLMAP finds no point, the
+  // hull is empty) the others' points stand for that frame, and the report says so.
+  std::vector<PointsSource> sources;
+  // Tried in order at a frame where every source failed; the first that builds stands.
+  std::vector<PointsSource> fallbacks;
+  // What is used and why, e.g. "hull (masks at every training view) + colmap with two-view
+  // tracks (4 training cameras)".
+  std::string summary;
+  // Set where a source stands in for a missing one (COLMAP not installed): a warning.
+  std::string note;
+};
+
+// The rule: every source of geometry the rig supports, concatenated per frame:
+//  - the visual hull of the foreground when every training view has a mask of the capture's own
+//    (masks written by --masks miss what moves little over the clip: their hull is only a fallback
+//    where nothing else builds);
+//  - COLMAP for the background (walls, floor, dome: a whole-image loss needs points there, or it
+//    trains them to fog), with two-view tracks where the rig has few cameras
+//    (keeps_two_view_tracks);
+//  (a dense stereo source, where a pair's baseline allows, joins them here;)
+//  - random points stand in for COLMAP where it is not installed, and `note` says so.
+// A frame where they give fewer than 100 points in all (prepare.cpp: kMinFramePoints) stops
+// prepare with what to bring (masks, overlap, --points ply).
+PointsPlan default_points(const PointsRig& rig);
 
 // One camera's flows estimated by a run, as the forward-backward check judged them: the share of
 // their pixels marked unknown. Occlusions mark some in every camera; a camera far above the others
@@ -91,7 +118,15 @@ struct PrepareReport {
   std::vector<CameraFlowCheck> flow_by_camera;
   std::string points_source;  // "hull", "random", "ply", "colmap", "hull,colmap", ... (empty:
                               // nothing to do)
-  std::string points_note;    // why the default points are what they are, when not as planned
+  std::string points_plan;    // the default points: PointsPlan::summary (empty with --points)
+  std::string points_note;    // PointsPlan::note
+  // Frames of the default points where a source failed: what stood in, and why.
+  struct PointsFallback {
+    int frame = 0;
+    std::string used;    // the sources whose points were written, "hull" or "colmap", ...
+    std::string reason;  // the failures' messages
+  };
+  std::vector<PointsFallback> points_fallbacks;
   std::vector<std::pair<int, std::size_t>> points_written;  // (frame, points)
   std::size_t points_kept = 0;                              // files
   double masks_seconds = 0, flow_seconds = 0, points_seconds = 0;
