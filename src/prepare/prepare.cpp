@@ -125,6 +125,8 @@ const char* points_source_name(PointsSource source) {
       return "ply";
     case PointsSource::kColmap:
       return "colmap";
+    case PointsSource::kStereo:
+      return "stereo";
   }
   return "?";
 }
@@ -345,6 +347,9 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
             break;
           case PointsSource::kColmap:
             part = colmap_points(scene, k, options.colmap);
+            break;
+          case PointsSource::kStereo:
+            part = stereo_points(scene, cameras, k, options.stereo);
             break;
         }
         append(cloud, part);
