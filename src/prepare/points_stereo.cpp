@@ -40,6 +40,10 @@ constexpr double kLeftRightTolerance = 1.0;
 constexpr double kMinBorderCosine = 0.2;
 // The rectified images are at most this many times the pixels of the larger view.
 constexpr double kMaxRectifiedAreaRatio = 4;
+// A point must project within this share of the image width (and at least 2 pixels) of the
+// foreground of every mask of the rig's cameras that sees it: a mismatch off the subject in one
+// pair is seen against the background by another camera.
+constexpr double kMaskReachFraction = 0.005;
 // Fusion's first voxel: one matched pixel's footprint at the scene centre; each pass coarsens it
 // by this factor until the cap holds.
 constexpr double kVoxelGrowth = 1.25;
@@ -237,6 +241,36 @@ void match_pair(const io::Scene& scene, const StereoPair& pair, const Vector3d& 
     }
 }
 
+// The points that every camera of `cameras` with a mask at `frame` and the point in its image
+// sees within reach of its foreground.
+Points inside_every_mask(const io::Scene& scene, const std::vector<int>& cameras, int frame,
+                         Points in) {
+  for (int c : cameras) {
+    const std::optional<Image> mask = media::load_mask(scene, c, frame);
+    if (!mask) continue;
+    cv::Mat background(mask->height, mask->width, CV_8U);
+    for (int y = 0; y < mask->height; ++y)
+      for (int x = 0; x < mask->width; ++x)
+        background.at<unsigned char>(y, x) = mask->at(y, x) > 0.5f ? 0 : 255;
+    cv::Mat distance;
+    cv::distanceTransform(background, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    const Camera& cam = scene.cameras[c];
+    const double reach = std::max(2.0, kMaskReachFraction * cam.width);
+    Points kept;
+    for (std::size_t i = 0; i < in.xyz.size(); ++i) {
+      const Vector3d xc = cam.world_to_cam(in.xyz[i]);
+      if (xc.z() > 0) {
+        const Eigen::Vector2d uv = cam.project_cam(xc);
+        if (cam.in_image(uv) && distance.at<float>(int(uv.y()), int(uv.x())) > reach) continue;
+      }
+      kept.xyz.push_back(in.xyz[i]);
+      kept.rgb.push_back(in.rgb[i]);
+    }
+    in = std::move(kept);
+  }
+  return in;
+}
+
 // Points averaged per voxel of size `voxel`, in voxel order.
 Points voxel_average(const Points& in, double voxel) {
   Vector3d lo = Vector3d::Constant(1e300);
@@ -281,6 +315,7 @@ io::PointCloud stereo_points(const io::Scene& scene, const std::vector<int>& cam
   double footprint = std::numeric_limits<double>::infinity();
   for (const StereoPair& pair : pairs)
     match_pair(scene, pair, centre, frame, options, all, footprint);
+  all = inside_every_mask(scene, cameras, frame, std::move(all));
   if (all.xyz.empty())
     fail("pair stereo at frame {}: the {} usable pair{} matched no pixel consistently", frame,
          pairs.size(), pairs.size() == 1 ? "" : "s");

@@ -112,7 +112,7 @@ TEST(StereoPoints, LieOnTheSyntheticSceneSurface) {
   for (int frame : {0, 2}) {
     const io::PointCloud cloud = stereo_points(scene, cameras, frame, options);
     const io::PointCloud exact = *io::load_points(scene, frame);
-    ASSERT_GT(cloud.size(), 300u) << frame;  // measured 448, 535 (foreground only)
+    ASSERT_GT(cloud.size(), 1000u) << frame;  // measured 4666, 4758 (foreground only)
     ASSERT_LE(cloud.size(), options.max_points);
     ASSERT_EQ(cloud.rgb.size(), cloud.xyz.size());
     const Nearest to_exact(exact.xyz);
@@ -125,7 +125,7 @@ TEST(StereoPoints, LieOnTheSyntheticSceneSurface) {
     std::printf(
         "  frame %d: %zu points, median distance %.4f x camera distance, %.3f beyond 0.05\n", frame,
         cloud.size(), median, far);
-    EXPECT_LT(median, 0.01) << frame;  // measured 0.0036, 0.0034
+    EXPECT_LT(median, 0.01) << frame;  // measured 0.0042, 0.0040
     EXPECT_LT(far, 0.1) << frame;      // measured 0, 0
   }
   // Deterministic.

@@ -39,13 +39,13 @@ struct StereoOptions {
   // Disparity search range at the matching resolution: the images are downscaled until the depth
   // range [kStereoNearFraction, kStereoFarFraction] x (distance to the scene centre) spans at most
   // this many pixels of disparity (a multiple of 16, OpenCV's StereoSGBM).
-  int max_disparities = 192;
+  int max_disparities = 256;
 };
 
 // Depths searched, as fractions of the left camera's distance to the scene centre: a subject
-// within 60 % of that distance from the centre.
-constexpr double kStereoNearFraction = 0.4;
-constexpr double kStereoFarFraction = 1.6;
+// within half that distance of the centre.
+constexpr double kStereoNearFraction = 0.5;
+constexpr double kStereoFarFraction = 1.5;
 
 // Dense points of `frame` from the pairs of stereo_pairs(scene, cameras). Per pair: both images
 // (area-downscaled to the matching resolution) rectified to a common rotation whose x axis is the
@@ -53,10 +53,10 @@ constexpr double kStereoFarFraction = 1.6;
 // and right to left (the mirrored images); a pixel is kept when both disparities agree within one
 // pixel, it lies inside the left camera's mask when that view has one at `frame`, and its depth in
 // the searched range. Back-projected to world points with the left image's colour. Fusion: the
-// points of every pair averaged per voxel (position and colour), the voxel grid made coarser until
-// at most `max_points` remain; deterministic.
-// Throws Error when no pair is usable (naming the cameras' count and the rule) and when the pairs
-// give no point at `frame`.
+// points of every pair, less those that a camera with a mask at `frame` sees off its foreground
+// (beyond half a per cent of the image width), averaged per voxel (position and colour), the voxel
+// grid made coarser until at most `max_points` remain; deterministic. Throws Error when no pair is
+// usable (naming the cameras' count and the rule) and when the pairs give no point at `frame`.
 io::PointCloud stereo_points(const io::Scene& scene, const std::vector<int>& cameras, int frame,
                              const StereoOptions& options = {});
 
