@@ -1,5 +1,5 @@
 // retimegs prepare --scene SCENE [--train-frames even|all] [--flow METHOD]
-//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap] [--masks]
+//                  [--flow-dir DIR] [--points hull|random|ply DIR|colmap|stereo] [--masks]
 //                  [--window A:B] [--force] [--threads T]
 #include <memory>
 #include <string>
@@ -54,7 +54,8 @@ void add_prepare_command(CLI::App& app) {
       ->excludes(flow);
   cmd->add_option("--points", args->points,
                   "per-frame points: hull (visual hull of the masks), colmap (COLMAP "
-                  "triangulation with the known poses), random (last resort), ply DIR (import "
+                  "triangulation with the known poses), stereo (dense depth from camera pairs "
+                  "with a usable baseline), random (last resort), ply DIR (import "
                   "DIR/<frame:05d>.ply); a comma list concatenates them. Default: what the rig "
                   "supports, said in the log: hull where every training view has a mask not "
                   "written by --masks, plus colmap (with two-view tracks on a rig of few "
@@ -97,9 +98,13 @@ void add_prepare_command(CLI::App& app) {
           options.points.push_back(prepare::PointsSource::kRandom);
         } else if (kind == "colmap") {
           options.points.push_back(prepare::PointsSource::kColmap);
+        } else if (kind == "stereo") {
+          options.points.push_back(prepare::PointsSource::kStereo);
         } else {
-          fail("--points: unknown source '{}' (hull, random, ply DIR, colmap, or a comma list)",
-               kind);
+          fail(
+              "--points: unknown source '{}' (hull, random, ply DIR, colmap, stereo, or a comma "
+              "list)",
+              kind);
         }
       }
       if (needs_dir && args->points.size() != 2)

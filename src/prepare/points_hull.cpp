@@ -5,10 +5,10 @@
 #include <optional>
 #include <random>
 
-#include <Eigen/Eigenvalues>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "look_region.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -33,9 +33,6 @@ constexpr int kSlackMinCameras = 10;
 // (synthetic scenes) keep 45 to 86 %; a blank or missing mask keeps nothing, a mask that leaves
 // out a person all but that person.
 constexpr double kAgreeingShare = 0.25;
-// Axes closer to parallel than this (smallest / largest eigenvalue of sum(I - d d^T)) do not fix
-// a common look-at point: a forward-facing rig.
-constexpr double kMinAxisConditioning = 1e-2;
 // A point is visible in a camera when it is at most this many voxel sizes behind the nearest
 // surface point along the ray (the depth map is of the jittered surface points themselves).
 constexpr double kVisibilitySlackVoxels = 2.0;
@@ -133,41 +130,6 @@ bool occupied_bounds(const Grid& g, const std::vector<unsigned char>& occupied, 
   return any;
 }
 
-// The cameras' common region: a cube about the least-squares nearest point to every optical axis,
-// or training's look box for a forward-facing rig.
-void common_region(const io::Scene& scene, const std::vector<int>& cameras, Vector3d& lo,
-                   Vector3d& hi) {
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  Vector3d b = Vector3d::Zero();
-  for (int c : cameras) {
-    const Camera& cam = scene.cameras[c];
-    const Vector3d d = cam.rotation().row(2).transpose();  // viewing direction in world space
-    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
-    a += p;
-    b += p * cam.center();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(a);
-  const Vector3d values = eig.eigenvalues();  // ascending
-  if (values(0) > kMinAxisConditioning * values(2)) {
-    const Vector3d centre = a.ldlt().solve(b);
-    double radius = 0;
-    int in_front = 0;
-    for (int c : cameras) {
-      const Camera& cam = scene.cameras[c];
-      radius = std::max(radius, (cam.center() - centre).norm());
-      in_front += cam.world_to_cam(centre).z() > 0;
-    }
-    if (2 * in_front > int(cameras.size()) && radius > 0) {
-      lo = centre - Vector3d::Constant(radius);
-      hi = centre + Vector3d::Constant(radius);
-      return;
-    }
-  }
-  const io::Box box = io::cameras_look_box(scene, cameras);
-  lo = box.lo();
-  hi = box.hi();
-}
-
 // Per-camera depth map of the points: each point covers the pixels within its voxel's projected
 // half size (at least the pixel it falls in). [H, W], +inf where empty.
 std::vector<float> depth_map(const Camera& cam, const std::vector<Vector3d>& points, double voxel) {
@@ -220,7 +182,7 @@ io::PointCloud visual_hull(const io::Scene& scene, const std::vector<int>& camer
 
   // Coarse pass over the common region, fine pass over the coarse hull's bounds.
   Vector3d lo, hi;
-  common_region(scene, cameras, lo, hi);
+  detail::common_region(scene, cameras, lo, hi);
   const Grid coarse = make_grid(lo, hi, options.resolution);
   // Coarse: conservative (half the voxel's diagonal: the voxel's footprint touches the
   // silhouette), so that thin parts survive voxels larger than they are.

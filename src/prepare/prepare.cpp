@@ -126,6 +126,8 @@ const char* points_source_name(PointsSource source) {
       return "ply";
     case PointsSource::kColmap:
       return "colmap";
+    case PointsSource::kStereo:
+      return "stereo";
   }
   return "?";
 }
@@ -366,6 +368,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
           return std::move(imported[i]);
         case PointsSource::kColmap:
           return colmap_points(scene, k, options.colmap);
+        case PointsSource::kStereo:
+          return stereo_points(scene, cameras, k, options.stereo);
       }
       fail("points: unknown source");
     };

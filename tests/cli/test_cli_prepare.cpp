@@ -146,6 +146,30 @@ TEST(PrepareCli, RejectsBadPointsArguments) {
   EXPECT_FALSE(fs::exists(scene / "flow"));
 }
 
+// --points stereo: a ring of 12 cameras (neighbours 30 degrees apart) gets dense points from its
+// camera pairs; the 3-camera ring (120 degrees apart) has no usable pair and stops in one line.
+TEST(PrepareCli, StereoPointsFromCameraPairs) {
+  test::TempDir dir;
+  const fs::path ring = dir / "ring";
+  auto r = test::run_cli("synth --preset minimal --cameras 12 --frames 3 --size 96x72 --out " +
+                         ring.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  fs::remove_all(ring / "points");
+  int status = 0;
+  const std::string log =
+      run_stdout("prepare --scene " + ring.string() + " --points stereo", dir, status);
+  EXPECT_EQ(status, 0) << log;
+  EXPECT_NE(log.find("points (stereo)"), std::string::npos) << log;
+  for (const char* frame : {"00000.ply", "00002.ply"})
+    EXPECT_GT(io::read_points_ply(ring / "points" / frame).size(), 50u) << frame;
+
+  const fs::path scene = bare_scene(dir);
+  r = test::run_cli("prepare --scene " + scene.string() + " --points stereo");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("no usable pair"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+}
+
 // A capture without masks: --masks writes one per camera and frame and says so in one line.
 TEST(PrepareCli, MasksForACaptureWithoutThem) {
   test::TempDir dir;

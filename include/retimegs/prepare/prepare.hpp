@@ -19,6 +19,7 @@
 #include "retimegs/prepare/flow_estimate.hpp"
 #include "retimegs/prepare/masks.hpp"
 #include "retimegs/prepare/points.hpp"
+#include "retimegs/prepare/points_stereo.hpp"
 
 namespace retimegs::prepare {
 
@@ -27,6 +28,7 @@ enum class PointsSource {
   kRandom,  // random_points(): the last resort
   kPly,     // read_frame_points(points_dir / "<frame:05d>.ply")
   kColmap,  // prepare/colmap_triangulate.hpp's triangulate_with_colmap with `colmap` below
+  kStereo,  // stereo_points(): dense depth from camera pairs (prepare/points_stereo.hpp)
 };
 
 struct PrepareOptions {
@@ -43,6 +45,7 @@ struct PrepareOptions {
   std::filesystem::path points_dir;  // for kPly
   ColmapOptions colmap;              // kColmap; it works in a temporary folder (colmap::WorkFolder)
   HullOptions hull;
+  StereoOptions stereo;
   // Set: background-model masks for the cameras missing one, learnt from the training frames.
   // They are approximate (they miss what moves little over the clip), so the default points then
   // and in every later run stay those of a scene without masks
