@@ -216,8 +216,14 @@ PointsPlan default_points(const PointsRig& rig) {
         "colmap, as scripts/setup.sh does, for triangulated points)",
         own_masks ? "background of the " : "");
   }
-  // Dense pair stereo (PointsSource::kStereo), where a pair's baseline allows, joins the sources
-  // here.
+  // Without masks of its own a rig of few cameras has only COLMAP's sparse points, a few dozen a
+  // frame: dense pair stereo joins them where a pair's baseline allows. (With masks the hull gives
+  // the foreground densely, and a large rig triangulates enough.)
+  if (!own_masks && keeps_two_view_tracks(rig.training_cameras) && rig.stereo_pairs > 0) {
+    plan.sources.push_back(PointsSource::kStereo);
+    used.push_back(fmt::format("stereo ({} camera pair{})", rig.stereo_pairs,
+                               rig.stereo_pairs == 1 ? "" : "s"));
+  }
   plan.summary = fmt::format("{}", fmt::join(used, " + "));
   if (!aside.empty()) plan.summary += "; " + aside;
   return plan;
@@ -259,9 +265,10 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   std::vector<PointsSource> sources = options.points, fallbacks;
   const bool default_points_used = sources.empty();
   if (default_points_used && !point_frames.empty()) {
-    const PointsPlan plan = default_points({cameras.size(), has_every_mask(scene, cameras, frames),
-                                            fs::exists(scene.estimated_masks_marker()),
-                                            colmap_available(options.colmap)});
+    const PointsPlan plan =
+        default_points({cameras.size(), has_every_mask(scene, cameras, frames),
+                        fs::exists(scene.estimated_masks_marker()),
+                        colmap_available(options.colmap), stereo_pairs(scene, cameras).size()});
     sources = plan.sources;
     fallbacks = plan.fallbacks;
     report.points_plan = plan.summary;

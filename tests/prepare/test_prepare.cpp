@@ -246,12 +246,14 @@ TEST(Prepare, AColmapFailureNamesALogThatExists) {
 
 // The default covers the whole scene: the hull's foreground plus COLMAP's background with the
 // capture's own masks, COLMAP alone without (two-view tracks on a rig of few cameras); the hull of
-// --masks' approximate masks only where COLMAP fails; random stands in for a missing COLMAP, with
-// a note saying so. The summary is the one line that says what and why.
+// --masks' approximate masks only where COLMAP fails; pair stereo beside COLMAP on a rig of few
+// cameras without masks of its own; random stands in for a missing COLMAP, with a note saying so.
+// The summary is the one line that says what and why.
 TEST(Prepare, DefaultPointsCoverForegroundAndBackground) {
   using enum PointsSource;
-  auto plan = [](std::size_t cameras, bool masks, bool estimated, bool colmap) {
-    return default_points({cameras, masks, estimated, colmap});
+  auto plan = [](std::size_t cameras, bool masks, bool estimated, bool colmap,
+                 std::size_t stereo_pairs = 0) {
+    return default_points({cameras, masks, estimated, colmap, stereo_pairs});
   };
   PointsPlan p = plan(27, true, false, true);
   EXPECT_EQ(p.sources, (std::vector<PointsSource>{kHull, kColmap}));
@@ -280,6 +282,12 @@ TEST(Prepare, DefaultPointsCoverForegroundAndBackground) {
   p = plan(8, false, false, false);
   EXPECT_EQ(p.sources, (std::vector<PointsSource>{kRandom}));
   EXPECT_NE(p.note.find("COLMAP not found"), std::string::npos) << p.note;
+  // Pair stereo joins a rig of few cameras without masks of its own where a pair is usable.
+  p = plan(2, false, false, true, 1);
+  EXPECT_EQ(p.sources, (std::vector<PointsSource>{kColmap, kStereo}));
+  EXPECT_NE(p.summary.find("stereo (1 camera pair)"), std::string::npos) << p.summary;
+  EXPECT_EQ(plan(4, true, false, true, 3).sources, (std::vector<PointsSource>{kHull, kColmap}));
+  EXPECT_EQ(plan(27, false, false, true, 40).sources, (std::vector<PointsSource>{kColmap}));
   // Two-view tracks: below twelve training cameras (a ring's neighbours 30 degrees apart).
   EXPECT_TRUE(keeps_two_view_tracks(2));
   EXPECT_TRUE(keeps_two_view_tracks(11));

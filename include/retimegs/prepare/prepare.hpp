@@ -72,6 +72,7 @@ struct PointsRig {
   bool every_view_has_mask = false;  // every training camera at every training frame
   bool masks_estimated = false;      // written by --masks (io::Scene::estimated_masks_marker)
   bool colmap_found = false;
+  std::size_t stereo_pairs = 0;  // usable pairs (points_stereo.hpp: stereo_pairs)
 };
 
 // The points of the whole scene when --points is not given, and why, in one line.
@@ -95,7 +96,8 @@ struct PointsPlan {
 //  - COLMAP for the background (walls, floor, dome: a whole-image loss needs points there, or it
 //    trains them to fog), with two-view tracks where the rig has few cameras
 //    (keeps_two_view_tracks);
-//  (a dense stereo source, where a pair's baseline allows, joins them here;)
+//  - dense pair stereo where the rig has no masks of its own, few cameras (keeps_two_view_tracks)
+//    and a usable pair (points_stereo.hpp): COLMAP alone gives such a rig a few dozen points;
 //  - random points stand in for COLMAP where it is not installed, and `note` says so.
 // A frame where they give fewer than 100 points in all (prepare.cpp: kMinFramePoints) stops
 // prepare with what to bring (masks, overlap, --points ply).
