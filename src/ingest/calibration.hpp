@@ -122,9 +122,10 @@ CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapMode
 // A refinement's COLMAP model (model_dir, with its tracks, as the mapper writes them) with its
 // observations trimmed: those farther than a step's reprojection error from their point's
 // projection removed (point_filtering) and the model adjusted again (bundle_adjuster, principal
-// points included in a model of four cameras or more), one round per step (recover_calibration.cpp
-// says which and why), each into work_dir/{filtered,adjusted}<round>, logs in
-// log_dir/tighten<round>/. Returns the last adjusted model's folder.
+// points included in a model of four cameras or more, the distortion in one of three or more), one
+// round per step (recover_calibration.cpp says which and why), each into
+// work_dir/{filtered,adjusted}<round>, logs in log_dir/tighten<round>/. Returns the last adjusted
+// model's folder.
 std::filesystem::path tighten(const std::filesystem::path& exe,
                               const std::filesystem::path& model_dir,
                               const std::filesystem::path& work_dir,

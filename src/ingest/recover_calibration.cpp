@@ -73,6 +73,13 @@ constexpr std::size_t kMinGuideCameras = 3;
 std::size_t min_guide_cameras(std::size_t rig_cameras) {
   return std::min(kMinGuideCameras, rig_cameras);
 }
+// A rig of two cameras keeps its distortion at none (the adjustments of the mapper and of a
+// tightening leave it out): two cameras aimed at one point, as a rig's are, do not determine
+// their focal lengths (a critical configuration of two views), and a distortion term trades with
+// them freely there, running off to values no lens has (-1 on a synthetic pair, its focal lengths
+// 70-90 % long; held, 7-19 % in most runs).
+constexpr std::size_t kMinCamerasForDistortion = 3;
+
 // A tightening frees the principal points (tighten) of models of this many cameras or more: the
 // cameras of a model are determined up to a projective transformation of 15 degrees of freedom, a
 // similarity's 7 aside; each camera whose pixels are square and unskewed fixes 2 of the other 8,
@@ -117,9 +124,9 @@ constexpr int kReconstructions = 3;
 // after), against the 2 % the trimmed observations bend the Panoptic cameras by.
 constexpr double kTightenSteps[] = {2, 1.5, 1, 1, 0.75, 0.75};
 
-// `two_view_tracks`: keep_two_view_tracks() of the rig.
+// The mapper's options for a rig of `rig_cameras`.
 std::vector<std::string> mapper_args(const fs::path& database, const fs::path& images,
-                                     const fs::path& sparse, bool two_view_tracks,
+                                     const fs::path& sparse, std::size_t rig_cameras,
                                      const colmap::ColmapOptions& options) {
   return {"--database_path",
           database.string(),
@@ -136,7 +143,9 @@ std::vector<std::string> mapper_args(const fs::path& database, const fs::path& i
           "--Mapper.abs_pose_min_num_inliers",
           std::to_string(kRegisterMinInliers),
           "--Mapper.tri_ignore_two_view_tracks",
-          two_view_tracks ? "0" : "1",
+          keep_two_view_tracks(rig_cameras) ? "0" : "1",
+          "--Mapper.ba_refine_extra_params",
+          rig_cameras >= kMinCamerasForDistortion ? "1" : "0",
           "--Mapper.filter_max_reproj_error",
           colmap::number(options.max_reprojection_error)};
 }
@@ -152,13 +161,12 @@ struct Mapped {
 // Runs the mapper on `database` into `sparse` and returns the model that registers the most
 // images (none registered when it made none).
 Mapped map_largest(const fs::path& exe, const fs::path& database, const fs::path& images,
-                   const fs::path& sparse, bool two_view_tracks, const fs::path& log_dir,
+                   const fs::path& sparse, std::size_t rig_cameras, const fs::path& log_dir,
                    const colmap::ColmapOptions& options) {
   fs::create_directories(sparse);
   try {
-    colmap::run_colmap(exe, "mapper",
-                       mapper_args(database, images, sparse, two_view_tracks, options), log_dir,
-                       options.verbose);
+    colmap::run_colmap(exe, "mapper", mapper_args(database, images, sparse, rig_cameras, options),
+                       log_dir, options.verbose);
   } catch (const Error&) {
     // It fails ("failed to create sparse model") when no two images share enough matches to
     // start a model: none registered, as the caller says.
@@ -303,8 +311,7 @@ Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::stri
                                 const fs::path& work_dir, const fs::path& run_dir,
                                 const fs::path& log_dir, const colmap::ColmapOptions& options) {
   const fs::path images = work_dir / "images";
-  const bool two_view_tracks = keep_two_view_tracks(cameras.size());
-  Mapped placed = map_largest(exe, guide, images, run_dir / "guide" / "sparse", two_view_tracks,
+  Mapped placed = map_largest(exe, guide, images, run_dir / "guide" / "sparse", cameras.size(),
                               log_dir / "guide", options);
   if (placed.model.images.size() < min_guide_cameras(cameras.size())) return {};
   int round = 0;
@@ -314,7 +321,7 @@ Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::stri
     const std::string step = fmt::format("refine{}", ++round);
     const fs::path database =
         verify_matches(exe, work_dir, run_dir / step, cameras, kept, log_dir / step, options);
-    Mapped refined = map_largest(exe, database, images, run_dir / step / "sparse", two_view_tracks,
+    Mapped refined = map_largest(exe, database, images, run_dir / step / "sparse", cameras.size(),
                                  log_dir / step, options);
     // One that places fewer is dropped.
     if (refined.model.images.size() < placed.model.images.size()) break;
@@ -345,8 +352,9 @@ fs::path tighten(const fs::path& exe, const fs::path& model_dir, const fs::path&
   // leaves the mapper's model (its principal points at the centre, the offset taken up by the
   // camera's rotation) off by pixels towards the image's edges, which a trim would take for wrong
   // and remove, leaving the centre, from which principal point and rotation cannot be told apart.
-  const bool principal_points =
-      io::read_colmap_model(model_dir).images.size() >= kMinCamerasForPrincipalPoints;
+  const std::size_t model_cameras = io::read_colmap_model(model_dir).images.size();
+  const bool principal_points = model_cameras >= kMinCamerasForPrincipalPoints,
+             distortion = model_cameras >= kMinCamerasForDistortion;
   fs::path model = model_dir;
   for (std::size_t round = 0; round <= std::size(kTightenSteps); ++round) {
     const fs::path logs = log_dir / fmt::format("tighten{}", round),
@@ -364,7 +372,8 @@ fs::path tighten(const fs::path& exe, const fs::path& model_dir, const fs::path&
     fs::create_directories(adjusted);
     colmap::run_colmap(exe, "bundle_adjuster",
                        {"--input_path", model.string(), "--output_path", adjusted.string(),
-                        "--BundleAdjustment.refine_principal_point", principal_points ? "1" : "0"},
+                        "--BundleAdjustment.refine_principal_point", principal_points ? "1" : "0",
+                        "--BundleAdjustment.refine_extra_params", distortion ? "1" : "0"},
                        logs, options.verbose);
     model = adjusted;
   }
@@ -485,8 +494,8 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
     const fs::path database = match_reference_frame(exe, work_dir, log_dir, options);
     runs = reconstruct([&](int k) {
       return map_largest(exe, database, work_dir / "images",
-                         run_dir(work_dir / "reference", k) / "sparse",
-                         keep_two_view_tracks(cameras.size()), run_dir(log_dir, k), options);
+                         run_dir(work_dir / "reference", k) / "sparse", cameras.size(),
+                         run_dir(log_dir, k), options);
     });
   }
   // The one that registers the most cameras (the earliest on ties) sets the frame.
