@@ -82,18 +82,21 @@ struct CalibrationFrames {
 // placement; each step imports the features and matches into COLMAP (feature_importer,
 // matches_importer: COLMAP verifies each pair's geometry) and runs its mapper, each refinement's
 // model then tightened (tighten, below), logs in log_dir/<step>/. Where the footage moves too
-// little to place three cameras so, or with fewer instants, COLMAP's own features of the reference
-// frames are matched and mapped instead (feature_extractor, exhaustive_matcher, mapper; logs in
-// log_dir). Every camera is one of its own (the cameras of a rig differ), of options.camera_model
-// (one of kRecoveredCameraModels). The placement from the mapping on (the mapper's models keep the
-// one that registers the most cameras) runs kReconstructions times (recover_calibration.cpp says
-// why), the second's and third's logs in log_dir/run2, run3; the runs are combined
-// (combine_reconstructions, in the frame of the one that registers the most cameras), the points
-// triangulated anew with those cameras held (point_triangulator), and the model written to
+// little to place three cameras so (both of a rig of two), or with fewer instants, COLMAP's own
+// features of the reference frames are matched and mapped instead (feature_extractor,
+// exhaustive_matcher, mapper; logs in log_dir). Every camera is one of its own (the cameras of a
+// rig differ), of options.camera_model (one of kRecoveredCameraModels). The placement from the
+// mapping on (the mapper's models keep the one that registers the most cameras) runs
+// kReconstructions times (recover_calibration.cpp says why; once for a rig of two cameras, which a
+// combination cannot align), the second's and third's logs in log_dir/run2, run3; the runs are
+// combined (combine_reconstructions, in the frame of the one that registers the most cameras), the
+// points triangulated anew with those cameras held (point_triangulator), and the model written to
 // model_dir as a COLMAP text model (a later `import videos --calib model_dir` reads it back). Poses
-// are up to a similarity (COLMAP's frame and scale). Throws Error when a command fails
-// (colmap/run.hpp) or when fewer than two cameras register, naming the mapper's log and what to
-// try.
+// are up to a similarity (COLMAP's frame and scale). Rigs of few cameras keep the tracks seen by
+// two cameras only, which COLMAP ignores by default (recover_calibration.cpp:
+// keep_two_view_tracks). Throws Error when a command fails (colmap/run.hpp), when fewer than two
+// cameras register, naming the mapper's log, or when no point can be triangulated from the
+// cameras placed, naming the triangulator's log; each says what to try.
 RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras,
                                          const CalibrationFrames& frames,
                                          const std::filesystem::path& work_dir,
@@ -119,7 +122,8 @@ CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapMode
 // A refinement's COLMAP model (model_dir, with its tracks, as the mapper writes them) with its
 // observations trimmed: those farther than a step's reprojection error from their point's
 // projection removed (point_filtering) and the model adjusted again (bundle_adjuster, principal
-// points included), one round per step (recover_calibration.cpp says which and why), each into
+// points included in a model of four cameras or more, the distortion in one of three or more), one
+// round per step (recover_calibration.cpp says which and why), each into
 // work_dir/{filtered,adjusted}<round>, logs in log_dir/tighten<round>/. Returns the last adjusted
 // model's folder.
 std::filesystem::path tighten(const std::filesystem::path& exe,

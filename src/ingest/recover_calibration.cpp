@@ -1,10 +1,13 @@
 // A calibration recovered from the footage by COLMAP's mapper (calibration.hpp:
 // recover_calibration), for `import videos` without --calib.
 #include <algorithm>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
 #include <optional>
+#include <regex>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -31,6 +34,21 @@ constexpr int kMinModelSize = 2;
 // 320x240 views of a textured synthetic scene: 100-180 between neighbours, ~30 two apart).
 constexpr int kInitMinInliers = 30;
 constexpr int kRegisterMinInliers = 15;
+// Rigs of at most this many cameras keep the tracks of two cameras, which COLMAP's mapper and
+// triangulator ignore by default (--Mapper.tri_ignore_two_view_tracks: a photo collection sees
+// most of its scene from many images, and a two-view point agrees with one epipolar line only).
+// A rig of two cameras has no other tracks: without them the mapper keeps only its initial pair's
+// points and the final triangulation none, whose bundle adjustment then fails. A few cameras
+// spread round a subject (45 degrees or more apart) see most surfaces from two of them at most, so
+// that a camera may share too few longer tracks to be registered, or the registered cameras too
+// few to triangulate. COLMAP's minimum triangulation angle (--Mapper.tri_min_angle) drops the
+// two-view points too near a ray to place, and its reprojection filter
+// (--Mapper.filter_max_reproj_error) the ones that disagree with the cameras. Larger rigs keep
+// COLMAP's default: there, most points are seen by three cameras or more.
+constexpr std::size_t kMaxCamerasWithTwoViewTracks = 8;
+bool keep_two_view_tracks(std::size_t cameras) {
+  return cameras <= kMaxCamerasWithTwoViewTracks;
+}
 
 // Mean reprojection error over every observation (COLMAP's per-point error is the mean over its
 // track).
@@ -43,9 +61,31 @@ double mean_reprojection_error(const io::ColmapModel& model) {
   return observations > 0 ? sum / observations : 0;
 }
 
+// Reconstructions are combined (combine_reconstructions) by the similarity between the centres of
+// the cameras they share: three or more determine it; two leave the rotation about the line
+// through them free.
+constexpr std::size_t kMinCombinedCameras = 3;
+
 // A guide model must place this many cameras to judge the static matches: a similarity between
-// two cameras' placements is not determined by fewer.
-constexpr int kMinGuideCameras = 3;
+// two cameras' placements is not determined by fewer. A rig of two cameras has nothing more to
+// judge them by: its guide is the two (min_guide_cameras).
+constexpr std::size_t kMinGuideCameras = 3;
+std::size_t min_guide_cameras(std::size_t rig_cameras) {
+  return std::min(kMinGuideCameras, rig_cameras);
+}
+// A rig of two cameras keeps its distortion at none (the adjustments of the mapper and of a
+// tightening leave it out): two cameras aimed at one point, as a rig's are, do not determine
+// their focal lengths (a critical configuration of two views), and a distortion term trades with
+// them freely there, running off to values no lens has (-1 on a synthetic pair, its focal lengths
+// 70-90 % long; held, 7-19 % in most runs).
+constexpr std::size_t kMinCamerasForDistortion = 3;
+
+// A tightening frees the principal points (tighten) of models of this many cameras or more: the
+// cameras of a model are determined up to a projective transformation of 15 degrees of freedom, a
+// similarity's 7 aside; each camera whose pixels are square and unskewed fixes 2 of the other 8,
+// and 2 more with its principal point known. Fewer cameras keep the principal points at the image
+// centre, where the mapper puts them.
+constexpr std::size_t kMinCamerasForPrincipalPoints = 4;
 // Matches a pair needs before COLMAP verifies it (its --SiftMatching.min_num_inliers default):
 // fewer can never pass.
 constexpr std::size_t kMinPairMatches = 15;
@@ -84,8 +124,10 @@ constexpr int kReconstructions = 3;
 // after), against the 2 % the trimmed observations bend the Panoptic cameras by.
 constexpr double kTightenSteps[] = {2, 1.5, 1, 1, 0.75, 0.75};
 
+// The mapper's options for a rig of `rig_cameras`.
 std::vector<std::string> mapper_args(const fs::path& database, const fs::path& images,
-                                     const fs::path& sparse, const colmap::ColmapOptions& options) {
+                                     const fs::path& sparse, std::size_t rig_cameras,
+                                     const colmap::ColmapOptions& options) {
   return {"--database_path",
           database.string(),
           "--image_path",
@@ -100,6 +142,10 @@ std::vector<std::string> mapper_args(const fs::path& database, const fs::path& i
           std::to_string(kInitMinInliers),
           "--Mapper.abs_pose_min_num_inliers",
           std::to_string(kRegisterMinInliers),
+          "--Mapper.tri_ignore_two_view_tracks",
+          keep_two_view_tracks(rig_cameras) ? "0" : "1",
+          "--Mapper.ba_refine_extra_params",
+          rig_cameras >= kMinCamerasForDistortion ? "1" : "0",
           "--Mapper.filter_max_reproj_error",
           colmap::number(options.max_reprojection_error)};
 }
@@ -115,12 +161,12 @@ struct Mapped {
 // Runs the mapper on `database` into `sparse` and returns the model that registers the most
 // images (none registered when it made none).
 Mapped map_largest(const fs::path& exe, const fs::path& database, const fs::path& images,
-                   const fs::path& sparse, const fs::path& log_dir,
+                   const fs::path& sparse, std::size_t rig_cameras, const fs::path& log_dir,
                    const colmap::ColmapOptions& options) {
   fs::create_directories(sparse);
   try {
-    colmap::run_colmap(exe, "mapper", mapper_args(database, images, sparse, options), log_dir,
-                       options.verbose);
+    colmap::run_colmap(exe, "mapper", mapper_args(database, images, sparse, rig_cameras, options),
+                       log_dir, options.verbose);
   } catch (const Error&) {
     // It fails ("failed to create sparse model") when no two images share enough matches to
     // start a model: none registered, as the caller says.
@@ -265,9 +311,9 @@ Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::stri
                                 const fs::path& work_dir, const fs::path& run_dir,
                                 const fs::path& log_dir, const colmap::ColmapOptions& options) {
   const fs::path images = work_dir / "images";
-  Mapped placed =
-      map_largest(exe, guide, images, run_dir / "guide" / "sparse", log_dir / "guide", options);
-  if (int(placed.model.images.size()) < kMinGuideCameras) return {};
+  Mapped placed = map_largest(exe, guide, images, run_dir / "guide" / "sparse", cameras.size(),
+                              log_dir / "guide", options);
+  if (placed.model.images.size() < min_guide_cameras(cameras.size())) return {};
   int round = 0;
   for (const double tolerance : kRefineTolerance) {
     const std::vector<Matches> kept = agreeing_matches(placements(placed.model, cameras),
@@ -275,8 +321,8 @@ Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::stri
     const std::string step = fmt::format("refine{}", ++round);
     const fs::path database =
         verify_matches(exe, work_dir, run_dir / step, cameras, kept, log_dir / step, options);
-    Mapped refined =
-        map_largest(exe, database, images, run_dir / step / "sparse", log_dir / step, options);
+    Mapped refined = map_largest(exe, database, images, run_dir / step / "sparse", cameras.size(),
+                                 log_dir / step, options);
     // One that places fewer is dropped.
     if (refined.model.images.size() < placed.model.images.size()) break;
     const fs::path tightened =
@@ -284,6 +330,18 @@ Mapped place_by_moving_features(const fs::path& exe, const std::vector<std::stri
     placed = {io::read_colmap_model(tightened), tightened, database};
   }
   return placed;
+}
+
+// The points COLMAP's point_triangulator reports triangulating in its log (its
+// "=> Triangulated <n> points" line per image); -1 when the log has no such line.
+long triangulated_points(const fs::path& log) {
+  std::ifstream in(log);
+  const std::regex line(R"(=> Triangulated (\d+) points)");
+  long total = -1;
+  std::smatch m;
+  for (std::string text; std::getline(in, text);)
+    if (std::regex_search(text, m, line)) total = std::max(total, 0L) + std::stol(m[1]);
+  return total;
 }
 
 }  // namespace
@@ -294,6 +352,9 @@ fs::path tighten(const fs::path& exe, const fs::path& model_dir, const fs::path&
   // leaves the mapper's model (its principal points at the centre, the offset taken up by the
   // camera's rotation) off by pixels towards the image's edges, which a trim would take for wrong
   // and remove, leaving the centre, from which principal point and rotation cannot be told apart.
+  const std::size_t model_cameras = io::read_colmap_model(model_dir).images.size();
+  const bool principal_points = model_cameras >= kMinCamerasForPrincipalPoints,
+             distortion = model_cameras >= kMinCamerasForDistortion;
   fs::path model = model_dir;
   for (std::size_t round = 0; round <= std::size(kTightenSteps); ++round) {
     const fs::path logs = log_dir / fmt::format("tighten{}", round),
@@ -311,7 +372,8 @@ fs::path tighten(const fs::path& exe, const fs::path& model_dir, const fs::path&
     fs::create_directories(adjusted);
     colmap::run_colmap(exe, "bundle_adjuster",
                        {"--input_path", model.string(), "--output_path", adjusted.string(),
-                        "--BundleAdjustment.refine_principal_point", "1"},
+                        "--BundleAdjustment.refine_principal_point", principal_points ? "1" : "0",
+                        "--BundleAdjustment.refine_extra_params", distortion ? "1" : "0"},
                        logs, options.verbose);
     model = adjusted;
   }
@@ -345,7 +407,7 @@ CombinedReconstructions combine_reconstructions(const std::vector<io::ColmapMode
         shared.emplace_back(it->second, &image);
     Eigen::Matrix4d similarity = Eigen::Matrix4d::Identity();
     if (&model != &first) {
-      if (shared.size() < 3) continue;
+      if (shared.size() < kMinCombinedCameras) continue;
       Eigen::Matrix3Xd from(3, shared.size()), to(3, shared.size());
       for (std::size_t k = 0; k < shared.size(); ++k)
         from.col(k) = centre(*shared[k].second), to.col(k) = centre(first.images[shared[k].first]);
@@ -397,12 +459,15 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
   const auto run_dir = [](const fs::path& dir, int k) {
     return k == 0 ? dir : dir / fmt::format("run{}", k + 1);
   };
+  // A rig of fewer cameras than a combination needs is reconstructed once: its reconstructions
+  // could not be combined (nor, with two cameras, differ in the order the mapper registers them).
+  const int reconstructions = cameras.size() >= kMinCombinedCameras ? kReconstructions : 1;
   // place(k) for each reconstruction k under one progress bar: those that place two cameras or
   // more, or the first alone when it does not (there is nothing the others could add to).
   const auto reconstruct = [&](const std::function<Mapped(int)>& place) {
     std::vector<Mapped> runs;
-    Progress bar("calibration reconstructions", kReconstructions, progress);
-    for (int k = 0; k < kReconstructions; ++k) {
+    Progress bar("calibration reconstructions", reconstructions, progress);
+    for (int k = 0; k < reconstructions; ++k) {
       Mapped mapped = place(k);
       bar.tick();
       const bool placed = mapped.model.images.size() >= 2;
@@ -429,8 +494,8 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
     const fs::path database = match_reference_frame(exe, work_dir, log_dir, options);
     runs = reconstruct([&](int k) {
       return map_largest(exe, database, work_dir / "images",
-                         run_dir(work_dir / "reference", k) / "sparse", run_dir(log_dir, k),
-                         options);
+                         run_dir(work_dir / "reference", k) / "sparse", cameras.size(),
+                         run_dir(log_dir, k), options);
     });
   }
   // The one that registers the most cameras (the earliest on ties) sets the frame.
@@ -467,28 +532,43 @@ RecoveredCalibration recover_calibration(const std::vector<std::string>& cameras
   const fs::path known = work_dir / "combined", triangulated = work_dir / "triangulated";
   io::write_colmap_model_txt(combined.model, known);
   fs::create_directories(triangulated);
-  colmap::run_colmap(exe, "point_triangulator",
-                     {"--database_path",
-                      runs.front().database.string(),
-                      "--image_path",
-                      (work_dir / "images").string(),
-                      "--input_path",
-                      known.string(),
-                      "--output_path",
-                      triangulated.string(),
-                      "--clear_points",
-                      "1",
-                      "--Mapper.num_threads",
-                      std::to_string(options.threads),
-                      "--Mapper.ba_refine_focal_length",
-                      "0",
-                      "--Mapper.ba_refine_principal_point",
-                      "0",
-                      "--Mapper.ba_refine_extra_params",
-                      "0",
-                      "--Mapper.filter_max_reproj_error",
-                      colmap::number(options.max_reprojection_error)},
-                     log_dir, options.verbose);
+  try {
+    colmap::run_colmap(exe, "point_triangulator",
+                       {"--database_path",
+                        runs.front().database.string(),
+                        "--image_path",
+                        (work_dir / "images").string(),
+                        "--input_path",
+                        known.string(),
+                        "--output_path",
+                        triangulated.string(),
+                        "--clear_points",
+                        "1",
+                        "--Mapper.num_threads",
+                        std::to_string(options.threads),
+                        "--Mapper.ba_refine_focal_length",
+                        "0",
+                        "--Mapper.ba_refine_principal_point",
+                        "0",
+                        "--Mapper.ba_refine_extra_params",
+                        "0",
+                        "--Mapper.tri_ignore_two_view_tracks",
+                        keep_two_view_tracks(registered.size()) ? "0" : "1",
+                        "--Mapper.filter_max_reproj_error",
+                        colmap::number(options.max_reprojection_error)},
+                       log_dir, options.verbose);
+  } catch (const Error&) {
+    // Its bundle adjustment fails when nothing was triangulated: say so, not what COLMAP's
+    // message for that says (too few matched features: the cameras were placed from them).
+    const fs::path log = log_dir / "point_triangulator.log";
+    if (triangulated_points(log) != 0) throw;
+    fail(
+        "COLMAP placed {} of {} cameras but could triangulate no point from their matches: the "
+        "cameras see too little of the scene in common, or from too nearly the same direction "
+        "(cameras side by side far from the scene, or turned about one spot); place the cameras "
+        "further apart round what they film, or bring a calibration (--calib) (log: {})",
+        registered.size(), cameras.size(), shown_path(log));
+  }
   const io::ColmapModel model = io::read_colmap_model(triangulated);
   io::write_colmap_model_txt(model, model_dir);
   out.cameras = read_colmap_calibration(model_dir);

@@ -2,9 +2,11 @@
 // (RETIMEGS_SHARED_DATA/panoptic-basketball, 31 cameras at 640x360) as image folders, against the
 // Panoptic calibration. Labelled `slow` (tests/CMakeLists.txt): calibrating 31 views takes
 // minutes of CPU.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -117,6 +119,60 @@ TEST(PanopticCalibration, DISABLED_CentresWithinTwoPercentOfTheCalibration) {
   const Recovered& r = recovered("SIMPLE_PINHOLE");
   if (!r.skipped.empty()) GTEST_SKIP() << r.skipped;
   EXPECT_LT(r.error.worst, 0.02);
+}
+
+// Two neighbouring cameras of the dome, 20 and 24 (22.6 degrees apart, 0.4 of the rig's extent),
+// as a rig of their own (image folders linked from ims/, all 17 frames): what a two-camera rig
+// gets from scratch, against the Panoptic calibration. Checked is what two views determine: their
+// epipolar geometry (test::epipolar_error_px: 0.46 px in four runs) and the direction of the
+// baseline (1.4 degrees). Both aim at the dome's centre, a critical configuration of two views in
+// which their focal lengths are not determined and the relative rotation trades with them (17 %
+// and 3.4 degrees off: printed, not checked).
+TEST(PanopticCalibration, TwoNeighbouringCameras) {
+  const fs::path data = fs::path(RETIMEGS_SHARED_DATA) / "panoptic-basketball";
+  if (!fs::is_directory(data / "ims")) GTEST_SKIP() << data.string() << " not present";
+  if (!test::have_colmap()) GTEST_SKIP() << "colmap not installed (scripts/setup.sh installs it)";
+  test::TempDir dir;
+  const std::vector<std::string> pair = {"20", "24"};
+  for (const std::string& camera : pair) {
+    fs::create_directories(dir / "pair");
+    fs::create_directory_symlink(data / "ims" / camera, dir / "pair" / camera);
+  }
+  ImportOptions options;
+  options.progress = false;
+  options.first_frame = options.last_frame = 8;
+  import_panoptic(data, dir / "truth", options);
+  ImportOptions all_frames;
+  all_frames.progress = false;
+  const VideosReport r = import_videos(dir / "pair", dir / "recovered", all_frames, {});
+  EXPECT_EQ(r.registered, 2);
+  EXPECT_EQ(r.reconstructions, 1);
+  EXPECT_GT(r.points, 50u);
+  EXPECT_LT(r.reprojection_error, 1.0);
+  const std::vector<Camera> truth = media::read_scene(dir / "truth").cameras;
+  const std::vector<Camera> recovered = media::read_scene(dir / "recovered").cameras;
+  ASSERT_EQ(recovered.size(), 2u);
+  const auto named = [](const std::vector<Camera>& cameras, const std::string& name) {
+    for (const Camera& camera : cameras)
+      if (camera.name == name) return camera;
+    throw std::runtime_error("no camera " + name);
+  };
+  const test::PairErrors error =
+      test::pair_error_degrees(named(truth, pair[0]), named(truth, pair[1]),
+                               named(recovered, pair[0]), named(recovered, pair[1]));
+  double focal_error = 0;
+  for (const std::string& name : pair)
+    focal_error =
+        std::max(focal_error, std::abs(named(recovered, name).fx / named(truth, name).fx - 1));
+  const double epipolar =
+      test::epipolar_error_px(named(truth, pair[0]), named(truth, pair[1]),
+                              named(recovered, pair[0]), named(recovered, pair[1]));
+  std::printf(
+      "two cameras: %zu points, %.2f px; epipolar lines within %.2f px, relative rotation within "
+      "%.3f degrees, baseline direction within %.3f degrees, focal lengths within %.2f %%\n",
+      r.points, r.reprojection_error, epipolar, error.rotation, error.baseline, 100 * focal_error);
+  EXPECT_LT(epipolar, 2.0);
+  EXPECT_LT(error.baseline, 3.0);
 }
 
 }  // namespace
