@@ -66,6 +66,20 @@ double parse_double(const std::string& item, const std::string& flag, const std:
 }
 }  // namespace
 
+std::map<std::string, double> parse_camera_values(const std::string& text,
+                                                  const std::string& flag) {
+  std::map<std::string, double> values;
+  for (const std::string& item : split_list(text, flag)) {
+    const std::size_t colon = item.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == item.size())
+      fail("{}: expected CAMERA:X (X a number of frames), got '{}'", flag, item);
+    const std::string name = item.substr(0, colon);
+    if (!values.emplace(name, parse_double(item.substr(colon + 1), flag, item)).second)
+      fail("{}: camera '{}' is given twice", flag, name);
+  }
+  return values;
+}
+
 std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count) {
   std::vector<float> values;
   for (const std::string& item : split_list(text, flag))

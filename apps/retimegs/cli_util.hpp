@@ -1,5 +1,6 @@
 #pragma once
 // Small argument parsers shared by the sub-commands.
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -25,6 +26,11 @@ std::vector<std::string> split_list(const std::string& text, const std::string& 
 }  // namespace retimegs::app
 
 namespace retimegs::app {
+
+// "cam07:0.5,cam12:-1" -> {cam07: 0.5, cam12: -1}: finite numbers of frames by camera (import
+// --offsets, synth --time-offsets); the last ':' separates (names may hold ':'). Throws Error
+// naming `flag` on a malformed item or a camera given twice.
+std::map<std::string, double> parse_camera_values(const std::string& text, const std::string& flag);
 
 // "r,g,b" -> {r, g, b}: exactly `count` finite numbers.
 std::vector<float> parse_float_list(const std::string& text, const std::string& flag, int count);

@@ -2,7 +2,6 @@
 // retimegs import videos --in DIR
 //                        [--calib PATH | --calib-frames K --calib-frame N --camera-model M]
 //                        [--test-cameras ...] [--offsets ...]
-#include <charconv>
 #include <map>
 #include <memory>
 #include <optional>
@@ -63,25 +62,6 @@ ingest::ImportOptions import_options(const Args& args) {
   return options;
 }
 
-// "cam07:3,cam12:-1" -> {cam07: 3, cam12: -1}; the last ':' separates (names may hold ':').
-std::map<std::string, int> parse_offsets(const std::string& text) {
-  std::map<std::string, int> offsets;
-  for (const std::string& item : split_list(text, "--offsets")) {
-    const std::size_t colon = item.rfind(':');
-    int value = 0;
-    const char* end = item.data() + item.size();
-    const auto parsed = colon == std::string::npos
-                            ? std::from_chars_result{nullptr, std::errc::invalid_argument}
-                            : std::from_chars(item.data() + colon + 1, end, value);
-    if (colon == std::string::npos || colon == 0 || parsed.ec != std::errc() || parsed.ptr != end ||
-        colon + 1 == item.size())
-      fail("--offsets: expected CAMERA:N (N an integer number of frames), got '{}'", item);
-    if (!offsets.emplace(item.substr(0, colon), value).second)
-      fail("--offsets: camera '{}' is given twice", item.substr(0, colon));
-  }
-  return offsets;
-}
-
 void add_videos_command(CLI::App* cmd) {
   struct VideoArgs : Args {
     std::string calib, test_cameras, offsets;
@@ -119,7 +99,9 @@ void add_videos_command(CLI::App* cmd) {
   sub->add_option("--test-cameras", args->test_cameras,
                   "comma-separated cameras held out for evaluation (split test)");
   sub->add_option("--offsets", args->offsets,
-                  "sync offsets CAM:N,...: scene frame k of CAM is its source frame k + N");
+                  "sync offsets CAM:X,... in frames: scene frame k of CAM is its source frame "
+                  "k + X; a fraction is kept as CAM's time_offset (frames k + round(X), at time "
+                  "k + round(X) - X)");
   sub->add_option("--fps", args->fps,
                   "frame rate (default: the videos', which must agree within 0.1 %; 30 for image "
                   "folders); overrides the videos'");
@@ -130,7 +112,7 @@ void add_videos_command(CLI::App* cmd) {
     videos.calibration = args->calib;
     if (!args->test_cameras.empty())
       videos.test_cameras = split_list(args->test_cameras, "--test-cameras");
-    if (!args->offsets.empty()) videos.offsets = parse_offsets(args->offsets);
+    if (!args->offsets.empty()) videos.offsets = parse_camera_values(args->offsets, "--offsets");
     videos.fps = args->fps;
     videos.calibration_frame = args->calib_frame;
     videos.calibration_instants = args->calib_frames;

@@ -1,5 +1,6 @@
 // retimegs render --model MODEL --scene SCENE --camera NAME (--time T | --times A:B:STEP |
-//                 --slowmo F | --retime FILE) [--path CAM,CAM,...] [--near D] --out OUT
+//                 --slowmo F | --retime FILE) [--own-clock] [--path CAM,CAM,...] [--near D]
+//                 --out OUT
 // retimegs render --model MODEL --scene SCENE --camera-path camera_path.json [--time T] --out OUT
 //   outputs: [--size WxH | --scale S] [--fps F] [--crf N] [--alpha] [--bit-depth 8|16]
 //   [--exr half|float] [--depth] [--force]
@@ -73,6 +74,11 @@ void add_render_command(CLI::App& app) {
                       "one time, in scene frame units, within the model's time range (a static "
                       ".ply needs none)");
   auto* times = cmd->add_option("--times", args->times, "times A:B:STEP (inclusive of B)");
+  cmd->add_flag("--own-clock", args->shot.own_clock,
+                "with --camera: the times are the camera's own frame positions (its frame k at "
+                "k), each drawn at its scene time on the camera's clock (scene.json time_offset, "
+                "frame_times), to reproduce its frames")
+      ->needs(camera);
   auto* slowmo = cmd->add_option("--slowmo", args->shot.slowmo,
                                  "F frames per scene-frame interval over the model's time "
                                  "range, its first to last training frame (F x slow motion)");

@@ -1,5 +1,5 @@
 // retimegs synth --preset NAME --out SCENE [--cameras N] [--frames K] [--size WxH] [--seed S]
-//                [--threads T] [--force]
+//                [--time-offsets CAM:X,...] [--unrecorded-offsets] [--threads T] [--force]
 #include <charconv>
 #include <memory>
 #include <string>
@@ -36,8 +36,9 @@ std::pair<int, int> parse_size(const std::string& text) {
 void add_synth_command(CLI::App& app) {
   struct Args {
     synth::SynthOptions options;
-    std::string out, size = "256x192";
+    std::string out, size = "256x192", time_offsets;
     int threads = 0;
+    bool unrecorded = false;
   };
   auto args = std::make_shared<Args>();
   std::string presets = "scene preset:";
@@ -59,12 +60,24 @@ void add_synth_command(CLI::App& app) {
                   "seed of object phases, colours, textures and camera jitter")
       ->capture_default_str()
       ->check(whole_number());
+  cmd->add_option("--time-offsets", args->time_offsets,
+                  "per-camera clock offsets CAM:X,... in frames (e.g. cam01:0.5): CAM's frame k, "
+                  "mask and flows show the scene at time k + X; scene.json records them as the "
+                  "cameras' time_offset");
+  cmd->add_flag("--unrecorded-offsets", args->unrecorded,
+                "render the --time-offsets but leave them out of scene.json (footage whose "
+                "offsets nobody measured)");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->options.force, "replace an existing output folder");
   cmd->callback([args] {
     set_threads(args->threads);
     std::tie(args->options.width, args->options.height) = parse_size(args->size);
+    if (!args->time_offsets.empty())
+      args->options.time_offsets = parse_camera_values(args->time_offsets, "--time-offsets");
+    if (args->unrecorded && args->time_offsets.empty())
+      fail("--unrecorded-offsets: give the offsets with --time-offsets");
+    args->options.record_offsets = !args->unrecorded;
     synth::synthesize_scene(args->options, args->out);
   });
 }

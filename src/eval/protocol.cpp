@@ -246,7 +246,9 @@ FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model
   auto renderer = std::make_shared<const playback::ModelRenderer>(std::move(model), device);
   return [&scene, renderer, options](int camera, double time) {
     const float black[3] = {0, 0, 0};
-    return renderer->render(scene.cameras[camera], time, black, options, playback::Colors::kCamera);
+    // The camera's own clock: its frame position `time` shows the scene at frame_time.
+    return renderer->render(scene.cameras[camera], io::frame_time(scene, camera, time), black,
+                            options, playback::Colors::kCamera);
   };
 }
 

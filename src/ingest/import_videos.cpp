@@ -300,6 +300,13 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
 
 }  // namespace
 
+WholeOffset split_offset(double x) {
+  if (!std::isfinite(x) || std::abs(x) > double(kMaxFrames))
+    fail("--offsets: {} is not a finite number of frames within ±{}", x, kMaxFrames);
+  const int frames = int(std::lround(x));
+  return {frames, double(frames) - x};
+}
+
 VideosReport import_videos(const fs::path& source, const fs::path& out,
                            const ImportOptions& options, const VideosOptions& videos) {
   check_downscale(options.downscale);
@@ -335,7 +342,7 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
     const auto it = std::lower_bound(names.begin(), names.end(), name);
     if (it == names.end() || *it != name)
       fail("--offsets: unknown camera '{}' (cameras: {})", name, join(names));
-    offsets[it - names.begin()] = offset;
+    offsets[it - names.begin()] = split_offset(offset).frames;
   }
 
   for (Footage& f : footage) probe(f);
@@ -403,6 +410,13 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
+  // The fractions of --offsets, as the cameras' clocks (split_offset).
+  for (const Footage& f : footage) {
+    const auto it = videos.offsets.find(f.name);
+    scene.clocks.push_back(
+        {it == videos.offsets.end() ? 0.0 : split_offset(it->second).time_offset, {}});
+  }
+  if (!io::has_own_clocks(scene)) scene.clocks.clear();
   for (std::size_t c = 0; c < footage.size(); ++c) {
     const int source_first = scene_start + offsets[c];
     scene.sources.push_back({footage[c].path.filename().string(), source_first,

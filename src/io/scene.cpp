@@ -106,7 +106,63 @@ Camera parse_camera(const json& j, const std::string& path, const Fields& f) {
   return cam;
 }
 
+// The clock keys of camera entry `j` (both optional); errors name the file, the camera and the
+// field.
+CameraClock parse_clock(const json& j, const std::string& path, const std::string& name,
+                        int num_frames, const Fields& f) {
+  CameraClock clock;
+  const std::string where = fmt::format("{}: camera '{}' ({})", f.file(), name, path);
+  const auto number = [&](const json& value, const std::string& field) {
+    if (!value.is_number()) fail("{}: '{}' must be a number, got {}", where, field, value.dump());
+    return value.get<double>();  // finiteness: check_clock
+  };
+  if (j.contains("time_offset")) clock.time_offset = number(j["time_offset"], "time_offset");
+  if (j.contains("frame_times")) {
+    const json& times = j["frame_times"];
+    if (!times.is_array())
+      fail("{}: 'frame_times' must be an array of {} numbers (num_frames)", where, num_frames);
+    for (std::size_t k = 0; k < times.size(); ++k)
+      clock.frame_times.push_back(number(times[k], fmt::format("frame_times[{}]", k)));
+  }
+  check_clock(clock, num_frames, where);
+  return clock;
+}
+
 }  // namespace
+
+void check_clock(const CameraClock& clock, int num_frames, const std::string& where) {
+  if (!std::isfinite(clock.time_offset))
+    fail("{}: 'time_offset' is not finite ({})", where, clock.time_offset);
+  const std::vector<double>& t = clock.frame_times;
+  if (t.empty()) return;
+  if (int(t.size()) != num_frames)
+    fail("{}: 'frame_times' holds {} values for {} frames (num_frames)", where, t.size(),
+         num_frames);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!std::isfinite(t[k])) fail("{}: 'frame_times[{}]' is not finite ({})", where, k, t[k]);
+    if (k > 0 && !(t[k] > t[k - 1]))
+      fail("{}: 'frame_times' must increase strictly, but [{}] = {} follows [{}] = {}", where, k,
+           t[k], k - 1, t[k - 1]);
+  }
+}
+
+double frame_time(const Scene& scene, int camera, double position) {
+  if (scene.clocks.empty()) return position;
+  const CameraClock& clock = scene.clocks.at(std::size_t(camera));
+  const std::vector<double>& t = clock.frame_times;
+  if (t.empty()) return position + clock.time_offset;
+  if (t.size() == 1) return t[0] + position + clock.time_offset;  // one frame: no rate
+  // The segment holding the position, the end ones extended.
+  const double last = double(t.size() - 1);
+  const std::size_t k = std::size_t(std::clamp(std::floor(position), 0.0, last - 1));
+  const double s = position - double(k);
+  return t[k] + s * (t[k + 1] - t[k]) + clock.time_offset;
+}
+
+bool has_own_clocks(const Scene& scene) {
+  return std::any_of(scene.clocks.begin(), scene.clocks.end(),
+                     [](const CameraClock& c) { return !c.is_default(); });
+}
 
 int Scene::camera_index(const std::string& name) const {
   for (int i = 0; i < int(cameras.size()); ++i)
@@ -186,16 +242,23 @@ Scene read_scene_json(const fs::path& root) {
     fail("{}: 'cameras' must be a non-empty array", file.string());
   std::set<std::string> names;
   for (std::size_t i = 0; i < cams.size(); ++i) {
-    scene.cameras.push_back(parse_camera(cams[i], fmt::format("cameras[{}]", i), f));
+    const std::string path = fmt::format("cameras[{}]", i);
+    scene.cameras.push_back(parse_camera(cams[i], path, f));
     if (!names.insert(scene.cameras.back().name).second)
       fail("{}: camera name '{}' appears twice", file.string(), scene.cameras.back().name);
+    scene.clocks.push_back(
+        parse_clock(cams[i], path, scene.cameras.back().name, scene.num_frames, f));
   }
+  if (!has_own_clocks(scene)) scene.clocks.clear();
   return scene;
 }
 
 void write_scene_json(const Scene& scene) {
   if (!scene.sources.empty() && scene.sources.size() != scene.cameras.size())
     fail("{}: {} camera sources for {} cameras", scene.json_path().string(), scene.sources.size(),
+         scene.cameras.size());
+  if (!scene.clocks.empty() && scene.clocks.size() != scene.cameras.size())
+    fail("{}: {} camera clocks for {} cameras", scene.json_path().string(), scene.clocks.size(),
          scene.cameras.size());
   json cams = json::array();
   for (std::size_t c = 0; c < scene.cameras.size(); ++c) {
@@ -213,6 +276,14 @@ void write_scene_json(const Scene& scene) {
                     {"cy", cam.cy},
                     {"world_to_camera", m},
                     {"split", cam.split == Split::kTest ? "test" : "train"}});
+    if (!scene.clocks.empty()) {
+      // Only what differs from the default clock, so that a genlocked scene's file is unchanged.
+      const CameraClock& clock = scene.clocks[c];
+      check_clock(clock, scene.num_frames,
+                  fmt::format("{}: camera '{}'", scene.json_path().string(), cam.name));
+      if (clock.time_offset != 0) cams.back()["time_offset"] = clock.time_offset;
+      if (!clock.frame_times.empty()) cams.back()["frame_times"] = clock.frame_times;
+    }
     if (scene.sources.empty()) continue;
     const CameraSource& source = scene.sources[c];
     json& entry = cams.back()["source"] = {{"file", source.file},

@@ -37,6 +37,14 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
     shot.times = {0.0};
   else
     fail("render: give one of --time, --times, --slowmo or --retime");
+  if (request.own_clock) {
+    if (request.camera.empty() || !request.path.empty())
+      fail("--own-clock: only with --camera (the camera whose clock times the frames)");
+    if (request.slowmo)
+      fail("--own-clock: give the camera's frames with --time, --times or --retime, not --slowmo");
+    const int camera = scene.camera_index(request.camera);
+    for (double& t : shot.times) t = io::frame_time(scene, camera, t);
+  }
   if (model_4d) model::check_times(*model_4d, shot.times, "render");
   if (!request.path.empty()) {
     for (const std::string& name : request.path)

@@ -62,6 +62,25 @@ void validate(const SynthOptions& o) {
   check_output_size(o.width, o.height, "--size");
   if (o.supersample < 1) fail("supersample: must be >= 1, got {}", o.supersample);
   check_fps(o.fps, "fps");
+  for (const auto& [name, offset] : o.time_offsets)
+    if (!std::isfinite(offset)) fail("--time-offsets: {}'s offset is not finite", name);
+}
+
+// The cameras' clocks from options.time_offsets; empty when none is given. Throws Error naming
+// --time-offsets and the camera for a name that is not one of `cameras`.
+std::vector<io::CameraClock> make_clocks(const SynthOptions& o,
+                                         const std::vector<Camera>& cameras) {
+  if (o.time_offsets.empty()) return {};
+  std::vector<io::CameraClock> clocks(cameras.size());
+  for (const auto& [name, offset] : o.time_offsets) {
+    const auto it = std::find_if(cameras.begin(), cameras.end(),
+                                 [&](const Camera& c) { return c.name == name; });
+    if (it == cameras.end())
+      fail("--time-offsets: no camera '{}' (cameras cam00 .. cam{:02d})", name,
+           int(cameras.size()) - 1);
+    clocks[std::size_t(it - cameras.begin())].time_offset = offset;
+  }
+  return clocks;
 }
 
 std::vector<Camera> make_cameras(const SynthOptions& o, const World& world) {
@@ -239,9 +258,16 @@ void synthesize_scene(const SynthOptions& options, const std::filesystem::path& 
   scene.fps = options.fps;
   scene.cameras = make_cameras(options, world);
   scene.up = Vector3d(0, -1, 0);
-  io::write_scene_json(scene);
+  scene.clocks = make_clocks(options, scene.cameras);
+  if (options.record_offsets) {
+    io::write_scene_json(scene);
+  } else {
+    io::Scene unrecorded = scene;
+    unrecorded.clocks.clear();
+    io::write_scene_json(unrecorded);
+  }
 
-  std::vector<Posed> posed;  // [K]
+  std::vector<Posed> posed;  // [K], at the scene's frame times (the points')
   for (int k = 0; k < frames; ++k) posed.push_back(synth::pose_world(world, k));
 
   // Flows of strides 1 and 2 in both directions (docs/formats.md file names).
@@ -249,14 +275,21 @@ void synthesize_scene(const SynthOptions& options, const std::filesystem::path& 
   Progress progress("synth", std::size_t(cameras) * frames, options.progress);
   for (int c = 0; c < cameras; ++c) {
     const Rays rays(scene.cameras[c]);
+    // The camera's own frame times (those of `posed` without an offset).
+    std::vector<Posed> own;
+    const bool own_clock = io::frame_time(scene, c, 0) != 0;
+    if (own_clock)
+      for (int k = 0; k < frames; ++k)
+        own.push_back(synth::pose_world(world, io::frame_time(scene, c, k)));
+    const std::vector<Posed>& at = own_clock ? own : posed;
     for (int k = 0; k < frames; ++k) {
-      const View view = render_view(world, posed[k], rays, options.supersample);
+      const View view = render_view(world, at[k], rays, options.supersample);
       media::write_png(scene.image_path(c, k), view.image);
       media::write_png(scene.mask_path(c, k), view.mask);
       for (int stride : kStrides) {
         const int to = k + stride;
         if (to < 0 || to >= frames) continue;
-        io::write_flo(scene.flow_path(c, k, to), exact_flow(world, posed[to], rays, view));
+        io::write_flo(scene.flow_path(c, k, to), exact_flow(world, at[to], rays, view));
       }
       progress.tick();
     }

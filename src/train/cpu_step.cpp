@@ -38,7 +38,7 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
                           const std::vector<std::int32_t>& active, double w_flow, StepStats& stats,
                           model::PrimitiveGrads& grads) {
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
-  const double t = set_.grid.at(i);
+  const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
   const Image& target = target_;
   model::SliceOptions eo;
   eo.group = pass.group;
@@ -112,8 +112,8 @@ StepStats CpuStep::step_view(int c, int i) {
   // Renders, losses and their gradient.
   const model::Representation representation = state_.model.config.representation;
   const double w_flow = flow_weight(config_, representation, it);
-  const std::vector<RenderPass> passes =
-      render_passes(config_, representation, i, int(set_.frames.size()), w_flow > 0);
+  const std::vector<RenderPass> passes = render_passes(
+      config_, representation, i, int(set_.frames.size()), w_flow > 0, set_.on_grid(c, i));
   unpack(set_.images[c][i], target_);
   if (const std::optional<Rgb> colour = state_.background())
     if (const std::optional<Image>& mask = set_.masks[c][i])
@@ -121,19 +121,20 @@ StepStats CpuStep::step_view(int c, int i) {
   Stopwatch target_clock;
   ssim_target_.assign(target_);
   stats.seconds.losses += target_clock.lap();  // the SSIM loss's target side, for all renders
-  const std::vector<std::int32_t>& active = state_.index.rows_at(i);
+  const std::vector<std::int32_t>& active = state_.rows_of(state_.row_list(c, i));
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   Stopwatch shade_clock;
-  model::shade(p, state_.model.config, state_.model.grid, set_.grid.at(i), camera, active, shaded_);
+  const double t = set_.time(c, i);
+  model::shade(p, state_.model.config, state_.model.grid, t, camera, active, shaded_);
   stats.seconds.slice += shade_clock.lap();
   for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
   stats.renders = int(passes.size());
   shade_clock.lap();
-  model::shade_backward(p, state_.model.config, state_.model.grid, set_.grid.at(i), camera, active,
-                        shaded_, grads);
+  model::shade_backward(p, state_.model.config, state_.model.grid, t, camera, active, shaded_,
+                        grads);
   stats.seconds.slice_backward += shade_clock.lap();
   Stopwatch clock;
   const double reg = regularizer(p, active, config_.opacity_reg, config_.scale_reg);

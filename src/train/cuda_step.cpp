@@ -109,7 +109,8 @@ class CudaStep final : public TrainingStep {
   class DeviceRows;
   // The device copy of the host state: primitives, zero gradient, Adam moments, the index's rows.
   void upload();
-  // The index's rows of every frame (state_.index) uploaded.
+  // The step's row lists (StepState::rows_of: every frame's, then the unions of views off the
+  // grid) uploaded.
   void upload_rows();
   // StepState::rebuild_index on the device rows: the index from their windows, the rows (and their
   // Adam moments) put in its locality order, the index's rows uploaded. The host mirror is left
@@ -129,8 +130,8 @@ class CudaStep final : public TrainingStep {
   cuda::DevicePrimitives primitives_;
   cuda::DevicePrimitiveGrads grads_;    // zero between steps, as the CPU step's
   std::vector<cuda::DeviceAdam> adam_;  // one per state_.adam group, in its order
-  // Every frame's active rows (model::TemporalIndex::rows_at) one after another; frame i's are
-  // [row_offsets_[i], row_offsets_[i + 1]).
+  // Every row list's rows (StepState::rows_of) one after another; list l's are
+  // [row_offsets_[l], row_offsets_[l + 1]).
   cuda::DeviceBuffer<std::int32_t> rows_;
   std::vector<std::size_t> row_offsets_;
   cuda::DeviceBuffer<std::int32_t> row_scratch_;  // index arrays of reshaping: moves, orders
@@ -229,7 +230,7 @@ void CudaStep::rebuild_index() {
         model::WindowFields<float>{mu_tau.data(), tau_l.data(), tau_r.data(), mu_tau.size()},
         state_.model.config, state_.model.grid);
   };
-  state_.index = index();
+  state_.set_index(index());
   const std::vector<std::int32_t> old_from_new = state_.index.locality_order();
   if (!std::is_sorted(old_from_new.begin(), old_from_new.end())) {
     row_scratch_.upload(old_from_new);
@@ -237,7 +238,7 @@ void CudaStep::rebuild_index() {
     for (cuda::DeviceAdam& adam : adam_) adam.reorder(row_scratch_.data(), old_from_new.size());
     for (std::vector<float>* field : {&mu_tau, &tau_l, &tau_r})
       model::reorder_rows(*field, 1, old_from_new);
-    state_.index = index();
+    state_.set_index(index());
   }
   upload_rows();
 }
@@ -245,8 +246,8 @@ void CudaStep::rebuild_index() {
 void CudaStep::upload_rows() {
   std::vector<std::int32_t> rows;
   row_offsets_.assign(1, 0);
-  for (int f = 0; f < state_.index.frames(); ++f) {
-    const std::vector<std::int32_t>& frame = state_.index.rows_at(f);
+  for (int f = 0; f < state_.row_lists(); ++f) {
+    const std::vector<std::int32_t>& frame = state_.rows_of(f);
     rows.insert(rows.end(), frame.begin(), frame.end());
     row_offsets_.push_back(rows.size());
   }
@@ -265,13 +266,14 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
                            double w_flow, StepStats& stats) {
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
   const model::Model& m = state_.model;
-  const double t = set_.grid.at(i);
+  const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
+  const int list = state_.row_list(c, i);
   cuda::DeviceSliceOptions options;
   options.group = pass.group;
   options.compensate = pass.compensate;
   options.flow_features = pass.flow;
-  options.rows = rows_.data() + row_offsets_[i];
-  options.row_count = row_offsets_[i + 1] - row_offsets_[i];
+  options.rows = rows_.data() + row_offsets_[list];
+  options.row_count = row_offsets_[list + 1] - row_offsets_[list];
   Stopwatch clock;
   cuda::DeviceTimeSlice& slice = slices_[int(pass.group)];
   cuda::slice(primitives_, m.config, m.grid, t, camera, options, slice, &shaded_);
@@ -333,8 +335,8 @@ StepStats CudaStep::step_view(int c, int i) {
 
   const model::Representation representation = m.config.representation;
   const double w_flow = flow_weight(config_, representation, it);
-  const std::vector<RenderPass> passes =
-      render_passes(config_, representation, i, int(set_.frames.size()), w_flow > 0);
+  const std::vector<RenderPass> passes = render_passes(
+      config_, representation, i, int(set_.frames.size()), w_flow > 0, set_.on_grid(c, i));
   Stopwatch clock;
   // The flows first: their copies run beside the kernels until the flow loss.
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.flow; })) {
@@ -360,17 +362,18 @@ StepStats CudaStep::step_view(int c, int i) {
     v_color_.fill_bytes(0);
   }
   stats.seconds.losses += lap(clock);  // the SSIM loss's target side and the view's inputs
-  const std::int32_t* rows = rows_.data() + row_offsets_[i];
-  const std::size_t count = row_offsets_[i + 1] - row_offsets_[i];
+  const int list = state_.row_list(c, i);
+  const std::int32_t* rows = rows_.data() + row_offsets_[list];
+  const std::size_t count = row_offsets_[list + 1] - row_offsets_[list];
   stats.active = count;
   const Camera& camera = set_.scene.cameras[set_.cameras[c]];
-  cuda::shade(primitives_, m.config, m.grid, set_.grid.at(i), camera, rows, count, shaded_);
+  const double t = set_.time(c, i);
+  cuda::shade(primitives_, m.config, m.grid, t, camera, rows, count, shaded_);
   stats.seconds.slice += lap(clock);
   for (std::size_t k = 0; k < passes.size(); ++k) render_pass(passes[k], k, c, i, w_flow, stats);
   stats.renders = int(passes.size());
   clock.lap();
-  cuda::shade_backward(primitives_, m.config, m.grid, set_.grid.at(i), camera, rows, count, shaded_,
-                       grads_);
+  cuda::shade_backward(primitives_, m.config, m.grid, t, camera, rows, count, shaded_, grads_);
   stats.seconds.slice_backward += lap(clock);
   double* reg = losses_.data() + slots - 1;
   cuda::regularizer(primitives_, rows, count, config_.opacity_reg, config_.scale_reg, reg,

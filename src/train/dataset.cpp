@@ -1,5 +1,8 @@
 #include "retimegs/train/dataset.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace retimegs::train {
 
 std::size_t TrainingSet::flow_files() const {
@@ -17,6 +20,15 @@ std::size_t TrainingSet::image_bytes() const {
   return n;
 }
 
+std::pair<int, int> TrainingSet::slots_around(int c, int i) const {
+  const double t = time(c, i);
+  if (t == grid.at(i)) return {i, i};
+  const double k = (t - grid.first) / grid.step;
+  const int a = int(std::clamp(std::floor(k), 0.0, double(grid.count - 1)));
+  const int b = int(std::clamp(std::ceil(k), 0.0, double(grid.count - 1)));
+  return {a, b};
+}
+
 TrainingSet unloaded_training_set(const io::Scene& scene, const io::TrainingViews& views) {
   TrainingSet set;
   set.scene = scene;
@@ -26,6 +38,10 @@ TrainingSet unloaded_training_set(const io::Scene& scene, const io::TrainingView
   set.scene_extent = views.extent;
   set.near_plane = float(io::scene_near_plane(scene));
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
+  set.times.assign(nc, std::vector<double>(nf));
+  for (std::size_t c = 0; c < nc; ++c)
+    for (std::size_t i = 0; i < nf; ++i)
+      set.times[c][i] = io::frame_time(scene, set.cameras[c], set.frames[i]);
   set.images.assign(nc, std::vector<PackedImage>(nf));
   set.masks.assign(nc, std::vector<std::optional<Image>>(nf));
   set.forward.assign(nc, std::vector<std::optional<Flow>>(nf));

@@ -7,7 +7,8 @@ namespace retimegs::train {
 
 std::vector<RenderPass> render_passes(const TrainConfig& config,
                                       model::Representation representation, int i, int frames,
-                                      bool flow) {
+                                      bool flow, bool on_grid) {
+  if (!on_grid) return {{model::Group::kAll, false, true, false}};
   if (representation == model::Representation::kStgs || i == 0 || i + 1 >= frames)
     return {{model::Group::kAll, false, true, flow}};
   const bool image = !config.ablate.no_triple;

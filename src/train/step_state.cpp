@@ -1,6 +1,7 @@
 #include "retimegs/train/step_state.hpp"
 
 #include <algorithm>
+#include <iterator>
 
 #include <fmt/format.h>
 
@@ -22,6 +23,11 @@ StepState::StepState(const TrainingSet& set, const TrainConfig& config)
   // A window trains as a clip of its own, its ends open (model/window.hpp).
   if (set.clip_grid) model.config = model::window_config(model.config, *set.clip_grid, set.grid);
   model.training_config = to_json(config_);
+  for (std::size_t c = 0; c < set.cameras.size(); ++c)
+    for (std::size_t i = 0; i < set.frames.size(); ++i)
+      if (const auto [a, b] = set.slots_around(int(c), int(i)); a != b) between_.push_back(a);
+  std::sort(between_.begin(), between_.end());
+  between_.erase(std::unique(between_.begin(), between_.end()), between_.end());
   if (camera_color()) {
     const std::size_t cameras = set.cameras.size();
     colors_.assign(cameras * kColorWidth, 0.0f);  // the identity: gain 1, offset 0
@@ -93,12 +99,36 @@ void StepState::initialize(model::Primitives primitives) {
 }
 
 void StepState::rebuild_index() {
-  index = model::TemporalIndex(model.primitives, model.config, model.grid);
+  set_index(model::TemporalIndex(model.primitives, model.config, model.grid));
   const std::vector<std::int32_t> old_from_new = index.locality_order();
   if (std::is_sorted(old_from_new.begin(), old_from_new.end())) return;  // the identity
   model.primitives.reorder(old_from_new);
   adam.reorder(old_from_new);  // the gradient rows are all zero between steps
-  index = model::TemporalIndex(model.primitives, model.config, model.grid);
+  set_index(model::TemporalIndex(model.primitives, model.config, model.grid));
+}
+
+void StepState::set_index(model::TemporalIndex new_index) {
+  index = std::move(new_index);
+  between_rows_.resize(between_.size());
+  for (std::size_t k = 0; k < between_.size(); ++k) {
+    const std::vector<std::int32_t>&a = index.rows_at(between_[k]),
+          &b = index.rows_at(between_[k] + 1);
+    std::vector<std::int32_t>& rows = between_rows_[k];
+    rows.clear();
+    std::set_union(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(rows));
+  }
+}
+
+int StepState::row_list(int c, int i) const {
+  const auto [a, b] = set_.slots_around(c, i);
+  if (a == b) return a;
+  const auto it = std::lower_bound(between_.begin(), between_.end(), a);
+  return index.frames() + int(it - between_.begin());
+}
+
+const std::vector<std::int32_t>& StepState::rows_of(int list) const {
+  return list < index.frames() ? index.rows_at(list)
+                               : between_rows_.at(std::size_t(list - index.frames()));
 }
 
 void StepState::make_optimizers() {

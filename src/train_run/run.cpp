@@ -307,6 +307,15 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
       step.primitive_count(), config.cap, set.cameras.size(), set.frames.size(),
       double(set.image_bytes()) / 1e6, set.flow_files(), config.iters, cuda::describe(run.device),
       background);
+  if (io::has_own_clocks(set.scene)) {
+    std::size_t off = 0;
+    for (std::size_t c = 0; c < set.cameras.size(); ++c)
+      for (std::size_t i = 0; i < set.frames.size(); ++i) off += !set.on_grid(int(c), int(i));
+    spdlog::info(
+        "own clocks: {} of {} training views lie off the training times (scene.json time_offset, "
+        "frame_times): one render of all primitives at each one's own time, image loss only",
+        off, set.cameras.size() * set.frames.size());
+  }
 
   TrainingLog log(folder.file("log.jsonl"));
   // The loop handles Ctrl-C itself (below): its bar must not throw.

@@ -85,5 +85,24 @@ TEST(ImportVideosCli, BadRigIsRefusedInOneLine) {
                               calib + " --offsets cam00+1");
 }
 
+// A fraction in --offsets: cam00:1.25 takes source frame k + 1 as scene frame k (as cam00:1) and
+// records time_offset 1 - 1.25 = -0.25; a value that is not a number names the flag.
+TEST(ImportVideosCli, FractionalOffsetsAreRecordedAsTimeOffsets) {
+  test::TempDir dir;
+  make_capture(dir.path());
+  const auto r = run_logged("import videos --in " + (dir / "src").string() + " --calib " +
+                                (dir / "rig.yaml").string() + " --out " + (dir / "scene").string() +
+                                " --offsets cam00:1.25,cam01:0.5",
+                            dir.path());
+  ASSERT_EQ(r.status, 0) << r.err;
+  const io::Scene scene = media::read_scene(dir / "scene");
+  EXPECT_NEAR(media::load_image(scene, 0, 0).data[0], 40.0f / 255, 1e-6);  // cam00's frame 1
+  ASSERT_EQ(scene.clocks.size(), 2u);
+  EXPECT_EQ(scene.clocks[0].time_offset, -0.25);
+  EXPECT_EQ(scene.clocks[1].time_offset, 0.5);  // 1 - 0.5: source frame k + 1, at k + 0.5
+  test::expect_import_refused("videos", dir.path(), {"--offsets", "cam00:half"},
+                              " --calib " + (dir / "rig.yaml").string() + " --offsets cam00:half");
+}
+
 }  // namespace
 }  // namespace retimegs

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -36,10 +37,11 @@ namespace fs = std::filesystem;
 // The tiny scene over 5 frames (3 interior ones: triple rendering) with 3 cameras, and its flows:
 // the ball's pixels move by its centre's displacement in the image, the background stays
 // (flow 0); every pixel known.
-TrainingSet flow_scene() {
+TrainingSet flow_scene(std::vector<double> time_offsets = {}) {
   test::TinySceneOptions options;
   options.cameras = 3;
   options.frames = 5;
+  options.time_offsets = std::move(time_offsets);
   TrainingSet set = test::tiny_training_set(options);
   const int nf = int(set.frames.size());
   for (std::size_t c = 0; c < set.cameras.size(); ++c) {
@@ -111,6 +113,26 @@ TEST(CudaStep, FirstStepLossesMatchTheCpu) {
     EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
     EXPECT_NEAR(g.psnr, h.psnr, 1e-3);
     EXPECT_EQ(g.lr_means, h.lr_means);
+  }
+}
+
+// A camera on its own clock (camera 1 half a frame late): its views are off the grid, one render
+// at the view's own time over the rows of the two grid slots around it, on both devices alike;
+// the views of the other cameras keep their triple rendering.
+TEST(CudaStep, ViewsOffTheGridMatchTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene({0, 0.5, 0});
+  const int views[][2] = {{1, 0}, {1, 2}, {1, 4}, {0, 2}};
+  for (const auto& [c, i] : views) {
+    Pair pair(set, tiny_config(200));
+    const StepStats g = pair.gpu->step_view(c, i), h = pair.cpu.step_view(c, i);
+    SCOPED_TRACE("view camera " + std::to_string(c) + " frame " + std::to_string(i));
+    EXPECT_EQ(h.renders, set.on_grid(c, i) ? 3 : 1);
+    EXPECT_EQ(g.renders, h.renders);
+    EXPECT_EQ(g.active, h.active);
+    EXPECT_LT(relative(g.image_loss, h.image_loss), 1e-4) << g.image_loss << " vs " << h.image_loss;
+    EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
+    EXPECT_NEAR(g.psnr, h.psnr, 1e-3);
   }
 }
 

@@ -5,17 +5,18 @@
 //
 // The scene: `cameras` cameras on a quarter of a ring of radius 4 around the origin (all "train"),
 // looking at it, and `frames` scene frames, all of them training frames (io::FrameSelection::kAll).
-// A ball of radius 0.5 moves along x at 0.1 per frame in front of a black background; each image is
-// the ball's projection drawn as a disc of its colour, with a one-pixel soft edge. Each frame slot
-// has the ball's surface as a point cloud (the flow-aware initialisation's seeds) and the ball's
-// disc as its mask, so that the black is the capture's background and training stays over black
-// by default (train/background.hpp) on both devices; there are no flows. The fields the loader
-// derives from a scene (frames, grid, extent, near plane) come from the function load_training_set
-// calls, train::unloaded_training_set of the scene's io::training_views.
+// A ball of radius 0.5 moves along x at 0.1 per frame (`speed`) in front of a black background;
+// each image is the ball's projection drawn as a disc of its colour, with a one-pixel soft edge.
+// Each frame slot has the ball's surface as a point cloud (the flow-aware initialisation's seeds)
+// and the ball's disc as its mask, so that the black is the capture's background and training stays
+// over black by default (train/background.hpp) on both devices; there are no flows. The fields the
+// loader derives from a scene (frames, grid, extent, near plane) come from the function
+// load_training_set calls, train::unloaded_training_set of the scene's io::training_views.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <Eigen/Core>
@@ -33,19 +34,23 @@ struct TinySceneOptions {
   int frames = 3;
   int width = 32, height = 24;
   int points_per_frame = 200;  // on the ball's surface (a Fibonacci sphere)
+  double speed = 0.1;          // the ball's, along x per frame
+  // Per camera (empty: none): its clock's time_offset (io::CameraClock); its images show the ball
+  // at its own times (io::frame_time), its points stay at the frames' times.
+  std::vector<double> time_offsets;
 };
 
 // The ball's centre at scene time `frame` (any real time: held-out in-between images too).
-inline Eigen::Vector3d tiny_ball_centre(double frame) {
-  return {-0.1 + 0.1 * frame, 0, 0};
+inline Eigen::Vector3d tiny_ball_centre(double frame, double speed = 0.1) {
+  return {-speed + speed * frame, 0, 0};
 }
 constexpr double kTinyBallRadius = 0.5;
 constexpr float kTinyBallColour[3] = {0.9f, 0.5f, 0.2f};
 
 // What `cam` sees at scene time `frame`: the ball as a disc of its colour with a one-pixel soft
 // edge, on black.
-inline Image tiny_ball_image(const Camera& cam, double frame) {
-  const Eigen::Vector3d x_cam = cam.world_to_cam(tiny_ball_centre(frame));
+inline Image tiny_ball_image(const Camera& cam, double frame, double speed = 0.1) {
+  const Eigen::Vector3d x_cam = cam.world_to_cam(tiny_ball_centre(frame, speed));
   const Eigen::Vector2d uv = cam.project_cam(x_cam);
   const double radius = cam.fx * kTinyBallRadius / x_cam.z();  // pixels
   Image image(cam.width, cam.height, 3);
@@ -75,14 +80,21 @@ inline train::TrainingSet tiny_training_set(const TinySceneOptions& options = {}
     cam.split = Split::kTrain;
     scene.cameras.push_back(cam);
   }
+  if (!options.time_offsets.empty()) {
+    scene.clocks.resize(scene.cameras.size());
+    for (std::size_t c = 0; c < options.time_offsets.size(); ++c)
+      scene.clocks[c].time_offset = options.time_offsets[c];
+  }
 
   train::TrainingSet set =
       train::unloaded_training_set(scene, io::training_views(scene, io::FrameSelection::kAll));
   const std::size_t nc = set.cameras.size(), nf = set.frames.size();
   for (std::size_t i = 0; i < nf; ++i) {
-    const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i]);
+    const Eigen::Vector3d centre = tiny_ball_centre(set.frames[i], options.speed);
     for (std::size_t c = 0; c < nc; ++c) {
-      const Image image = tiny_ball_image(scene.cameras[set.cameras[c]], set.frames[i]);
+      const Image image =
+          tiny_ball_image(scene.cameras[set.cameras[c]],
+                          io::frame_time(scene, set.cameras[c], set.frames[i]), options.speed);
       set.images[c][i] = pack(image, fmt::format("tiny scene camera {} frame {}", c, i));
       Image mask(image.width, image.height, 1);
       for (std::size_t p = 0; p < mask.pixels(); ++p) mask.data[p] = image.data[3 * p];

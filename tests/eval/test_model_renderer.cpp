@@ -26,3 +26,27 @@ TEST(ModelRenderer, ShowsEachSceneCameraAsItRecorded) {
 
 }  // namespace
 }  // namespace retimegs::eval
+
+namespace retimegs::eval {
+namespace {
+
+// A camera on its own clock is rendered at its frame's own time (io::frame_time): camera 1, half a
+// frame late, at frame position 1 shows time 1.5; camera 0 keeps t = k.
+TEST(ModelRenderer, RendersEachCameraAtItsOwnClock) {
+  test::TwoCameraCloud f;
+  f.scene.clocks = {{}, {0.5, {}}};
+  const FrameRenderer renderer = model_renderer(f.scene, f.model);
+  const float black[3] = {0, 0, 0};
+  const auto at = [&](int c, double t) {
+    return playback::render_model(f.model, f.scene.cameras[c], t, black, {},
+                                  playback::Colors::kCamera)
+        .data;
+  };
+  EXPECT_EQ(renderer(1, 1.0).data, at(1, 1.5));
+  EXPECT_EQ(renderer(1, 0.5).data, at(1, 1.0));
+  EXPECT_EQ(renderer(0, 1.0).data, at(0, 1.0));
+  EXPECT_NE(renderer(1, 1.0).data, at(1, 1.0)) << "the offset changes the render";
+}
+
+}  // namespace
+}  // namespace retimegs::eval

@@ -610,3 +610,55 @@ TEST_F(VideosBadInput, BrokenFootageNamesTheFileAndFrame) {
 
 }  // namespace
 }  // namespace retimegs::ingest
+
+namespace retimegs::ingest {
+namespace {
+
+// --offsets X: whole frames X rounded (halves away from zero), the rest N - X the clock's
+// time_offset, so that source frame j shows the scene at j - X.
+TEST(VideosImport, SplitOffsetRoundsAndKeepsTheFraction) {
+  const auto check = [](double x, int frames, double time_offset) {
+    const WholeOffset w = split_offset(x);
+    EXPECT_EQ(w.frames, frames) << x;
+    EXPECT_DOUBLE_EQ(w.time_offset, time_offset) << x;
+  };
+  check(0, 0, 0);
+  check(3, 3, 0);
+  check(2.5, 3, 0.5);
+  check(-0.5, -1, -0.5);
+  check(0.25, 0, -0.25);
+  check(-1.75, -2, -0.25);
+  check(0.4, 0, -0.4);
+  EXPECT_THROW(split_offset(std::nan("")), Error);
+  EXPECT_THROW(split_offset(1e300), Error);
+}
+
+// Fractional offsets pick the same source frames as their rounded whole frames and record the
+// rest as the cameras' time_offset; a camera without one keeps the default clock.
+TEST(VideosImport, FractionalOffsetsBecomeTimeOffsets) {
+  test::TempDir dir;
+  const auto cams = rig();
+  write_folder(dir / "src" / "cam00", 0);
+  write_video(dir / "src" / "cam01.mkv", 1, 30);
+  write_folder(dir / "src" / "cam02", 2);
+  io::write_colmap_model_txt(colmap_model(cams), dir / "model");
+  VideosOptions v = calib(dir / "model");
+  v.offsets = {{"cam01", 1.5}, {"cam02", -0.75}};  // whole frames 2 and -1, as above
+  const VideosReport r = import_videos(dir / "src", dir / "a", quiet(), v);
+  EXPECT_EQ(r.first_frame, 1);
+  const io::Scene scene = media::read_scene(dir / "a");
+  ASSERT_EQ(scene.num_frames, 3);
+  for (int j = 0; j < 3; ++j) {
+    expect_frame(scene, 0, j, 1 + j);
+    expect_frame(scene, 1, j, 3 + j);
+    expect_frame(scene, 2, j, j);
+  }
+  ASSERT_EQ(scene.clocks.size(), 3u);
+  EXPECT_EQ(scene.clocks[0].time_offset, 0);
+  EXPECT_EQ(scene.clocks[1].time_offset, 0.5);    // 2 - 1.5: source frame j at j - 1.5
+  EXPECT_EQ(scene.clocks[2].time_offset, -0.25);  // -1 + 0.75
+  EXPECT_DOUBLE_EQ(io::frame_time(scene, 1, 1), 1.5);
+}
+
+}  // namespace
+}  // namespace retimegs::ingest

@@ -1,5 +1,6 @@
 #include <sys/stat.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -297,6 +298,109 @@ TEST(SceneCli, BadSceneExitsTwoWithOneLine) {
   bad = test::run_cli("sheet --scene " + (dir / "missing").string() + " --out x.png");
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("missing"), std::string::npos) << bad.err;
+}
+
+}  // namespace
+}  // namespace retimegs::io
+
+namespace retimegs::io {
+namespace {
+
+TEST(SceneClocks, WrittenReadAndTimed) {
+  test::TempDir dir;
+  Scene scene = write_small_scene(dir / "s");      // 2 cameras, 3 frames
+  EXPECT_DOUBLE_EQ(frame_time(scene, 1, 2), 2.0);  // no clocks: t = k
+  EXPECT_FALSE(has_own_clocks(scene));
+  scene.clocks = {{0.5, {}}, {-0.25, {0.0, 1.5, 4.0}}};
+  write_scene_json(scene);
+  const json j = read_json(scene.json_path());
+  EXPECT_EQ(j["cameras"][0]["time_offset"], 0.5);
+  EXPECT_FALSE(j["cameras"][0].contains("frame_times"));
+  EXPECT_EQ(j["cameras"][1]["frame_times"], json::array({0.0, 1.5, 4.0}));
+  const Scene read = read_scene_json(dir / "s");
+  ASSERT_EQ(read.clocks.size(), 2u);
+  EXPECT_EQ(read.clocks[0].time_offset, 0.5);
+  EXPECT_EQ(read.clocks[1].frame_times, (std::vector<double>{0.0, 1.5, 4.0}));
+  // Frame k at k + offset; with frame times at frame_times[k] + offset, straight lines between
+  // and beyond the frames.
+  EXPECT_DOUBLE_EQ(frame_time(read, 0, 0), 0.5);
+  EXPECT_DOUBLE_EQ(frame_time(read, 0, 2), 2.5);
+  EXPECT_DOUBLE_EQ(frame_time(read, 0, 1.25), 1.75);
+  EXPECT_DOUBLE_EQ(frame_time(read, 1, 0), -0.25);
+  EXPECT_DOUBLE_EQ(frame_time(read, 1, 1), 1.25);
+  EXPECT_DOUBLE_EQ(frame_time(read, 1, 1.5), 2.5);   // halfway between 1.5 and 4.0, - 0.25
+  EXPECT_DOUBLE_EQ(frame_time(read, 1, 3), 6.25);    // beyond: slope 2.5
+  EXPECT_DOUBLE_EQ(frame_time(read, 1, -1), -1.75);  // before: slope 1.5
+  // A genlocked scene's file carries no clock keys, and reads back without clocks.
+  scene.clocks = {{}, {}};
+  write_scene_json(scene);
+  EXPECT_FALSE(read_json(scene.json_path())["cameras"][0].contains("time_offset"));
+  EXPECT_TRUE(read_scene_json(dir / "s").clocks.empty());
+}
+
+TEST(SceneClocks, BadClocksNameFileCameraAndKey) {
+  test::TempDir dir;
+  write_small_scene(dir / "s");
+  const fs::path file = dir / "s" / "scene.json";
+  const json good = read_json(file);
+  const std::string camera = "'" + good["cameras"][1]["name"].get<std::string>() + "'";
+  const auto expect = [&](const std::function<void(json&)>& edit,
+                          std::initializer_list<std::string> fragments) {
+    json j = good;
+    edit(j);
+    write_json(file, j);
+    std::vector<std::string> all = {"scene.json", camera};
+    all.insert(all.end(), fragments.begin(), fragments.end());
+    try {
+      read_scene_json(dir / "s");
+      ADD_FAILURE() << "no error for " << j["cameras"][1].dump();
+    } catch (const Error& e) {
+      for (const auto& f : all)
+        EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+    }
+  };
+  expect([](json& j) { j["cameras"][1]["time_offset"] = "half"; }, {"time_offset", "number"});
+  expect([](json& j) { j["cameras"][1]["time_offset"] = nullptr; }, {"time_offset"});
+  expect([](json& j) { j["cameras"][1]["frame_times"] = {0.0, 1.0}; }, {"frame_times", "2 values"});
+  expect(
+      [](json& j) {
+        j["cameras"][1]["frame_times"] = {0.0, 1.0, 1.0};
+      },
+      {"frame_times", "increase"});
+  expect(
+      [](json& j) {
+        j["cameras"][1]["frame_times"] = {0.0, 2.0, 1.0};
+      },
+      {"frame_times", "increase"});
+  expect([](json& j) { j["cameras"][1]["frame_times"] = 3; }, {"frame_times", "array"});
+  expect([](json& j) { j["cameras"][1]["frame_times"] = {0.0, nullptr, 2.0}; }, {"frame_times[1]"});
+  {
+    // Overflow to infinity: the one way a non-finite number reaches the file.
+    json j = good;
+    j["cameras"][1]["time_offset"] = 123.0;
+    std::string text = j.dump();
+    text.replace(text.find("123.0"), 5, "1e999");
+    test::write_text(file, text);
+    try {
+      read_scene_json(dir / "s");
+      ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("scene.json"), std::string::npos) << e.what();
+    }
+  }
+  // write_scene_json refuses what reading would.
+  write_json(file, good);
+  Scene scene = read_scene_json(dir / "s");
+  scene.clocks = {{}, {std::nan(""), {}}};
+  try {
+    write_scene_json(scene);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    for (const std::string f : {std::string("scene.json"), camera, std::string("not finite")})
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+  }
+  scene.clocks = {{}, {0, {0.0, 1.0}}};
+  EXPECT_THROW(write_scene_json(scene), Error);
 }
 
 }  // namespace

@@ -200,3 +200,30 @@ TEST(RenderShot, OneCameraUsesItsColoursAPathTheModels) {
 
 }  // namespace
 }  // namespace retimegs::playback
+
+namespace retimegs::playback {
+namespace {
+
+// --own-clock: the times are positions among the camera's frames, drawn at its own times (cam01
+// a quarter frame late: positions 0.5..1.25 at 0.75..1.5); only with --camera, not --slowmo.
+TEST(SceneShot, OwnClockDrawsTheCamerasFramesAtItsTimes) {
+  test::TwoCameraCloud f;
+  f.scene.clocks = {{}, {0.25, {}}};
+  SceneShotRequest request = at_camera("cam01");
+  request.times = TimeRange{0.5, 1.25, 0.25};
+  request.own_clock = true;
+  EXPECT_EQ(scene_shot(request, f.scene, empty_model()).times,
+            (std::vector<double>{0.75, 1, 1.25, 1.5}));
+  request.camera = "cam00";  // on the scene's clock
+  EXPECT_EQ(scene_shot(request, f.scene, empty_model()).times,
+            (std::vector<double>{0.5, 0.75, 1, 1.25}));
+  request.camera = "cam01";
+  request.times = TimeRange{1, 1.5, 0.5};  // 1.75 is beyond the model's range
+  expect_error([&] { scene_shot(request, f.scene, empty_model()); }, {"render"});
+  request.times.reset();
+  request.slowmo = 2;
+  expect_error([&] { scene_shot(request, f.scene, empty_model()); }, {"--own-clock", "--slowmo"});
+}
+
+}  // namespace
+}  // namespace retimegs::playback

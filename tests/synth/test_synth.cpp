@@ -327,3 +327,58 @@ TEST(Synth, CommandLineWritesASceneAndRejectsBadFlags) {
 
 }  // namespace
 }  // namespace retimegs::synth
+
+namespace retimegs::synth {
+namespace {
+
+bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  return test::read_text(a) == test::read_text(b);
+}
+
+// A camera on its own clock shows the world at its own times: cam01 at +0.5 in one scene and at
+// -0.5 in another see the same instants one frame apart (t = k + 0.5), images, masks and flows
+// alike, bit for bit; the other cameras are the unshifted scene's; scene.json records the offset
+// unless asked not to, and the unrecorded scene's files are the recorded one's.
+TEST(Synth, TimeOffsetsRenderEachCameraAtItsOwnTimes) {
+  test::TempDir dir;
+  SynthOptions o = small_options("minimal", 2, 4, 48, 32);
+  synthesize_scene(o, dir / "plain");
+  o.time_offsets = {{"cam01", 0.5}};
+  synthesize_scene(o, dir / "late");
+  o.record_offsets = false;
+  synthesize_scene(o, dir / "unrecorded");
+  o.record_offsets = true;
+  o.time_offsets = {{"cam01", -0.5}};
+  synthesize_scene(o, dir / "early");
+  const io::Scene plain = io::read_scene_json(dir / "plain");
+  const io::Scene late = io::read_scene_json(dir / "late");
+  const io::Scene early = io::read_scene_json(dir / "early");
+  const io::Scene unrecorded = io::read_scene_json(dir / "unrecorded");
+  ASSERT_EQ(late.clocks.size(), 2u);
+  EXPECT_EQ(late.clocks[0].time_offset, 0);
+  EXPECT_EQ(late.clocks[1].time_offset, 0.5);
+  EXPECT_DOUBLE_EQ(io::frame_time(late, 1, 2), 2.5);
+  EXPECT_TRUE(unrecorded.clocks.empty());
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_TRUE(same_file(plain.image_path(0, k), late.image_path(0, k))) << k;
+    EXPECT_FALSE(same_file(plain.image_path(1, k), late.image_path(1, k))) << k;
+    EXPECT_TRUE(same_file(late.image_path(1, k), unrecorded.image_path(1, k))) << k;
+    if (k + 1 < 4) {
+      EXPECT_TRUE(same_file(late.image_path(1, k), early.image_path(1, k + 1))) << k;
+      EXPECT_TRUE(same_file(late.mask_path(1, k), early.mask_path(1, k + 1))) << k;
+    }
+    if (k + 2 < 4) {
+      EXPECT_TRUE(same_file(late.flow_path(1, k, k + 1), early.flow_path(1, k + 1, k + 2))) << k;
+      EXPECT_TRUE(same_file(late.flow_path(1, k + 1, k), early.flow_path(1, k + 2, k + 1))) << k;
+    }
+  }
+  // Points stay at the scene's frame times.
+  EXPECT_TRUE(same_file(plain.points_path(1), late.points_path(1)));
+  o.time_offsets = {{"cam07", 0.5}};
+  EXPECT_THROW(synthesize_scene(o, dir / "bad"), Error);
+  o.time_offsets = {{"cam01", std::nan("")}};
+  EXPECT_THROW(synthesize_scene(o, dir / "bad"), Error);
+}
+
+}  // namespace
+}  // namespace retimegs::synth

@@ -21,8 +21,10 @@
 
 namespace retimegs::eval {
 
-// Produces the image of scene camera `camera` at time `time` in scene frame units (frame k is
-// time k; in-between times are fractional).
+// Produces the image of scene camera `camera` at `time`, a position among that camera's own frames
+// (its frame k at k; in-between positions are fractional). A model renders it at the scene time
+// of that position on the camera's clock (io::frame_time), so a frame is scored at its own time;
+// the baselines blend the camera's own frames there.
 using FrameRenderer = std::function<Image(int camera, double time)>;
 
 struct EvalOptions {
@@ -167,7 +169,8 @@ void check_baseline_cameras(const io::Scene& scene, const std::vector<int>& came
 // "crossfade" | "nearest" | "flow"; throws Error naming `flag` and the value otherwise.
 Baseline parse_baseline(const std::string& name, const std::string& flag);
 
-// The held-out renderer of a model: camera `camera` of `scene` at time `time` on black, with that
+// The held-out renderer of a model: camera `camera` of `scene` at frame position `time` (at scene
+// time io::frame_time of it) on black, with that
 // camera's colours (playback::Colors::kCamera), every render with `options`, on `device`
 // (playback::ModelRenderer; the GPU's arrays are reused, so calls must not overlap). `scene` must
 // outlive the returned renderer; the model is owned by it.

@@ -83,12 +83,24 @@ struct VideosOptions {
   // Without a calibration: the camera model (one of kRecoveredCameraModels); absent: the first.
   std::optional<std::string> camera_model;
   std::vector<std::string> test_cameras;  // get split "test"
-  // Synchronisation: scene frame k of camera c is source frame k + offsets[c] (0 when absent).
+  // Synchronisation (--offsets CAM:X): camera c's source frame j shows the scene at time j - X,
+  // so that scene frame k is its source frame k + X. X may be a fraction (split_offset): scene
+  // frame k of c is its source frame k + N, N = X rounded, and its clock's time_offset is N - X.
   // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
   // every camera has.
-  std::map<std::string, int> offsets;
+  std::map<std::string, double> offsets;
   std::optional<double> fps;  // overrides the videos' rate; image folders alone: 30 when absent
 };
+
+// An --offsets value X split into whole frames and the camera's clock: scene frame k is source
+// frame k + frames, which shows the scene at time k + time_offset. frames is X rounded to the
+// nearest integer (halves away from zero), time_offset = frames - X, within [-0.5, 0.5]. Throws
+// Error naming --offsets unless X is finite and within the frame limit (core/limits.hpp).
+struct WholeOffset {
+  int frames = 0;
+  double time_offset = 0;
+};
+WholeOffset split_offset(double x);
 
 struct VideosReport {
   int cameras = 0, test_cameras = 0, frames = 0;

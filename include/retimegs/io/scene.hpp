@@ -29,6 +29,15 @@ struct CameraSource {
   double fps = 0;       // the video's own frame rate; 0 for an image folder, which has none
 };
 
+// A camera's clock (docs/formats.md, "time_offset" and "frame_times"): when its frames show the
+// scene. Frame k is at scene time (frame_times[k] when given, else k) + time_offset, in scene
+// frame units. The default, frame k at t = k, is a genlocked rig's.
+struct CameraClock {
+  double time_offset = 0;           // any finite real, usually a fraction of a frame
+  std::vector<double> frame_times;  // empty, or one per scene frame, finite, strictly increasing
+  bool is_default() const { return time_offset == 0 && frame_times.empty(); }
+};
+
 struct Scene {
   std::filesystem::path root;
   int num_frames = 0;
@@ -36,6 +45,9 @@ struct Scene {
   std::vector<Camera> cameras;
   Eigen::Vector3d up{0, -1, 0};
   std::vector<CameraSource> sources;  // [C] as `cameras`, or empty when unknown
+  // [C] as `cameras`, or empty: every camera's frame k at t = k. Read its times through
+  // frame_time() only.
+  std::vector<CameraClock> clocks;
 
   // Index of the camera called `name`; throws Error naming it when absent.
   int camera_index(const std::string& name) const;
@@ -52,6 +64,21 @@ struct Scene {
   // training treat a scene holding it as one without masks.
   std::filesystem::path estimated_masks_marker() const { return root / "masks" / "estimated.json"; }
 };
+
+// The scene time of camera `camera`'s frame `position` (scene index; frame k at position k), by
+// its clock (CameraClock): the one place a frame's time is computed; training, eval, synth and
+// render call it. A position between two frames lies on the straight line between their times,
+// one outside the clip on the line through its two end frames (frame_times) or at position +
+// time_offset. Equals `position` for a camera with the default clock.
+double frame_time(const Scene& scene, int camera, double position);
+
+// Whether any camera's clock is not the default one.
+bool has_own_clocks(const Scene& scene);
+
+// Throws Error naming `where` and the camera unless the clock is valid for `num_frames` frames:
+// a finite time_offset, and frame_times empty or num_frames finite, strictly increasing values.
+// read_scene_json and write_scene_json check each camera's with it.
+void check_clock(const CameraClock& clock, int num_frames, const std::string& where);
 
 // A camera name becomes a folder name: it must be one path component of at most 255 bytes, not
 // empty, "." or "..", without '/', '\\' or control characters. Throws Error naming `where` and

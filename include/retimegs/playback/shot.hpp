@@ -47,6 +47,10 @@ struct SceneShotRequest {
   std::optional<int> slowmo;       // --slowmo F
   std::filesystem::path retime;    // --retime FILE (empty: none), read by media::read_retime_csv
   OutputSize size;                 // --size / --scale
+  // --own-clock: with --camera, the times are positions among that camera's frames (frame k at
+  // k), each drawn at its scene time on the camera's clock (io::frame_time), to reproduce its
+  // frames; not with --slowmo or --path.
+  bool own_clock = false;
 };
 
 // The frames of a scene request, at the scene's fps. --slowmo covers the model's time range, its

@@ -5,6 +5,7 @@
 // where occluded or out of view) and per-frame surface point clouds.
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -18,7 +19,13 @@ struct SynthOptions {
   std::uint64_t seed = 0;
   double fps = 24.0;
   int supersample = 2;  // per axis: 2 -> 2x2 rays per pixel
-  bool force = false;   // replace an existing output folder
+  // Per-camera clock offsets by camera name (synth --time-offsets): that camera's frame k, its mask
+  // and its flows show the scene at t = k + offset (its flows run between two of its own frames);
+  // scene.json records them as the cameras' time_offset unless record_offsets is false (the same
+  // footage as a user has it who never measured the offsets). Points stay at t = k.
+  std::map<std::string, double> time_offsets;
+  bool record_offsets = true;
+  bool force = false;  // replace an existing output folder
   bool progress = true;
 };
 

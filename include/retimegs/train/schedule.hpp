@@ -23,9 +23,12 @@ struct RenderPass {
 // `flow`: the flow loss is on at this step. The no_triple ablation drops the image loss of the
 // group renders only (the paper's row: triple rendering is their image loss; their flow
 // supervision stays), so a group render is made only while the flow loss is on.
+// `on_grid`: the view is at its training time t_i (TrainingSet::on_grid). A view off the grid (a
+// camera on its own clock) has one render, all primitives at its own time, with the image loss
+// alone: the groups, their compensation σ_τ(t_i) and the flow features are defined at t_i only.
 std::vector<RenderPass> render_passes(const TrainConfig& config,
                                       model::Representation representation, int i, int frames,
-                                      bool flow);
+                                      bool flow, bool on_grid = true);
 
 // The flow loss weight at iteration `it`: log-linear from flow_weight_start to flow_weight_end
 // until flow_decay_until (scaled), then constant; with flow_hold, flow_weight_start until

@@ -38,6 +38,17 @@ class StepState {
   // The temporal index of the current primitives, after putting the rows (with their Adam state)
   // in its locality order.
   void rebuild_index();
+  // Sets the index (of the current rows) and the step's row lists that follow from it.
+  void set_index(model::TemporalIndex new_index);
+  // The rows a step on view (camera slot c, frame slot i) may touch, as one of row_lists() lists:
+  // index.rows_at(i) for a view on the grid (list i); for a view between grid slots a and a + 1
+  // (a camera on its own clock), the union of theirs (list frames + its pair's). A retime window's
+  // edges lie at training times, so a row visible between two adjacent ones is visible at one of
+  // them (the slice leaves out the rest); STGS lists every row at every frame. The unions exist
+  // only for the pairs some view falls between: none when every view is on the grid.
+  int row_list(int c, int i) const;
+  const std::vector<std::int32_t>& rows_of(int list) const;
+  int row_lists() const { return index.frames() + int(between_.size()); }
   // train::faint_short_rows removed at config.final_prune_opacity (not for STGS, whose windows
   // are not intervals), with their optimiser state; returns the note to log.
   std::string final_prune();
@@ -85,6 +96,9 @@ class StepState {
 
   const TrainingSet& set_;
   TrainConfig config_;
+  // Slot a of every pair (a, a + 1) that some view falls between, ascending, and its rows.
+  std::vector<int> between_;
+  std::vector<std::vector<std::int32_t>> between_rows_;
   // Per-camera colour: parameters [cameras, kColorWidth] (m then c, training camera slots), their
   // Adam and the step's gradient [cameras, kColorWidth] (zero between steps).
   std::vector<float> colors_, color_grads_;
