@@ -150,7 +150,7 @@ pwned=$( (find "$tmp" -name 'PWNED*'; find "$PWD" / /tmp -maxdepth 1 -name 'PWNE
 # after 150 iterations per window; a model that lost a window scores far less).
 "$binary" eval --scene "$scene" --model "$model" --out "$tmp/metrics.json" >"$tmp/eval.log" 2>&1 ||
   fail "eval of the merged model: $(tail -n 3 "$tmp/eval.log")"
-psnr=$(sed -n 's/.*\] psnr \([0-9.]*\) .*/\1/p' "$tmp/eval.log" | head -n 1)  # "[time] psnr P  ssim S ..."
+psnr=$(sed -n 's/^  "psnr": \([0-9.]*\),$/\1/p' "$tmp/metrics.json")  # the mean over every view
 awk -v p="$psnr" 'BEGIN { exit !(p > 18) }' || fail "merged model's held-out PSNR is '$psnr'"
 # Scheduler overhead: submit to merged model, minus the span in which windows trained (first
 # task's start to last task's end, as window.sh logs them).

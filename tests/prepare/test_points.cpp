@@ -7,8 +7,7 @@
 #include <numeric>
 #include <vector>
 
-#include <nanoflann.hpp>
-
+#include "points_fixtures.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/ingest/import.hpp"
 #include "retimegs/io/scene.hpp"
@@ -23,48 +22,6 @@ namespace retimegs::prepare {
 namespace {
 namespace fs = std::filesystem;
 using test::shared_data;
-
-io::Scene minimal_scene(const fs::path& root, int cameras, int width, int height, int frames = 3) {
-  synth::SynthOptions options;
-  options.preset = "minimal";
-  options.cameras = cameras;
-  options.frames = frames;
-  options.width = width, options.height = height;
-  options.progress = false;
-  synth::synthesize_scene(options, root);
-  return media::read_scene(root);
-}
-
-// Distance from each query point to the nearest point of `cloud` (k-d tree).
-class Nearest {
- public:
-  explicit Nearest(const std::vector<float>& xyz)
-      : cloud_{xyz}, tree_(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
-    tree_.buildIndex();
-  }
-  double distance(const float* q) const { return std::sqrt(double(nearest(q).second)); }
-  std::pair<std::uint32_t, float> nearest(const float* q) const {
-    std::uint32_t id = 0;
-    float d2 = 0;
-    tree_.knnSearch(q, 1, &id, &d2);
-    return {id, d2};
-  }
-
- private:
-  struct Cloud {
-    const std::vector<float>& xyz;
-    std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
-    float kdtree_get_pt(std::size_t i, std::size_t d) const { return xyz[3 * i + d]; }
-    template <class B>
-    bool kdtree_get_bbox(B&) const {
-      return false;
-    }
-  };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>,
-                                                   Cloud, 3, std::uint32_t>;
-  Cloud cloud_;
-  Tree tree_;
-};
 
 double correlation(const std::vector<double>& a, const std::vector<double>& b) {
   const double n = double(a.size());
@@ -90,7 +47,8 @@ double longest_side(const io::PointCloud& c) {
 
 TEST(VisualHull, LiesOnTheSyntheticSceneSurfaceAndCoversItsObjects) {
   test::TempDir dir;
-  const io::Scene scene = minimal_scene(dir / "scene", /*cameras=*/8, /*width=*/128, /*height=*/96);
+  const io::Scene scene =
+      test::minimal_scene(dir / "scene", /*cameras=*/8, /*width=*/128, /*height=*/96);
   HullOptions options;
   options.resolution = 64;
   for (int frame : {0, 2}) {
@@ -103,7 +61,7 @@ TEST(VisualHull, LiesOnTheSyntheticSceneSurfaceAndCoversItsObjects) {
 
     // Precision: hull points near the true surface. Colour: the image colour of the surface
     // (shaded) follows the albedo of the nearest exact point (Pearson correlation of grey).
-    const Nearest to_exact(exact.xyz);
+    const test::Nearest to_exact(exact.xyz);
     std::size_t near = 0;
     std::vector<double> hull_grey, exact_grey;
     for (std::size_t i = 0; i < hull.size(); ++i) {
@@ -123,7 +81,7 @@ TEST(VisualHull, LiesOnTheSyntheticSceneSurfaceAndCoversItsObjects) {
       const Eigen::Vector3f p(hull.xyz[3 * i], hull.xyz[3 * i + 1], hull.xyz[3 * i + 2]);
       lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
     }
-    const Nearest to_hull(hull.xyz);
+    const test::Nearest to_hull(hull.xyz);
     std::size_t foreground = 0, covered = 0;
     for (std::size_t i = 0; i < exact.size(); ++i) {
       const Eigen::Vector3f p(exact.xyz[3 * i], exact.xyz[3 * i + 1], exact.xyz[3 * i + 2]);
@@ -191,7 +149,7 @@ TEST(VisualHull, CoversPanopticPlayersCutByTheImageBorder) {
 // resolution).
 double median_distance_in_voxels(const io::PointCloud& hull, const io::PointCloud& exact,
                                  int resolution) {
-  const Nearest to_exact(exact.xyz);
+  const test::Nearest to_exact(exact.xyz);
   std::vector<double> d;
   for (std::size_t i = 0; i < hull.size(); ++i) d.push_back(to_exact.distance(&hull.xyz[3 * i]));
   std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
@@ -228,7 +186,7 @@ TEST(VisualHull, SixCameraRigGivesAHullOnTheSurface) {
 TEST(VisualHull, ToleratesOneBlankMask) {
   for (int cameras : {3, 6}) {
     test::TempDir dir;
-    const io::Scene scene = minimal_scene(dir / "scene", cameras, 96, 72, 2);
+    const io::Scene scene = test::minimal_scene(dir / "scene", cameras, 96, 72, 2);
     HullOptions options;
     options.resolution = 48;
     const io::PointCloud all = visual_hull(scene, training_cameras(scene), 0, options);
@@ -247,7 +205,7 @@ TEST(VisualHull, ToleratesOneBlankMask) {
 
 TEST(VisualHull, NamesTheMissingMask) {
   test::TempDir dir;
-  const io::Scene scene = minimal_scene(dir / "scene", 4, 32, 24, 2);
+  const io::Scene scene = test::minimal_scene(dir / "scene", 4, 32, 24, 2);
   fs::remove(scene.mask_path(1, 0));
   test::expect_error([&] { visual_hull(scene, training_cameras(scene), 0); },
                      {scene.mask_path(1, 0).string(), "no mask"});
@@ -257,7 +215,7 @@ TEST(VisualHull, NamesTheMissingMask) {
 
 TEST(RandomPoints, FillTrainingsFallbackBoxDeterministically) {
   test::TempDir dir;
-  const io::Scene scene = minimal_scene(dir / "scene", 4, 32, 24, 2);
+  const io::Scene scene = test::minimal_scene(dir / "scene", 4, 32, 24, 2);
   const std::vector<int> cams = training_cameras(scene);
   const io::Box box = io::cameras_look_box(scene, cams);
   const io::PointCloud a = random_points(scene, cams, 0, 2000, 7);

@@ -6,8 +6,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <nanoflann.hpp>
-
+#include "points_fixtures.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/io/training_views.hpp"
@@ -20,47 +19,6 @@ namespace retimegs::prepare {
 namespace {
 namespace fs = std::filesystem;
 
-io::Scene ring_scene(const fs::path& root, int cameras, int width, int height) {
-  synth::SynthOptions options;
-  options.preset = "minimal";
-  options.cameras = cameras;
-  options.frames = 3;
-  options.width = width, options.height = height;
-  options.progress = false;
-  synth::synthesize_scene(options, root);
-  return media::read_scene(root);
-}
-
-// Distance from a query point to the nearest point of `xyz` ([N, 3], k-d tree).
-class Nearest {
- public:
-  explicit Nearest(const std::vector<float>& xyz)
-      : cloud_{xyz}, tree_(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
-    tree_.buildIndex();
-  }
-  double distance(const float* q) const {
-    std::uint32_t id = 0;
-    float d2 = 0;
-    tree_.knnSearch(q, 1, &id, &d2);
-    return std::sqrt(double(d2));
-  }
-
- private:
-  struct Cloud {
-    const std::vector<float>& xyz;
-    std::size_t kdtree_get_point_count() const { return xyz.size() / 3; }
-    float kdtree_get_pt(std::size_t i, std::size_t d) const { return xyz[3 * i + d]; }
-    template <class B>
-    bool kdtree_get_bbox(B&) const {
-      return false;
-    }
-  };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Cloud>,
-                                                   Cloud, 3, std::uint32_t>;
-  Cloud cloud_;
-  Tree tree_;
-};
-
 bool has_pair(const std::vector<StereoPair>& pairs, int a, int b) {
   return std::any_of(pairs.begin(), pairs.end(), [&](const StereoPair& p) {
     return p.left == std::min(a, b) && p.right == std::max(a, b);
@@ -72,7 +30,8 @@ bool has_pair(const std::vector<StereoPair>& pairs, int a, int b) {
 // neighbours are better.
 TEST(StereoPairs, NeighboursOnARingAndNotOppositeCameras) {
   test::TempDir dir;
-  const io::Scene scene = ring_scene(dir / "scene", /*cameras=*/12, /*width=*/32, /*height=*/24);
+  const io::Scene scene =
+      test::minimal_scene(dir / "scene", /*cameras=*/12, /*width=*/32, /*height=*/24);
   const std::vector<StereoPair> pairs = stereo_pairs(scene, io::training_cameras(scene));
   ASSERT_EQ(pairs.size(), 12u);
   for (int c = 0; c < 12; ++c) {
@@ -89,7 +48,8 @@ TEST(StereoPairs, NeighboursOnARingAndNotOppositeCameras) {
 // Three cameras 120 degrees apart: no pair is usable, and stereo_points says so.
 TEST(StereoPairs, ThreeCamerasAroundTheSceneHaveNone) {
   test::TempDir dir;
-  const io::Scene scene = ring_scene(dir / "scene", /*cameras=*/3, /*width=*/32, /*height=*/24);
+  const io::Scene scene =
+      test::minimal_scene(dir / "scene", /*cameras=*/3, /*width=*/32, /*height=*/24);
   EXPECT_TRUE(stereo_pairs(scene, io::training_cameras(scene)).empty());
   try {
     stereo_points(scene, io::training_cameras(scene), 0);
@@ -104,7 +64,8 @@ TEST(StereoPairs, ThreeCamerasAroundTheSceneHaveNone) {
 // a small fraction of the camera distance, and few points are far off.
 TEST(StereoPoints, LieOnTheSyntheticSceneSurface) {
   test::TempDir dir;
-  const io::Scene scene = ring_scene(dir / "scene", /*cameras=*/12, /*width=*/160, /*height=*/120);
+  const io::Scene scene =
+      test::minimal_scene(dir / "scene", /*cameras=*/12, /*width=*/160, /*height=*/120);
   const std::vector<int> cameras = io::training_cameras(scene);
   StereoOptions options;
   options.max_points = 20000;
@@ -115,7 +76,7 @@ TEST(StereoPoints, LieOnTheSyntheticSceneSurface) {
     ASSERT_GT(cloud.size(), 1000u) << frame;  // measured 4666, 4758 (foreground only)
     ASSERT_LE(cloud.size(), options.max_points);
     ASSERT_EQ(cloud.rgb.size(), cloud.xyz.size());
-    const Nearest to_exact(exact.xyz);
+    const test::Nearest to_exact(exact.xyz);
     std::vector<double> d(cloud.size());
     for (std::size_t i = 0; i < cloud.size(); ++i) d[i] = to_exact.distance(&cloud.xyz[3 * i]);
     std::sort(d.begin(), d.end());
