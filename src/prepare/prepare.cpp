@@ -417,11 +417,12 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
               "one of: a mask for every "
               "training view (the hull; --masks estimates approximate ones), cameras that "
               "overlap more (COLMAP matches features seen by two cameras at {} degrees or more, "
-              "three where the rig has {} or more), or your own clouds (--points ply DIR); "
+              "three where the rig has {} or more; pair stereo where two cameras look within {} "
+              "degrees of each other), or your own clouds (--points ply DIR); "
               "--points random trains without geometry (fog where the images have little "
               "texture)",
               k, cloud.size(), kMinFramePoints, fmt::join(failed, "; "), kTwoViewMinAngleDegrees,
-              kTwoViewTrackCameras);
+              kTwoViewTrackCameras, kMaxStereoAxisAngle);
         if (!failed.empty())
           report.points_fallbacks.push_back({k, fmt::format("{}", fmt::join(built, ",")),
                                              fmt::format("{}", fmt::join(failed, "; "))});
