@@ -120,6 +120,18 @@ Coverage CoverageCounter::result() const {
   return result;
 }
 
+std::vector<std::size_t> coverage_frames(std::size_t count) {
+  if (count <= kCoverageFrames) {
+    std::vector<std::size_t> all(count);
+    for (std::size_t i = 0; i < count; ++i) all[i] = i;
+    return all;
+  }
+  std::vector<std::size_t> spread;
+  for (std::size_t j = 0; j < kCoverageFrames; ++j)
+    spread.push_back(j * (count - 1) / (kCoverageFrames - 1));
+  return spread;
+}
+
 std::string describe_coverage(const Scene& scene, const Coverage& coverage) {
   std::string text = fmt::format(
       "points: they cover {:.0f} % of what the training cameras see ({})",

@@ -439,7 +439,8 @@ PrepareReport prepare_scene(const io::Scene& scene, const PrepareOptions& option
   if (std::all_of(frames.begin(), frames.end(),
                   [&](int k) { return fs::exists(scene.points_path(k)); })) {
     io::CoverageCounter coverage(scene);
-    for (int k : frames) {
+    for (const std::size_t i : io::coverage_frames(frames.size())) {
+      const int k = frames[i];
       std::vector<std::optional<Image>> masks;
       std::vector<const Image*> mask_views;
       for (std::size_t c = 0; c < scene.cameras.size(); ++c)

@@ -236,17 +236,20 @@ std::string describe_background(bool random, bool given) {
 
 // What the training set's points cover (io/coverage.hpp), and its warnings, in the log: a sparse
 // rig's fog is said before the run, not found in its scores. Test cameras count every pixel (their
-// masks are not part of the set). Nothing when no frame has points (initialize's note says so).
+// masks are not part of the set). Nothing when the frames measured have no points (initialize's
+// note says so).
 void log_coverage(const TrainingSet& set) {
-  if (std::none_of(set.points.begin(), set.points.end(), [](const auto& p) { return p; })) return;
   io::CoverageCounter coverage(set.scene);
-  for (std::size_t f = 0; f < set.frames.size(); ++f) {
+  std::size_t measured = 0;
+  for (const std::size_t f : io::coverage_frames(set.frames.size())) {
     if (!set.points[f]) continue;
+    ++measured;
     std::vector<const Image*> masks(set.scene.cameras.size(), nullptr);
     for (std::size_t c = 0; c < set.cameras.size(); ++c)
       if (!set.masks[c].empty() && set.masks[c][f]) masks[set.cameras[c]] = &*set.masks[c][f];
     coverage.add(*set.points[f], masks);
   }
+  if (measured == 0) return;
   const io::Coverage result = coverage.result();
   spdlog::info("{}", io::describe_coverage(set.scene, result));
   for (const std::string& line : io::coverage_warnings(set.scene, result)) spdlog::warn("{}", line);

@@ -100,5 +100,13 @@ TEST(Coverage, CountsInsideMasksAndWarnsWhenLow) {
   test::expect_error([&] { CoverageCounter{no_training}; }, {"no training camera"});
 }
 
+TEST(Coverage, MeasuresAtMostThreeFramesSpreadOverTheClip) {
+  EXPECT_EQ(coverage_frames(0), std::vector<std::size_t>{});
+  EXPECT_EQ(coverage_frames(2), (std::vector<std::size_t>{0, 1}));
+  EXPECT_EQ(coverage_frames(3), (std::vector<std::size_t>{0, 1, 2}));
+  EXPECT_EQ(coverage_frames(9), (std::vector<std::size_t>{0, 4, 8}));
+  EXPECT_EQ(coverage_frames(150), (std::vector<std::size_t>{0, 74, 149}));
+}
+
 }  // namespace
 }  // namespace retimegs::io

@@ -26,6 +26,12 @@ constexpr double kLowPointCoverage = 0.5;
 // ... and for a test camera of which more than this share is seen by no training camera.
 constexpr double kHighUnseenShare = 0.2;
 
+// The frames of `count` (indices) that prepare and train measure: at most kCoverageFrames, evenly
+// spread from the first to the last. What a rig covers changes little from frame to frame, and a
+// capture stage's clip (dozens of cameras at 1K, hundreds of frames) would spend minutes on all.
+constexpr std::size_t kCoverageFrames = 3;
+std::vector<std::size_t> coverage_frames(std::size_t count);
+
 struct CameraCoverage {
   int camera = 0;       // scene index
   double covered = 0;   // share of its pixels (in its masks) within reach of a point
