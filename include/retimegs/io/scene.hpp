@@ -38,6 +38,11 @@ struct CameraClock {
   bool is_default() const { return time_offset == 0 && frame_times.empty(); }
 };
 
+// Where the cameras' calibration came from (scene.json "calibration"): a dataset's lab calibration,
+// taken as exact, or one the user made (a rig file, a COLMAP model, COLMAP from scratch), a few
+// pixels off, which training refines by default (train config refine_cameras).
+enum class CalibrationSource { kLab, kUser };
+
 struct Scene {
   std::filesystem::path root;
   int num_frames = 0;
@@ -48,6 +53,7 @@ struct Scene {
   // [C] as `cameras`, or empty: every camera's frame k at t = k. Read its times through
   // frame_time() only.
   std::vector<CameraClock> clocks;
+  CalibrationSource calibration = CalibrationSource::kLab;  // scene.json without the key: lab
 
   // Index of the camera called `name`; throws Error naming it when absent.
   int camera_index(const std::string& name) const;
