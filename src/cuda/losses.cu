@@ -12,6 +12,7 @@
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/cuda/losses.hpp"
 #include "retimegs/model/camera_color.hpp"
+#include "retimegs/model/camera_pose.hpp"
 #include "retimegs/train/loss_formulas.hpp"
 
 namespace retimegs::cuda {
@@ -328,6 +329,28 @@ __global__ void __launch_bounds__(kPixelThreads)
                                   log_scale + 3 * r, v_opacity_logit[r], v_log_scale + 3 * r);
 }
 
+__global__ void __launch_bounds__(kPixelThreads)
+    camera_pose_kernel(std::size_t n, const float* means, const float* quats, const float* v_means,
+                       const float* v_quats, double* partials) {
+  const std::size_t i = std::size_t(blockIdx.x) * kPixelThreads + threadIdx.x;
+  double sums[6] = {};
+  if (i < n) {
+    double moment[3] = {0, 0, 0}, force[3] = {0, 0, 0};
+    model::add_pose_moment(means + 3 * i, quats + 4 * i, v_means + 3 * i, v_quats + 4 * i, moment,
+                           force);
+    for (int k = 0; k < 3; ++k) sums[k] = moment[k], sums[3 + k] = force[k];
+  }
+  block_sums<kPixelThreads, 1>(sums, partials, gridDim.x, blockIdx.x);
+}
+
+// Adds the six totals to out[0, 6).
+struct AddPoseSums {
+  double* out;
+  __device__ void operator()(const double (&totals)[6]) const {
+    for (int k = 0; k < 6; ++k) out[k] += totals[k];
+  }
+};
+
 // Writes the one total to *out.
 struct FinishSum {
   double* out;
@@ -566,6 +589,21 @@ void regularizer_backward(const DevicePrimitives& p, const std::int32_t* rows, s
       rows, count, p.size(), opacity_weight, scale_weight, p.opacity_logit.data(),
       p.log_scale.data(), grads.v_opacity_logit.data(), grads.v_log_scale.data());
   check(cudaGetLastError(), "regularizer_backward_kernel launch");
+}
+
+void camera_pose_sums(const DeviceGaussians& g, const DeviceGaussianGrads& grads, double* sums,
+                      LossScratch& scratch) {
+  const std::size_t n = g.size();
+  if (n == 0) return;
+  if (grads.size() != n)
+    fail("camera pose sums: {} Gaussians but a gradient of {}", n, grads.size());
+  const int blocks = pixel_blocks(n);
+  scratch.partials.resize(std::size_t(blocks) * 6);
+  camera_pose_kernel<<<blocks, kPixelThreads>>>(n, g.means.data(), g.quats.data(),
+                                                grads.v_means.data(), grads.v_quats.data(),
+                                                scratch.partials.data());
+  check(cudaGetLastError(), "camera_pose_kernel launch");
+  finish<6>(scratch.partials.data(), blocks, AddPoseSums{sums}, "camera pose finish_sums launch");
 }
 
 }  // namespace retimegs::cuda

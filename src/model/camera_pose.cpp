@@ -7,7 +7,9 @@ namespace retimegs::model {
 
 namespace {
 
-Eigen::Vector3d vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+Eigen::Vector3d vec(const std::array<double, 3>& a) {
+  return {a[0], a[1], a[2]};
+}
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& w) {
   Eigen::Matrix3d s;
@@ -50,10 +52,10 @@ std::array<double, 6> pose_gradient(const Camera& seen, const CameraPose& pose,
   const Eigen::Matrix3d r = seen.rotation();
   const Eigen::Vector3d t = seen.translation();
   const Eigen::Vector3d v_tau = r * Eigen::Vector3d(force[0], force[1], force[2]);
-  const Eigen::Vector3d v_delta = r * Eigen::Vector3d(moment[0], moment[1], moment[2]) +
-                                  t.cross(v_tau);
-  const Eigen::Vector3d v_omega =
-      left_jacobian(vec(pose.rotation)).transpose() * (v_delta - vec(pose.translation).cross(v_tau));
+  const Eigen::Vector3d v_delta =
+      r * Eigen::Vector3d(moment[0], moment[1], moment[2]) + t.cross(v_tau);
+  const Eigen::Vector3d v_omega = left_jacobian(vec(pose.rotation)).transpose() *
+                                  (v_delta - vec(pose.translation).cross(v_tau));
   return {v_omega.x(), v_omega.y(), v_omega.z(), v_tau.x(), v_tau.y(), v_tau.z()};
 }
 
@@ -78,7 +80,7 @@ template std::array<double, 6> camera_pose_vjp<float>(const GaussiansT<float>&,
                                                       const GaussianGradsT<float>&, const Camera&,
                                                       const CameraPose&);
 template std::array<double, 6> camera_pose_vjp<double>(const GaussiansT<double>&,
-                                                       const GaussianGradsT<double>&,
-                                                       const Camera&, const CameraPose&);
+                                                       const GaussianGradsT<double>&, const Camera&,
+                                                       const CameraPose&);
 
 }  // namespace retimegs::model

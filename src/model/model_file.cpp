@@ -88,6 +88,11 @@ int grid_index(const TimeGrid& grid, double t, const std::string& file, std::str
 
 }  // namespace
 
+const CameraPose* find_camera_pose(const Model& model, const std::string& camera) {
+  const auto it = model.camera_poses.find(camera);
+  return it == model.camera_poses.end() ? nullptr : &it->second;
+}
+
 const CameraColor* find_camera_color(const Model& model, const std::string& camera) {
   const auto it = model.camera_colors.find(camera);
   return it == model.camera_colors.end() ? nullptr : &it->second;

@@ -48,6 +48,8 @@ constexpr std::string_view kRun = "**Run**";
 constexpr std::string_view kSchedule = "**Schedule**";
 constexpr std::string_view kRates = "**Learning rates** (Adam, β = 0.9 / 0.999, ε = 1e-15)";
 constexpr std::string_view kLosses = "**Losses and model**";
+constexpr std::string_view kCameras =
+    "**Camera refinement** (docs/method.md, \"Camera refinement\")";
 constexpr std::string_view kDensity = "**Primitive budget and density control**";
 constexpr std::string_view kPaper =
     "**The paper's readings** (each `false` by default; `--preset paper` sets them and "
@@ -132,6 +134,18 @@ constexpr ConfigKey kKeys[] = {
     // An edge wider than the clip makes every primitive's opacity follow the edge alone.
     {"gamma", &TrainConfig::gamma, Range{0, 1, true}, kLosses,
      "sharpness of the temporal-opacity edges, in normalised clip time (stored in the model)"},
+
+    {"refine_cameras", &TrainConfig::refine_cameras, std::nullopt, kCameras,
+     "learn a pose correction (rotation about the camera's centre, shift) per training camera; "
+     "`null`: on for a scene whose calibration is the user's (scene.json `calibration`), off for "
+     "a lab calibration (the run records the value it used)"},
+    {"lr_camera_pose", &TrainConfig::lr_camera_pose, kRate, kCameras,
+     "the corrections' rotation (radians) and shift (× E)"},
+    {"camera_refine_start", &TrainConfig::camera_refine_start, kMilestone, kCameras,
+     "scaled; the corrections move at iterations after this"},
+    {"camera_pose_reg", &TrainConfig::camera_pose_reg, kWeight, kCameras,
+     "weight of |ω|² + |τ / E|² summed over the training cameras: a pull toward the given "
+     "calibration where the images do not decide"},
 
     {"cap", &TrainConfig::cap, kCount, kDensity,
      "most primitives (`--cap`, `--preset`); initial seeds above it are subsampled"},

@@ -7,6 +7,7 @@
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/core/stopwatch.hpp"
 #include "retimegs/model/camera_color.hpp"
+#include "retimegs/model/camera_pose.hpp"
 #include "retimegs/model/slice.hpp"
 #include "retimegs/render/rasterize.hpp"
 #include "retimegs/train/losses.hpp"
@@ -37,7 +38,7 @@ CpuStep::CpuStep(const TrainingSet& set, const TrainConfig& config)
 void CpuStep::render_pass(const RenderPass& pass, int c, int i,
                           const std::vector<std::int32_t>& active, double w_flow, StepStats& stats,
                           model::PrimitiveGrads& grads) {
-  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  const Camera& camera = camera_;
   const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
   const Image& target = target_;
   model::SliceOptions eo;
@@ -92,6 +93,8 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
   GaussianGrads& vg = v_gaussians_;
   render::rasterize_backward(e.gaussians, camera, background.data(), render_options, out,
                              v_image.data.data(), vg);
+  if (state_.refines_at(stats.iteration))
+    state_.add_pose_gradient(c, model::camera_pose_vjp(e.gaussians, vg, camera, state_.pose_of(c)));
   stats.seconds.render_backward += clock.lap();
   model::slice_backward(state_.model.primitives, state_.model.config, state_.model.grid, t, camera,
                         eo, e, vg, grads, &shaded_);
@@ -125,7 +128,8 @@ StepStats CpuStep::step_view(int c, int i) {
   stats.active = active.size();
   model::PrimitiveGrads& grads = grads_;
   grads.resize(p.size());
-  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  camera_ = state_.camera(c);
+  const Camera& camera = camera_;
   Stopwatch shade_clock;
   const double t = set_.time(c, i);
   model::shade(p, state_.model.config, state_.model.grid, t, camera, active, shaded_);
@@ -150,6 +154,7 @@ StepStats CpuStep::step_view(int c, int i) {
     for (const std::int32_t r : active)
       model::tie_end_velocities(*tie, p.mu_tau[r], &p.velocity[9 * std::size_t(r)]);
   if (state_.camera_color()) state_.step_camera_color(c, decay);
+  if (state_.refines_at(it)) stats.loss += state_.step_camera_pose(c, decay);
   stats.lr_means = state_.adam.means_rate(means, decay);
   stats.seconds.optimizer = clock.lap();
   const DensityChanges changes =

@@ -19,6 +19,7 @@
 #include "retimegs/cuda/rasterize.hpp"
 #include "retimegs/cuda/slice.hpp"
 #include "retimegs/cuda/strategy.hpp"
+#include "retimegs/model/camera_pose.hpp"
 #include "retimegs/train/schedule.hpp"
 #include "retimegs/train/step_state.hpp"
 #include "retimegs/train/strategy.hpp"
@@ -28,6 +29,7 @@ namespace {
 
 // The numbers a step reads back, one slot each per render pass (device doubles).
 enum LossSlot { kImageLoss, kForwardFlowLoss, kBackwardFlowLoss, kSquaredError, kSlotsPerPass };
+constexpr std::size_t kPoseSums = 6;
 
 // A stage's wall time: the default stream's queue drained first, so that each stage is charged
 // its own kernels (a few microseconds per stage, against milliseconds of work). Only that stream:
@@ -143,7 +145,11 @@ class CudaStep final : public TrainingStep {
   cuda::FlowUploads flows_;  // the step's view's
   cuda::DeviceSsimTarget target_;
   cuda::LossScratch loss_scratch_;
-  cuda::DeviceBuffer<double> losses_;  // [passes, kSlotsPerPass], and the regulariser last
+  // [passes, kSlotsPerPass], the regulariser, then the pose correction's sums [kPoseSums]
+  // (cuda::camera_pose_sums).
+  cuda::DeviceBuffer<double> losses_;
+  double* pose_sums() { return losses_.data() + losses_.size() - kPoseSums; }
+  Camera camera_;  // the step's camera, through its pose correction
   cuda::DeviceBuffer<float> color_, v_color_, corrected_, v_image_;
   cuda::DeviceShaded shaded_;
   std::array<cuda::DeviceTimeSlice, 3> slices_;  // by model::Group, as the CPU step's
@@ -264,7 +270,7 @@ void CudaStep::download() const {
 
 void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c, int i,
                            double w_flow, StepStats& stats) {
-  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  const Camera& camera = camera_;
   const model::Model& m = state_.model;
   const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
   const int list = state_.row_list(c, i);
@@ -321,6 +327,8 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
   stats.seconds.losses += lap(clock);
   cuda::rasterize_backward(slice.gaussians, camera, backdrop, render_options, render_,
                            v_image_.data(), nullptr, nullptr, v_gaussians_);
+  if (state_.refines_at(stats.iteration))
+    cuda::camera_pose_sums(slice.gaussians, v_gaussians_, pose_sums(), loss_scratch_);
   stats.seconds.render_backward += lap(clock);
   cuda::slice_backward(primitives_, m.config, m.grid, t, camera, options, slice, v_gaussians_,
                        grads_, &shaded_);
@@ -350,7 +358,7 @@ StepStats CudaStep::step_view(int c, int i) {
   else
     target_.assign(images_[c][i]);
   const std::size_t slots = passes.size() * kSlotsPerPass + 1;
-  losses_.resize(slots);
+  losses_.resize(slots + kPoseSums);
   losses_.fill_bytes(0);
   if (state_.camera_color()) {
     const model::CameraColor color = state_.color_of(c);
@@ -366,7 +374,8 @@ StepStats CudaStep::step_view(int c, int i) {
   const std::int32_t* rows = rows_.data() + row_offsets_[list];
   const std::size_t count = row_offsets_[list + 1] - row_offsets_[list];
   stats.active = count;
-  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  camera_ = state_.camera(c);
+  const Camera& camera = camera_;
   const double t = set_.time(c, i);
   cuda::shade(primitives_, m.config, m.grid, t, camera, rows, count, shaded_);
   stats.seconds.slice += lap(clock);
@@ -397,6 +406,13 @@ StepStats CudaStep::step_view(int c, int i) {
     v_color_.download(state_.color_grad(c));
     state_.step_camera_color(c, decay);
   }
+  double pose_reg = 0;
+  if (state_.refines_at(it)) {
+    const double* p = &sums[slots];
+    state_.add_pose_gradient(
+        c, model::pose_gradient(camera, state_.pose_of(c), {p[0], p[1], p[2]}, {p[3], p[4], p[5]}));
+    pose_reg = state_.step_camera_pose(c, decay);
+  }
   for (std::size_t p = 0; p < passes.size(); ++p) {
     const double* s = &sums[p * kSlotsPerPass];
     stats.image_loss += s[kImageLoss];
@@ -405,7 +421,7 @@ StepStats CudaStep::step_view(int c, int i) {
       stats.psnr =
           psnr_from_squared_error(s[kSquaredError], std::size_t(camera.width) * camera.height * 3);
   }
-  stats.loss = stats.image_loss + w_flow * stats.flow_loss + sums[slots - 1];
+  stats.loss = stats.image_loss + w_flow * stats.flow_loss + sums[slots - 1] + pose_reg;
   stats.flow_weight = w_flow;
   stats.lr_means = state_.adam.means_rate(means, decay);
   stats.seconds.optimizer = lap(clock);

@@ -15,9 +15,14 @@
 namespace retimegs::train {
 namespace fs = std::filesystem;
 
+bool refine_cameras(const TrainConfig& config, const TrainingSet& set) {
+  return config.refine_cameras.value_or(set.scene.calibration == io::CalibrationSource::kUser);
+}
+
 StepState::StepState(const TrainingSet& set, const TrainConfig& config)
     : rng(config.seed), set_(set), config_(config) {
   config_.random_background = train::random_background(config, set);
+  config_.refine_cameras = train::refine_cameras(config, set);
   model.grid = set.grid;
   model.config = config.model_config();
   // A window trains as a clip of its own, its ends open (model/window.hpp).
@@ -35,6 +40,84 @@ StepState::StepState(const TrainingSet& set, const TrainConfig& config)
     color_adam_ = Adam(cameras, kColorWidth);
     for (const int camera : set.cameras) model.camera_colors[set.scene.cameras[camera].name] = {};
   }
+  if (refine_cameras()) {
+    const std::size_t cameras = set.cameras.size();
+    poses_.assign(cameras * kPoseWidth, 0.0f);  // the identity
+    pose_grads_.assign(cameras * kPoseWidth, 0.0f);
+    pose_adam_ = Adam(cameras, kPoseWidth);
+    for (const int camera : set.cameras) model.camera_poses[set.scene.cameras[camera].name] = {};
+  }
+}
+
+model::CameraPose StepState::pose_of(int c) const {
+  model::CameraPose pose;
+  if (!refine_cameras()) return pose;
+  const float* p = &poses_[std::size_t(c) * kPoseWidth];
+  for (int k = 0; k < 3; ++k)
+    pose.rotation[k] = p[k], pose.translation[k] = double(p[3 + k]) * set_.scene_extent;
+  return pose;
+}
+
+Camera StepState::camera(int c) const {
+  const Camera& camera = set_.scene.cameras[set_.cameras[c]];
+  return refine_cameras() ? model::corrected(camera, pose_of(c)) : camera;
+}
+
+bool StepState::refines_at(int step) const {
+  return refine_cameras() && step > config_.scaled(config_.camera_refine_start);
+}
+
+void StepState::add_pose_gradient(int c, const std::array<double, 6>& gradient) {
+  float* g = &pose_grads_[std::size_t(c) * kPoseWidth];
+  for (int k = 0; k < 3; ++k)
+    g[k] += float(gradient[k]), g[3 + k] += float(gradient[3 + k] * set_.scene_extent);
+}
+
+double StepState::step_camera_pose(int c, double decay) {
+  const double w = config_.camera_pose_reg;
+  float* p = &poses_[std::size_t(c) * kPoseWidth];
+  float* g = &pose_grads_[std::size_t(c) * kPoseWidth];
+  double reg = 0;
+  for (int k = 0; k < kPoseWidth; ++k) {
+    reg += w * double(p[k]) * p[k];
+    g[k] += float(2 * w * p[k]);
+  }
+  const std::vector<std::int32_t> row = {c};
+  pose_adam_.step(poses_.data(), pose_grads_.data(), config_.lr_camera_pose * decay, &row);
+  std::fill_n(g, kPoseWidth, 0.0f);
+  remove_rig_motion();
+  for (std::size_t j = 0; j < set_.cameras.size(); ++j)
+    model.camera_poses[set_.scene.cameras[set_.cameras[j]].name] = pose_of(int(j));
+  return reg;
+}
+
+void StepState::remove_rig_motion() {
+  // Gauge: moving the world by a small similarity G (rotation θ, shift x, scale s) while the scene
+  // follows by G⁻¹ leaves every image as it was; to first order it is the correction
+  // (ω_c, τ_c) = (R_c θ, R_c x + t_c × R_c θ + s t_c) of every camera c (world_to_camera (R_c,
+  // t_c); a scale of camera space does not change a projection, so s appears as the shift s t_c).
+  // Nothing in the loss pins it, so the corrections' least-squares fit of it is subtracted after
+  // every step, as the colours' mean is: the rig stays where the calibration put it, and what
+  // remains is each camera's motion relative to the others.
+  const std::size_t cameras = set_.cameras.size();
+  const double extent = set_.scene_extent;
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(kPoseWidth * cameras, 7);
+  Eigen::VectorXd b(kPoseWidth * cameras);
+  for (std::size_t j = 0; j < cameras; ++j) {
+    const Camera& camera = set_.scene.cameras[set_.cameras[j]];
+    const Eigen::Matrix3d r = camera.rotation();
+    const Eigen::Vector3d t = camera.translation() / extent;  // τ is stored in extents
+    Eigen::Matrix3d t_cross;
+    t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+    a.block<3, 3>(kPoseWidth * j, 0) = r;
+    a.block<3, 3>(kPoseWidth * j + 3, 0) = t_cross * r;
+    a.block<3, 3>(kPoseWidth * j + 3, 3) = r;
+    a.block<3, 1>(kPoseWidth * j + 3, 6) = t;
+    for (int k = 0; k < kPoseWidth; ++k) b[kPoseWidth * j + k] = poses_[kPoseWidth * j + k];
+  }
+  const Eigen::VectorXd rig = a.colPivHouseholderQr().solve(b);
+  const Eigen::VectorXd rest = b - a * rig;
+  for (std::size_t k = 0; k < poses_.size(); ++k) poses_[k] = float(rest[k]);
 }
 
 model::CameraColor StepState::color_of(int c) const {
@@ -184,6 +267,7 @@ void StepState::save_checkpoint(const fs::path& dir) const {
   NamedAdams optimizers;
   for (const auto& [name, group] : adam) optimizers.emplace_back(name, &group);
   if (camera_color()) optimizers.emplace_back(kCameraColorAdam, &color_adam_);
+  if (refine_cameras()) optimizers.emplace_back(kCameraPoseAdam, &pose_adam_);
   write_checkpoint(dir, model, iteration, rng, optimizers);
 }
 
@@ -205,6 +289,22 @@ void StepState::load_checkpoint(const fs::path& dir) {
       std::copy(color->c.begin(), color->c.end(), &colors_[j * kColorWidth + 3]);
     }
     checkpoint.read_adam(kCameraColorAdam, color_adam_);
+  }
+  if (refine_cameras()) {
+    for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
+      const std::string& name = set_.scene.cameras[set_.cameras[j]].name;
+      const model::CameraPose* pose = model::find_camera_pose(model, name);
+      if (!pose)
+        fail(
+            "{}: the checkpoint's model has no pose correction of training camera '{}' (the run "
+            "refines its cameras: its config's refine_cameras)",
+            dir.string(), name);
+      for (int k = 0; k < 3; ++k) {
+        poses_[j * kPoseWidth + k] = float(pose->rotation[k]);
+        poses_[j * kPoseWidth + 3 + k] = float(pose->translation[k] / set_.scene_extent);
+      }
+    }
+    checkpoint.read_adam(kCameraPoseAdam, pose_adam_);
   }
   rebuild_index();
 }

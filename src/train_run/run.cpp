@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <numbers>
 #include <vector>
 
 #include <spdlog/spdlog.h>
@@ -19,6 +20,7 @@
 #include "retimegs/train/background.hpp"
 #include "retimegs/train/dataset.hpp"
 #include "retimegs/train/step.hpp"
+#include "retimegs/train/step_state.hpp"
 #include "retimegs/train_run/load_training_set.hpp"
 
 namespace retimegs::train {
@@ -102,11 +104,13 @@ class RunFolder {
     remove_stale_temporaries(checkpoints());
     config = run.config;
     if (run.resume && fs::exists(out_ / "config.json")) {
-      // A config.json without random_background predates the key: its run trained over black.
-      TrainConfig before_random_background;
-      before_random_background.random_background = false;
-      config = config_from_json(read_text_file(out_ / "config.json", "run config"),
-                                before_random_background, (out_ / "config.json").string());
+      // A config.json without random_background or refine_cameras predates the key: its run
+      // trained over black, with the cameras as given.
+      TrainConfig before_keys;
+      before_keys.random_background = false;
+      before_keys.refine_cameras = false;
+      config = config_from_json(read_text_file(out_ / "config.json", "run config"), before_keys,
+                                (out_ / "config.json").string());
       if (const auto found = checkpoint_folders(checkpoints()); !found.empty())
         latest = found.back();
       if (run.iters) {
@@ -255,6 +259,29 @@ void log_coverage(const TrainingSet& set) {
   for (const std::string& line : io::coverage_warnings(set.scene, result)) spdlog::warn("{}", line);
 }
 
+// The log's word on the cameras' calibration (`given`: the config set refine_cameras rather than
+// leaving it to the scene's calibration source).
+std::string describe_refinement(const TrainConfig& config, bool given) {
+  if (!*config.refine_cameras) return "taken as calibrated (the config's refine_cameras)";
+  return fmt::format("pose corrections learned from iteration {} ({})",
+                     config.scaled(config.camera_refine_start),
+                     given ? "the config's refine_cameras"
+                           : "the calibration is the user's: scene.json calibration");
+}
+
+// Each training camera's learned correction (model/camera_pose.hpp): the angle it turned and the
+// distance its centre moved (|τ|), in % of the scene extent.
+void log_camera_poses(const model::Model& model, const TrainingSet& set) {
+  for (const int c : set.cameras) {
+    const std::string& name = set.scene.cameras[c].name;
+    const model::CameraPose* pose = model::find_camera_pose(model, name);
+    if (!pose) continue;
+    const Eigen::Vector3d w(pose->rotation.data()), t(pose->translation.data());
+    spdlog::info("camera {}: turned {:.3f}°, moved {:.3f} % of the scene extent", name,
+                 w.norm() * 180 / std::numbers::pi, 100 * t.norm() / set.scene_extent);
+  }
+}
+
 // The progress line's smoothed loss and PSNR (exponential moving average).
 struct Smoothed {
   double loss = 0, psnr = 0;
@@ -283,6 +310,8 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   folder.config.random_background = random_background(folder.config, set);
   const std::string background =
       describe_background(*folder.config.random_background, background_given);
+  const bool refine_given = folder.config.refine_cameras.has_value();
+  folder.config.refine_cameras = refine_cameras(folder.config, set);
   const TrainConfig& config = folder.config;
 
   const std::unique_ptr<TrainingStep> owned_step = make_step(set, config, run.device);
@@ -310,6 +339,8 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
       step.primitive_count(), config.cap, set.cameras.size(), set.frames.size(),
       double(set.image_bytes()) / 1e6, set.flow_files(), config.iters, cuda::describe(run.device),
       background);
+  if (*config.refine_cameras || set.scene.calibration == io::CalibrationSource::kUser)
+    spdlog::info("cameras: {}", describe_refinement(config, refine_given));
   if (io::has_own_clocks(set.scene)) {
     std::size_t off = 0;
     for (std::size_t c = 0; c < set.cameras.size(); ++c)
@@ -356,6 +387,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   progress.finish();
   log.flush();
   spdlog::info("{}", step.finish());
+  if (*config.refine_cameras) log_camera_poses(step.host_model(), set);
   // A window's model is stored on the clip's grid with its window, for merge.
   const model::Model model =
       set.clip_grid ? model::with_window(step.host_model(), *set.clip_grid, config.model_config())

@@ -19,6 +19,7 @@
 #include "retimegs/core/ssim.hpp"
 #include "retimegs/cuda/losses.hpp"
 #include "retimegs/model/camera_color.hpp"
+#include "retimegs/model/camera_pose.hpp"
 #include "retimegs/train/loss_formulas.hpp"
 
 namespace retimegs::cuda {
@@ -418,6 +419,45 @@ TEST(CameraColorCuda, BackwardMatchesTheCpu) {
         EXPECT_NEAR(v_color[k], cpu, tolerance) << "d (m, c)[" << k << "]";
       }
     }
+}
+
+// The camera pose correction's sums (model::add_pose_moment over the Gaussians) against the CPU's
+// loop in double, added onto what the buffer held; sizes around the block size.
+TEST(CameraPoseSumsCuda, MatchTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  std::uint64_t seed = 900;
+  for (const std::size_t n : {std::size_t(1), std::size_t(255), std::size_t(4097)}) {
+    SCOPED_TRACE(testing::Message() << n << " Gaussians");
+    Gaussians g(n, 3);
+    g.means = test::random_floats(3 * n, -3.0f, 3.0f, seed++);
+    g.quats = test::random_floats(4 * n, -1.0f, 1.0f, seed++);
+    const std::vector<float> v_means = test::random_floats(3 * n, -1e-2f, 1e-2f, seed++);
+    const std::vector<float> v_quats = test::random_floats(4 * n, -1e-2f, 1e-2f, seed++);
+    const std::vector<double> start = {0.5, -0.25, 1.0, 0.0, 2.0, -1.0};
+    double cpu[6], scale[6] = {};
+    std::copy(start.begin(), start.end(), cpu);
+    for (std::size_t i = 0; i < n; ++i) {
+      double moment[3] = {}, force[3] = {};
+      model::add_pose_moment(&g.means[3 * i], &g.quats[4 * i], &v_means[3 * i], &v_quats[4 * i],
+                             moment, force);
+      for (int k = 0; k < 3; ++k) {
+        cpu[k] += moment[k], cpu[3 + k] += force[k];
+        scale[k] += std::abs(moment[k]), scale[3 + k] += std::abs(force[k]);
+      }
+    }
+    DeviceGaussians d_g;
+    d_g.upload(g);
+    DeviceGaussianGrads d_v;
+    d_v.v_means.upload(v_means);
+    d_v.v_quats.upload(v_quats);
+    d_v.v_opacities.resize(n);
+    DeviceBuffer<double> sums;
+    sums.upload(start);
+    LossScratch scratch;
+    camera_pose_sums(d_g, d_v, sums.data(), scratch);
+    const std::vector<double> out = sums.download();
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(out[k], cpu[k], 1e-12 * (scale[k] + 1)) << "sum " << k;
+  }
 }
 
 }  // namespace

@@ -136,6 +136,34 @@ TEST(CudaStep, ViewsOffTheGridMatchTheCpu) {
   }
 }
 
+// Camera refinement from the first step: both devices take the same gradient of each camera's
+// correction (the device's sums of the render's Gaussians against the CPU's) and step it alike.
+TEST(CudaStep, CameraRefinementMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene();
+  TrainConfig config = tiny_config(200);
+  config.refine_cameras = true;
+  config.camera_refine_start = 0;
+  Pair pair(set, config);
+  const int views[][2] = {{0, 2}, {1, 0}, {2, 3}, {0, 1}};
+  for (const auto& [c, i] : views) {
+    const StepStats g = pair.gpu->step_view(c, i), h = pair.cpu.step_view(c, i);
+    EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
+  }
+  const model::Model gpu = pair.gpu->host_model();
+  ASSERT_EQ(gpu.camera_poses.size(), set.cameras.size());
+  for (const auto& [name, pose] : pair.cpu.model().camera_poses) {
+    const model::CameraPose& other = gpu.camera_poses.at(name);
+    for (int k = 0; k < 3; ++k) {
+      // One Adam step moves a parameter by about its rate: the two agree to a small part of it.
+      EXPECT_NEAR(other.rotation[k], pose.rotation[k], 0.05 * config.lr_camera_pose) << name;
+      EXPECT_NEAR(other.translation[k], pose.translation[k],
+                  0.05 * config.lr_camera_pose * set.scene_extent)
+          << name;
+    }
+  }
+}
+
 // Over random backgrounds, with the tiny scene's masks (the target's background pixels take the
 // step's colour as the camera sees it) and without (the target stays the image): both devices
 // composite the renders over the same colour, so their first steps' losses agree, and differ

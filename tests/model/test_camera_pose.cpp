@@ -56,7 +56,7 @@ struct PoseScene {
 
 model::CameraPose some_pose() {
   model::CameraPose pose;
-  pose.rotation = {0.021, -0.013, 0.017};      // about 1.6 degrees
+  pose.rotation = {0.021, -0.013, 0.017};    // about 1.6 degrees
   pose.translation = {0.015, -0.02, 0.012};  // about 1 % of the scene's depth
   return pose;
 }
@@ -65,9 +65,8 @@ TEST(CameraPose, GradientMatchesFiniteDifferences) {
   for (const unsigned seed : {1u, 2u, 3u}) {
     const PoseScene scene(seed);
     for (const model::CameraPose& pose : {model::CameraPose{}, some_pose()}) {
-      const std::array<double, 6> analytic =
-          model::camera_pose_vjp(scene.g, scene.grads(pose), model::corrected(scene.camera, pose),
-                                 pose);
+      const std::array<double, 6> analytic = model::camera_pose_vjp(
+          scene.g, scene.grads(pose), model::corrected(scene.camera, pose), pose);
       constexpr double kStep = 1e-6;
       std::array<double, 6> numeric{};
       double scale = 0;
@@ -92,8 +91,10 @@ TEST(CameraPose, FloatSumsMatchDouble) {
   const Camera seen = model::corrected(scene.camera, pose);
   const GaussianGradsT<double> grads = scene.grads(pose);
   GaussianGradsT<float> grads_f(grads.size(), grads.channels);
-  for (std::size_t k = 0; k < grads.v_means.size(); ++k) grads_f.v_means[k] = float(grads.v_means[k]);
-  for (std::size_t k = 0; k < grads.v_quats.size(); ++k) grads_f.v_quats[k] = float(grads.v_quats[k]);
+  for (std::size_t k = 0; k < grads.v_means.size(); ++k)
+    grads_f.v_means[k] = float(grads.v_means[k]);
+  for (std::size_t k = 0; k < grads.v_quats.size(); ++k)
+    grads_f.v_quats[k] = float(grads.v_quats[k]);
   const auto exact = model::camera_pose_vjp(scene.g, grads, seen, pose);
   const auto fast = model::camera_pose_vjp(cast_gaussians<float>(scene.g), grads_f, seen, pose);
   for (int k = 0; k < 6; ++k) EXPECT_NEAR(fast[k], exact[k], 1e-5 * max_abs(exact)) << k;

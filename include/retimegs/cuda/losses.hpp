@@ -22,6 +22,7 @@
 #include "retimegs/core/image.hpp"
 #include "retimegs/cuda/buffer.hpp"
 #include "retimegs/cuda/primitives.hpp"
+#include "retimegs/cuda/rasterize.hpp"
 
 namespace retimegs::cuda {
 
@@ -148,5 +149,13 @@ void apply_camera_color(const float* rgb, int rgb_channels, int width, int heigh
 void apply_camera_color_backward(const float* rgb, int rgb_channels, int width, int height,
                                  const float* color, float* v_render, int v_channels,
                                  float* v_color, LossScratch& scratch);
+
+// model::camera_pose_vjp's world-frame sums on the device: the moment and force
+// (model::add_pose_moment) of a render's Gaussians from the rasteriser's gradient, added into
+// sums [6] (device: moment, then force), so that a step's passes accumulate before one copy to
+// the host, where model::pose_gradient turns them into the correction's gradient. Per-block
+// partials added in a fixed order: the same on every run.
+void camera_pose_sums(const DeviceGaussians& gaussians, const DeviceGaussianGrads& grads,
+                      double* sums, LossScratch& scratch);
 
 }  // namespace retimegs::cuda

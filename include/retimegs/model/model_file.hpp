@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "retimegs/model/camera_color.hpp"
+#include "retimegs/model/camera_pose.hpp"
 #include "retimegs/model/primitives.hpp"
 
 namespace retimegs::model {
@@ -38,6 +39,9 @@ struct Model {
   // Per training camera, by name: the colour correction learned for its images (empty when
   // training learned none). Other cameras render the model's colours.
   std::map<std::string, CameraColor> camera_colors;
+  // Per training camera, by name: the pose correction training learned (empty when it refined
+  // none). A camera drawn through the model is drawn through its correction.
+  std::map<std::string, CameraPose> camera_poses;
   // A window model (train --window): the training frames of `grid` it was trained on. `grid` stays
   // the whole clip's, so that windows share one grid; model/window.hpp draws such a model alone.
   std::optional<TimeWindow> window;
@@ -46,6 +50,8 @@ struct Model {
 
 // The stored correction of the camera named `camera`, or nullptr when the model has none for it.
 const CameraColor* find_camera_color(const Model& model, const std::string& camera);
+// The stored pose correction of the camera named `camera`, or nullptr.
+const CameraPose* find_camera_pose(const Model& model, const std::string& camera);
 
 // Throws Error, naming `what` and the first offending time, unless every time lies in the model's
 // time range, its first to its last training frame: a trajectory is defined between its control

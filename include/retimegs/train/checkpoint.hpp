@@ -21,6 +21,7 @@ namespace retimegs::train {
 using NamedAdams = std::vector<std::pair<std::string, const Adam*>>;
 
 constexpr const char* kCameraColorAdam = "camera_color";
+constexpr const char* kCameraPoseAdam = "camera_pose";
 
 // Writes the folder `dir` atomically (core/atomic_file.hpp), replacing an older one. The active SH
 // degree is model.config.sh_degree.

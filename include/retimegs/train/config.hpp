@@ -74,6 +74,13 @@ struct TrainConfig {
   // Model.
   double gamma = 0.005;
 
+  // Camera refinement (model/camera_pose.hpp). Unset: on for a scene whose calibration is the
+  // user's (train::refine_cameras, which the run writes into its config).
+  std::optional<bool> refine_cameras;
+  double lr_camera_pose = 2e-4;    // ω in radians, τ in scene extents
+  int camera_refine_start = 1000;  // scaled: the scene takes shape before the cameras move
+  double camera_pose_reg = 1e-4;
+
   // Flow-aware initialisation: the paper's readings (true) or the project's (docs/method.md).
   bool init_average_lifts = false;  // 3-D displacement: mean of the per-view lifts at the depth
   bool init_mean_velocity = false;  // v1 = v2 = v3 = the mean of both displacements

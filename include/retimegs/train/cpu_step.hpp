@@ -76,6 +76,7 @@ class CpuStep final : public TrainingStep {
   // Reused across steps and passes: the step's view unpacked, a render's RGB copy and the
   // gradient with respect to the render.
   Image target_, rgb_, v_image_;
+  Camera camera_;           // the step's camera, through its pose correction
   Image corrected_;         // the render through its camera's colour correction (reused)
   SsimTarget ssim_target_;  // target_'s side of SSIM, shared by the step's renders
   model::Shaded shaded_;    // the SH colours of the step's view, shared by its renders

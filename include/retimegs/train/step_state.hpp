@@ -5,6 +5,7 @@
 // colour's Adam step and gauge, the final prune and the checkpoint folder. The CPU step computes
 // on this state directly; the CUDA step mirrors it on the device and copies it back at
 // checkpoints, strategy calls and the end.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -26,6 +27,11 @@
 namespace retimegs::train {
 
 constexpr int kColorWidth = 6;  // a camera colour's parameters: m[3], then c[3]
+constexpr int kPoseWidth = 6;   // a camera pose correction's parameters: ω[3], then τ / E[3]
+
+// Whether the run refines its cameras' poses: config.refine_cameras, or where unset, whether the
+// scene's calibration is the user's (io::CalibrationSource).
+bool refine_cameras(const TrainConfig& config, const TrainingSet& set);
 
 class StepState {
  public:
@@ -71,6 +77,21 @@ class StepState {
   // Adam step of slot c's correction on its gradient (then zeroed), then the gauge rule; writes
   // every correction into the model.
   void step_camera_color(int c, double decay);
+  // Per-camera pose correction (model/camera_pose.hpp, when refine_cameras), by training camera
+  // slot. The camera the steps of slot c draw: the scene's, through its correction.
+  bool refine_cameras() const { return *config_.refine_cameras; }
+  Camera camera(int c) const;
+  model::CameraPose pose_of(int c) const;
+  // Whether step number `step` moves the corrections (after config.camera_refine_start), so
+  // that its renders add their gradient.
+  bool refines_at(int step) const;
+  // Adds d loss / d (ω, τ) of slot c (model::camera_pose_vjp) to the step's gradient.
+  void add_pose_gradient(int c, const std::array<double, 6>& gradient);
+  // The regulariser's gradient, then an Adam step of slot c's correction (gradient then zeroed),
+  // then the gauge rule (remove_rig_motion); writes every correction into the model. Returns the
+  // regulariser's value.
+  double step_camera_pose(int c, double decay);
+
   // Whether the steps draw random backgrounds: config.random_background, or its default for the
   // training set (train::random_background).
   bool random_background() const { return *config_.random_background; }
@@ -93,6 +114,8 @@ class StepState {
 
  private:
   void make_optimizers();
+  // Subtracts from the pose corrections the motion of the whole rig that they contain.
+  void remove_rig_motion();
 
   const TrainingSet& set_;
   TrainConfig config_;
@@ -103,6 +126,9 @@ class StepState {
   // Adam and the step's gradient [cameras, kColorWidth] (zero between steps).
   std::vector<float> colors_, color_grads_;
   Adam color_adam_;
+  // Per-camera pose correction likewise: [cameras, kPoseWidth] (ω, then τ in scene extents).
+  std::vector<float> poses_, pose_grads_;
+  Adam pose_adam_;
 };
 
 }  // namespace retimegs::train
