@@ -194,7 +194,8 @@ TEST(VideosImport, PngFoldersWithColmapModelKeepTheCalibrationAndThePixels) {
   const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), 3u);
   EXPECT_EQ(scene.num_frames, kFrames);
-  EXPECT_EQ(scene.fps, 30.0);  // image folders: the default
+  EXPECT_EQ(scene.fps, 30.0);                                  // image folders: the default
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser);  // the user's COLMAP model
   EXPECT_NE(r.fps_source.find("default"), std::string::npos) << r.fps_source;
   EXPECT_NE(r.calibration.find("COLMAP"), std::string::npos) << r.calibration;
   EXPECT_EQ(r.undistorted, 0);
@@ -223,6 +224,7 @@ TEST(VideosImport, RigYamlAndJsonGiveTheCalibrationExactly) {
     EXPECT_NE(r.calibration.find(file), std::string::npos) << r.calibration;
     EXPECT_EQ(r.undistorted, 0) << file;  // zero coefficients: a pinhole
     const io::Scene scene = media::read_scene(out);
+    EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser) << file;  // the user's rig file
     ASSERT_EQ(scene.cameras.size(), 3u);
     for (int c = 0; c < 3; ++c) {
       expect_same_camera(scene.cameras[c], cams[c]);
