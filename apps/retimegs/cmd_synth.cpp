@@ -1,5 +1,6 @@
 // retimegs synth --preset NAME --out SCENE [--cameras N] [--frames K] [--size WxH] [--seed S]
-//                [--time-offsets CAM:X,...] [--unrecorded-offsets] [--threads T] [--force]
+//                [--time-offsets CAM:X,...] [--unrecorded-offsets]
+//                [--perturb-calibration ROT_DEG,TRANS_FRAC,FOCAL_FRAC] [--threads T] [--force]
 #include <charconv>
 #include <memory>
 #include <string>
@@ -12,6 +13,7 @@
 #include "commands.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/parallel.hpp"
+#include "retimegs/io/perturb_calibration.hpp"
 #include "retimegs/synth/synth.hpp"
 
 namespace retimegs::app {
@@ -36,7 +38,7 @@ std::pair<int, int> parse_size(const std::string& text) {
 void add_synth_command(CLI::App& app) {
   struct Args {
     synth::SynthOptions options;
-    std::string out, size = "256x192", time_offsets;
+    std::string out, size = "256x192", time_offsets, perturb;
     int threads = 0;
     bool unrecorded = false;
   };
@@ -67,6 +69,11 @@ void add_synth_command(CLI::App& app) {
   cmd->add_flag("--unrecorded-offsets", args->unrecorded,
                 "render the --time-offsets but leave them out of scene.json (footage whose "
                 "offsets nobody measured)");
+  cmd->add_option("--perturb-calibration", args->perturb,
+                  "ROT_DEG,TRANS_FRAC,FOCAL_FRAC: scene.json gets each camera turned by up to "
+                  "ROT_DEG degrees, moved by up to TRANS_FRAC of the scene extent and its focal "
+                  "length scaled by up to 1 +- FOCAL_FRAC (drawn from --seed; each at least half "
+                  "its bound); the true cameras go to calibration_true.json (a rig file)");
   cmd->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   cmd->add_flag("--force", args->options.force, "replace an existing output folder");
@@ -78,6 +85,9 @@ void add_synth_command(CLI::App& app) {
     if (args->unrecorded && args->time_offsets.empty())
       fail("--unrecorded-offsets: give the offsets with --time-offsets");
     args->options.record_offsets = !args->unrecorded;
+    if (!args->perturb.empty())
+      args->options.perturb_calibration =
+          io::parse_calibration_perturbation(args->perturb, "--perturb-calibration");
     synth::synthesize_scene(args->options, args->out);
   });
 }

@@ -18,6 +18,7 @@
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/core/input_file.hpp"
+#include "retimegs/ingest/rig_file.hpp"
 
 namespace retimegs::ingest::detail {
 namespace fs = std::filesystem;
@@ -439,3 +440,25 @@ io::ColmapCamera fit_to_footage(io::ColmapCamera cam, int width, int height,
 }
 
 }  // namespace retimegs::ingest::detail
+
+namespace retimegs::ingest {
+
+std::vector<Camera> read_rig_cameras(const std::filesystem::path& file) {
+  std::vector<Camera> cameras;
+  for (const detail::CalibratedCamera& c : detail::read_rig(file)) {
+    const io::ColmapCamera& k = c.intrinsics;
+    if (k.model != "PINHOLE")
+      fail("{}: has distortion ({}): only a pinhole camera is a scene camera as it is", c.where,
+           k.model);
+    if (k.width == 0) fail("{}: no 'width' and 'height': the rig gives no image size", c.where);
+    Camera cam;
+    cam.name = c.name;
+    cam.width = k.width, cam.height = k.height;
+    cam.fx = k.params[0], cam.fy = k.params[1], cam.cx = k.params[2], cam.cy = k.params[3];
+    cam.world_to_camera = c.world_to_camera;
+    cameras.push_back(std::move(cam));
+  }
+  return cameras;
+}
+
+}  // namespace retimegs::ingest

@@ -80,6 +80,7 @@ void import_colmap(const fs::path& source, const fs::path& out, const ImportOpti
   io::Scene scene;
   scene.num_frames = 1;
   scene.fps = kStaticFps;
+  scene.calibration = io::CalibrationSource::kUser;  // a user's reconstruction: a few pixels off
   const auto names = camera_names(model.images, (model_dir / "images").string());
   for (std::size_t i = 0; i < model.images.size(); ++i) {
     const io::ColmapImage& im = model.images[i];

@@ -94,6 +94,7 @@ void import_n3dv(const fs::path& source, const fs::path& out, const ImportOption
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = probed[0].fps;
+  scene.calibration = io::CalibrationSource::kLab;  // the dataset's own calibration
   for (int c = 0; c < count; ++c) {
     const Pose& pose = llff[c];
     Camera cam;

@@ -287,6 +287,7 @@ void import_nerfstudio(const fs::path& source, const fs::path& out, const Import
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = kDefaultFps;
+  scene.calibration = io::CalibrationSource::kUser;  // a user's reconstruction: a few pixels off
   if (root.contains("fps")) {
     scene.fps = detail::finite_number(root["fps"], file, "fps");
     check_fps(scene.fps, fmt::format("{}: 'fps'", file));

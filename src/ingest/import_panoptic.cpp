@@ -140,6 +140,7 @@ void import_panoptic(const fs::path& source, const fs::path& out, const ImportOp
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = kPanopticFps;
+  scene.calibration = io::CalibrationSource::kLab;  // the dome's own calibration
   scene.up = {0, -1, 0};  // Panoptic world: floor at y = 0, people at y < 0
   for (const auto& c : cams) scene.cameras.push_back(downscaled(c.camera, options.downscale));
 

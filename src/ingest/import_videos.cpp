@@ -355,6 +355,8 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   io::Scene scene;
   scene.num_frames = last - first + 1;
   scene.fps = fps;
+  // A rig file, a COLMAP model or COLMAP from scratch: the user's, a few pixels off.
+  scene.calibration = io::CalibrationSource::kUser;
   AtomicDirectory dir(out, options.force || (recovering && only_calibration_logs(out)));
   scene.root = dir.temp_path();
   if (recovering) {

@@ -159,6 +159,10 @@ double frame_time(const Scene& scene, int camera, double position) {
   return t[k] + s * (t[k + 1] - t[k]) + clock.time_offset;
 }
 
+const char* calibration_source_name(CalibrationSource source) {
+  return source == CalibrationSource::kUser ? "user" : "lab";
+}
+
 bool has_own_clocks(const Scene& scene) {
   return std::any_of(scene.clocks.begin(), scene.clocks.end(),
                      [](const CameraClock& c) { return !c.is_default(); });
@@ -237,6 +241,15 @@ Scene read_scene_json(const fs::path& root) {
     if (scene.up.norm() < 1e-9) fail("{}: 'up' must not be the zero vector", file.string());
     scene.up.normalize();
   }
+  if (j.contains("calibration")) {
+    const std::string source = f.string(j["calibration"], "calibration");
+    if (source == calibration_source_name(CalibrationSource::kLab))
+      scene.calibration = CalibrationSource::kLab;
+    else if (source == calibration_source_name(CalibrationSource::kUser))
+      scene.calibration = CalibrationSource::kUser;
+    else
+      fail("{}: 'calibration' must be \"lab\" or \"user\", got \"{}\"", file.string(), source);
+  }
   const json& cams = f.require(j, "cameras", "");
   if (!cams.is_array() || cams.empty())
     fail("{}: 'cameras' must be a non-empty array", file.string());
@@ -297,7 +310,8 @@ void write_scene_json(const Scene& scene) {
                   {"num_frames", scene.num_frames},
                   {"fps", scene.fps},
                   {"cameras", cams},
-                  {"up", {scene.up.x(), scene.up.y(), scene.up.z()}}};
+                  {"up", {scene.up.x(), scene.up.y(), scene.up.z()}},
+                  {"calibration", calibration_source_name(scene.calibration)}};
   write_text_file(scene.json_path(), j.dump(2) + "\n");
 }
 

@@ -97,8 +97,12 @@ TrainingViews training_views(const Scene& scene, FrameSelection which, const Fra
   return views;
 }
 
+double scene_extent(const Scene& scene) {
+  return cameras_extent(scene, training_cameras(scene));
+}
+
 double scene_near_plane(const Scene& scene) {
-  return kNearPlaneFraction * cameras_extent(scene, training_cameras(scene));
+  return kNearPlaneFraction * scene_extent(scene);
 }
 
 Box cameras_look_box(const Scene& scene, const std::vector<int>& cameras) {

@@ -64,6 +64,8 @@ void validate(const SynthOptions& o) {
   check_fps(o.fps, "fps");
   for (const auto& [name, offset] : o.time_offsets)
     if (!std::isfinite(offset)) fail("--time-offsets: {}'s offset is not finite", name);
+  if (o.perturb_calibration)
+    io::check_calibration_perturbation(*o.perturb_calibration, "--perturb-calibration");
 }
 
 // The cameras' clocks from options.time_offsets; empty when none is given. Throws Error naming
@@ -259,13 +261,12 @@ void synthesize_scene(const SynthOptions& options, const std::filesystem::path& 
   scene.cameras = make_cameras(options, world);
   scene.up = Vector3d(0, -1, 0);
   scene.clocks = make_clocks(options, scene.cameras);
-  if (options.record_offsets) {
-    io::write_scene_json(scene);
-  } else {
-    io::Scene unrecorded = scene;
-    unrecorded.clocks.clear();
-    io::write_scene_json(unrecorded);
-  }
+  io::Scene recorded = scene;  // what scene.json says; the images follow `scene`
+  if (!options.record_offsets) recorded.clocks.clear();
+  if (options.perturb_calibration)
+    io::write_perturbed_scene(recorded, *options.perturb_calibration, options.seed);
+  else
+    io::write_scene_json(recorded);
 
   std::vector<Posed> posed;  // [K], at the scene's frame times (the points')
   for (int k = 0; k < frames; ++k) posed.push_back(synth::pose_world(world, k));

@@ -68,6 +68,7 @@ TEST(RecoverCalibration, SyntheticRigPosesUpToASimilarity) {
   EXPECT_EQ(r.reconstructions, 3);
   EXPECT_LT(r.spread, 0.05) << r.spread_camera;
   const io::Scene scene = media::read_scene(dir / "scene");
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser);  // COLMAP from scratch
   ASSERT_EQ(scene.cameras.size(), truth.cameras.size());
   const test::CentreErrors error = test::centre_error_after_alignment(truth.cameras, scene.cameras);
   std::vector<double> focal_errors;

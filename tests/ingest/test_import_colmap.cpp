@@ -176,6 +176,7 @@ TEST(ColmapImport, PinholeCamerasPosesAndPoints) {
     import_colmap(dir / "src", dir / "scene", options);
     const io::Scene scene = media::read_scene(dir / "scene");
     EXPECT_EQ(scene.num_frames, 1);
+    EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser);  // a user's reconstruction
     ASSERT_EQ(scene.cameras.size(), 2u);
     EXPECT_EQ(scene.cameras[0].name, "a");
     EXPECT_EQ(scene.cameras[1].name, "b");

@@ -71,6 +71,7 @@ TEST(N3dvImport, LlffPosesProjectAKnownPointToTheExpectedPixels) {
   ASSERT_EQ(scene.cameras.size(), 3u);
   EXPECT_EQ(scene.num_frames, kFrames);
   EXPECT_NEAR(scene.fps, kFps, 1e-6);
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kLab);  // the dataset's own
   for (int c = 0; c < 3; ++c) {
     const Camera& cam = scene.cameras[c];
     EXPECT_EQ(cam.name, "cam0" + std::to_string(c));

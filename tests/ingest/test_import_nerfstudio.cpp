@@ -49,6 +49,7 @@ TEST(NerfstudioImport, StaticCaptureProjectsAKnownPoint) {
   import_nerfstudio(dir / "src", dir / "scene", options);
   const io::Scene scene = media::read_scene(dir / "scene");
   EXPECT_EQ(scene.num_frames, 1);
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser);  // a user's reconstruction
   ASSERT_EQ(scene.cameras.size(), 2u);
   EXPECT_EQ(scene.cameras[0].name, "frame_00001");
   EXPECT_EQ(scene.cameras[1].name, "frame_00002");

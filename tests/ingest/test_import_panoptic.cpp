@@ -42,6 +42,7 @@ TEST_F(PanopticImport, CamerasFramesSplitsAndMasks) {
   const io::Scene scene =
       media::read_scene(scene_dir());  // also checks every image exists with its size
   EXPECT_EQ(scene.num_frames, 17);
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kLab);  // the dome's own
   ASSERT_EQ(scene.cameras.size(), 31u);
   int train = 0, with_masks = 0;
   for (int c = 0; c < 31; ++c) {

@@ -13,7 +13,9 @@
 
 #include "retimegs/core/psnr.hpp"
 #include "retimegs/ingest/import.hpp"
+#include "retimegs/ingest/rig_file.hpp"
 #include "retimegs/io/colmap.hpp"
+#include "retimegs/io/rig_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -194,7 +196,8 @@ TEST(VideosImport, PngFoldersWithColmapModelKeepTheCalibrationAndThePixels) {
   const io::Scene scene = media::read_scene(dir / "scene");
   ASSERT_EQ(scene.cameras.size(), 3u);
   EXPECT_EQ(scene.num_frames, kFrames);
-  EXPECT_EQ(scene.fps, 30.0);  // image folders: the default
+  EXPECT_EQ(scene.fps, 30.0);                                  // image folders: the default
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser);  // the user's COLMAP model
   EXPECT_NE(r.fps_source.find("default"), std::string::npos) << r.fps_source;
   EXPECT_NE(r.calibration.find("COLMAP"), std::string::npos) << r.calibration;
   EXPECT_EQ(r.undistorted, 0);
@@ -223,12 +226,51 @@ TEST(VideosImport, RigYamlAndJsonGiveTheCalibrationExactly) {
     EXPECT_NE(r.calibration.find(file), std::string::npos) << r.calibration;
     EXPECT_EQ(r.undistorted, 0) << file;  // zero coefficients: a pinhole
     const io::Scene scene = media::read_scene(out);
+    EXPECT_EQ(scene.calibration, io::CalibrationSource::kUser) << file;  // the user's rig file
     ASSERT_EQ(scene.cameras.size(), 3u);
     for (int c = 0; c < 3; ++c) {
       expect_same_camera(scene.cameras[c], cams[c]);
       expect_frame(scene, c, 1, 1);
     }
   }
+}
+
+// io::write_rig_file (calibration_true.json beside a perturbed scene) writes what `import videos
+// --calib` and read_rig_cameras read.
+TEST(VideosImport, AWrittenRigFileGivesTheCamerasBack) {
+  test::TempDir dir;
+  const auto cams = rig();
+  for (int c = 0; c < 3; ++c) write_folder(dir / "src" / cams[c].name, c, 2);
+  io::write_rig_file(dir / "calibration_true.json", cams);
+  const std::vector<Camera> read = read_rig_cameras(dir / "calibration_true.json");
+  ASSERT_EQ(read.size(), 3u);
+  for (int c = 0; c < 3; ++c) expect_same_camera(read[c], cams[c]);
+  import_videos(dir / "src", dir / "scene", quiet(), calib(dir / "calibration_true.json"));
+  const io::Scene scene = media::read_scene(dir / "scene");
+  ASSERT_EQ(scene.cameras.size(), 3u);
+  for (int c = 0; c < 3; ++c) expect_same_camera(scene.cameras[c], cams[c]);
+
+  // Values of every digit come back to a rounding.
+  std::vector<Camera> odd = cams;
+  odd[0].fx = 61.234567890123456, odd[0].cx = 31.987654321098765;
+  odd[0].world_to_camera.topRightCorner<3, 1>() += Eigen::Vector3d(1e-7, -3.3e-5, 0.123456789);
+  io::write_rig_file(dir / "odd.json", odd);
+  const Camera back = read_rig_cameras(dir / "odd.json")[0];
+  EXPECT_NEAR(back.fx, odd[0].fx, 1e-13);
+  EXPECT_NEAR(back.cx, odd[0].cx, 1e-13);
+  EXPECT_LT((back.world_to_camera - odd[0].world_to_camera).cwiseAbs().maxCoeff(), 1e-15);
+
+  // A rig with distortion or without a size is no scene camera as it is.
+  test::write_text(dir / "distorted.json", rig_json(cams, "[0.1, 0, 0, 0]"));
+  try {
+    read_rig_cameras(dir / "distorted.json");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    for (const std::string f : {"distorted.json", "'cam00'", "distortion"})
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+  }
+  test::write_text(dir / "sizeless.json", rig_json(cams));
+  EXPECT_THROW(read_rig_cameras(dir / "sizeless.json"), Error);
 }
 
 TEST(VideosImport, RodriguesVectorAndImageSizeScaleTheIntrinsics) {

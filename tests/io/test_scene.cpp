@@ -405,3 +405,51 @@ TEST(SceneClocks, BadClocksNameFileCameraAndKey) {
 
 }  // namespace
 }  // namespace retimegs::io
+
+namespace retimegs::io {
+namespace {
+
+TEST(SceneCalibration, WrittenAndReadBackLabWhenAbsent) {
+  test::TempDir dir;
+  Scene scene = write_small_scene(dir / "s");
+  EXPECT_EQ(read_json(scene.json_path())["calibration"], "lab");  // the default, written out
+  scene.calibration = CalibrationSource::kUser;
+  write_scene_json(scene);
+  EXPECT_EQ(read_json(scene.json_path())["calibration"], "user");
+  EXPECT_EQ(read_scene_json(dir / "s").calibration, CalibrationSource::kUser);
+  // A scene written before the key existed: a dataset's calibration, taken as exact.
+  json j = read_json(scene.json_path());
+  j.erase("calibration");
+  write_json(scene.json_path(), j);
+  EXPECT_EQ(read_scene_json(dir / "s").calibration, CalibrationSource::kLab);
+  j["calibration"] = "lab";
+  write_json(scene.json_path(), j);
+  EXPECT_EQ(read_scene_json(dir / "s").calibration, CalibrationSource::kLab);
+}
+
+TEST(SceneCalibration, UnknownValueNamesFileFieldAndValue) {
+  test::TempDir dir;
+  const Scene scene = write_small_scene(dir / "s");
+  json j = read_json(scene.json_path());
+  j["calibration"] = "checkerboard";
+  write_json(scene.json_path(), j);
+  try {
+    read_scene_json(dir / "s");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    for (const std::string f : {"scene.json", "'calibration'", "\"checkerboard\"", "\"user\""})
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+  }
+  j["calibration"] = 1;
+  write_json(scene.json_path(), j);
+  try {
+    read_scene_json(dir / "s");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    for (const std::string f : {"scene.json", "'calibration'", "string"})
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace retimegs::io

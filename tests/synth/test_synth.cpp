@@ -10,7 +10,9 @@
 #include "retimegs/core/image.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/io/flow_io.hpp"
+#include "retimegs/io/perturb_calibration.hpp"
 #include "retimegs/io/ply.hpp"
+#include "retimegs/io/rig_file.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/scene_images.hpp"
@@ -208,6 +210,33 @@ TEST(Synth, SameSeedGivesIdenticalFilesForAnyThreadCount) {
   EXPECT_NE(file_bytes(one.image_path(1, 2)), file_bytes(other.image_path(1, 2)));
 }
 
+TEST(Synth, APerturbedCalibrationKeepsTheImagesAndWritesTheTruthBeside) {
+  test::TempDir dir;
+  SynthOptions options = small_options("minimal", 4, 2, 32, 24);
+  options.seed = 5;
+  const io::Scene truth = make_scene(dir, options);
+  EXPECT_EQ(truth.calibration, io::CalibrationSource::kLab);
+  EXPECT_FALSE(std::filesystem::exists(truth.root / io::kTrueCalibrationFile));
+  options.perturb_calibration = io::CalibrationPerturbation{1.0, 0.02, 0.02};
+  synthesize_scene(options, dir / "perturbed");
+  const io::Scene perturbed = media::read_scene(dir / "perturbed");
+  EXPECT_EQ(perturbed.calibration, io::CalibrationSource::kUser);
+  // The images are the true cameras' ...
+  for (int c = 0; c < 4; ++c)
+    EXPECT_EQ(file_bytes(perturbed.image_path(c, 1)), file_bytes(truth.image_path(c, 1)));
+  // ... scene.json holds them perturbed as io::perturb_calibration does with the seed ...
+  const io::Scene expected = io::perturb_calibration(truth, *options.perturb_calibration, 5);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_GT((perturbed.cameras[c].center() - truth.cameras[c].center()).norm(), 1e-3);
+    EXPECT_LT((perturbed.cameras[c].world_to_camera - expected.cameras[c].world_to_camera).norm(),
+              1e-12);
+    EXPECT_EQ(perturbed.cameras[c].fx, expected.cameras[c].fx);
+  }
+  // ... and the truth lies beside it as a rig file.
+  EXPECT_EQ(test::read_text(dir / "perturbed" / io::kTrueCalibrationFile),
+            io::rig_json(truth.cameras));
+}
+
 TEST(Synth, PointsLieOnTheObjectsOfTheirFrame) {
   test::TempDir dir;
   const io::Scene scene = make_scene(dir, small_options("default", 3, 3, 96, 72));
@@ -298,6 +327,9 @@ TEST(Synth, BadOptionsNameTheOption) {
   o = good;
   o.supersample = 0;
   expect_error(o, "supersample: must be >= 1, got 0");
+  o = good;
+  o.perturb_calibration = io::CalibrationPerturbation{120, 0, 0};
+  expect_error(o, "--perturb-calibration: the rotation (degrees) must lie in [0, 90], got 120");
 
   test::TempDir dir;
   std::filesystem::create_directories(dir / "taken");
@@ -316,6 +348,19 @@ TEST(Synth, CommandLineWritesASceneAndRejectsBadFlags) {
   EXPECT_EQ(scene.cameras[0].width, 24);
   EXPECT_EQ(scene.num_frames, 2);
   EXPECT_TRUE(std::filesystem::exists(scene.flow_path(1, 1, 0)));
+  EXPECT_EQ(scene.calibration, io::CalibrationSource::kLab);  // the exact cameras
+
+  const auto perturbed = dir / "perturbed";
+  ok = test::run_cli("synth --preset minimal --out " + perturbed.string() +
+                     " --cameras 3 --frames 2 --size 24x16 --threads 1 "
+                     "--perturb-calibration 0.5,0.01,0.01");
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_EQ(media::read_scene(perturbed).calibration, io::CalibrationSource::kUser);
+  EXPECT_TRUE(std::filesystem::exists(perturbed / io::kTrueCalibrationFile));
+  auto amounts = test::run_cli("synth --preset minimal --out " + (dir / "c").string() +
+                               " --perturb-calibration 0.5,0.01");
+  EXPECT_EQ(amounts.status, 2);
+  EXPECT_NE(amounts.err.find("--perturb-calibration"), std::string::npos) << amounts.err;
 
   auto exists = test::run_cli("synth --preset minimal --out " + out.string());
   EXPECT_EQ(exists.status, 2);

@@ -43,6 +43,9 @@ struct CameraClock {
 // pixels off, which training refines by default (train config refine_cameras).
 enum class CalibrationSource { kLab, kUser };
 
+// "lab" or "user", as scene.json writes it.
+const char* calibration_source_name(CalibrationSource source);
+
 struct Scene {
   std::filesystem::path root;
   int num_frames = 0;

@@ -50,6 +50,10 @@ struct TrainingViews {
   double extent = 1;
 };
 
+// TrainingViews::extent of the scene: the unit training measures distances in, and calibration
+// errors with them (perturb_calibration.hpp).
+double scene_extent(const Scene& scene);
+
 // The near plane as a fraction of the extent. On captures whose cameras see each other (domes,
 // stages) the model holds each rig camera's body and the wall around it, placed only as precisely
 // as the distant cameras that see them allow: blobs up to about 0.3 m in front of a camera centre

@@ -6,8 +6,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "retimegs/io/perturb_calibration.hpp"
 
 namespace retimegs::synth {
 
@@ -25,6 +28,10 @@ struct SynthOptions {
   // footage as a user has it who never measured the offsets). Points stay at t = k.
   std::map<std::string, double> time_offsets;
   bool record_offsets = true;
+  // synth --perturb-calibration: the images are rendered with the true cameras, scene.json holds
+  // them perturbed by these amounts (io::perturb_calibration, drawn from `seed`; calibration
+  // "user") and io::kTrueCalibrationFile beside it the true ones, so that tests know the answer.
+  std::optional<io::CalibrationPerturbation> perturb_calibration;
   bool force = false;  // replace an existing output folder
   bool progress = true;
 };
