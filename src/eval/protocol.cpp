@@ -243,12 +243,16 @@ FrameRenderer baseline_renderer(const io::Scene& scene, std::vector<int> train_f
 
 FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,
                              const render::RenderOptions& options, cuda::Device device) {
+  // The scene's cameras as the model saw them in training (playback::seen_camera): a training
+  // camera's held-out frames through its pose correction, test cameras as they are.
+  std::vector<Camera> seen;
+  for (const Camera& c : scene.cameras) seen.push_back(playback::seen_camera(model, c));
   auto renderer = std::make_shared<const playback::ModelRenderer>(std::move(model), device);
-  return [&scene, renderer, options](int camera, double time) {
+  return [&scene, seen = std::move(seen), renderer, options](int camera, double time) {
     const float black[3] = {0, 0, 0};
     // The camera's own clock: its frame position `time` shows the scene at frame_time.
-    return renderer->render(scene.cameras[camera], io::frame_time(scene, camera, time), black,
-                            options, playback::Colors::kCamera);
+    return renderer->render(seen[camera], io::frame_time(scene, camera, time), black, options,
+                            playback::Colors::kCamera);
   };
 }
 

@@ -176,6 +176,30 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       color.c[c] = float(entry.first[3 + c] / entry.second);
     }
   }
+  // Pose corrections, by the colour maps' rule: per camera, the interval-weighted mean of the ω and
+  // of the τ of the windows that refined it. Corrections are small (a few pixels, under a degree),
+  // where the mean of the axis-angle vectors is the mean rotation to first order; a mean of
+  // vectors shorter than π is shorter than π, as check_camera_pose asks.
+  std::map<std::string, std::pair<std::array<double, 6>, double>> pose_sums;  // ω, τ; weight
+  for (const Model& m : windows) {
+    const TimeWindow w = window_of(m);
+    const double weight = w.last - w.first;
+    for (const auto& [camera, pose] : m.camera_poses) {
+      auto& [sum, total_weight] = pose_sums[camera];
+      for (int k = 0; k < 3; ++k) {
+        sum[k] += weight * pose.rotation[k];
+        sum[3 + k] += weight * pose.translation[k];
+      }
+      total_weight += weight;
+    }
+  }
+  for (const auto& [camera, entry] : pose_sums) {
+    CameraPose& pose = merged.camera_poses[camera];
+    for (int k = 0; k < 3; ++k) {
+      pose.rotation[k] = entry.first[k] / entry.second;
+      pose.translation[k] = entry.first[3 + k] / entry.second;
+    }
+  }
   // Seams: the hand-overs and each window's own (a merged model merged again) between them, where
   // its rows are kept.
   for (std::size_t k = 0; k < order.size(); ++k) {

@@ -7,6 +7,9 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <numbers>
+
+#include <fmt/ranges.h>
 
 #include <nlohmann/json.hpp>
 
@@ -76,6 +79,31 @@ std::map<std::string, CameraColor> camera_colors_from(const json& header, const 
   return colors;
 }
 
+// The camera_poses entry of a header; throws Error naming `file` and the camera of an entry that
+// is not 3 finite numbers per part, or whose rotation turns by π or more (check_camera_pose).
+std::map<std::string, CameraPose> camera_poses_from(const json& header, const std::string& file) {
+  std::map<std::string, CameraPose> poses;
+  if (!header.contains("camera_poses")) return poses;
+  const json& table = header.at("camera_poses");
+  if (!table.is_object()) fail("{}: 'camera_poses' is not an object", file);
+  for (const auto& [camera, entry] : table.items()) {
+    CameraPose& pose = poses[camera];
+    for (auto [key, values] :
+         {std::pair{"rotation", &pose.rotation}, std::pair{"translation", &pose.translation}}) {
+      const json* v = entry.is_object() && entry.contains(key) ? &entry.at(key) : nullptr;
+      if (!v || !v->is_array() || v->size() != 3)
+        fail("{}: camera pose of '{}' lacks '{}' as 3 numbers", file, camera, key);
+      for (int k = 0; k < 3; ++k) {
+        if (!(*v)[k].is_number())
+          fail("{}: camera pose '{}' of '{}' is not finite: {}", file, key, camera, v->dump());
+        (*values)[k] = (*v)[k].get<double>();
+      }
+    }
+    check_camera_pose(pose, fmt::format("{}: camera pose of '{}'", file, camera));
+  }
+  return poses;
+}
+
 // The index of training time t in `grid`; throws Error naming `file` and `what` t is when t is not
 // one.
 int grid_index(const TimeGrid& grid, double t, const std::string& file, std::string_view what) {
@@ -88,14 +116,32 @@ int grid_index(const TimeGrid& grid, double t, const std::string& file, std::str
 
 }  // namespace
 
+const CameraColor* find_camera_color(const Model& model, const std::string& camera) {
+  const auto it = model.camera_colors.find(camera);
+  return it == model.camera_colors.end() ? nullptr : &it->second;
+}
+
 const CameraPose* find_camera_pose(const Model& model, const std::string& camera) {
   const auto it = model.camera_poses.find(camera);
   return it == model.camera_poses.end() ? nullptr : &it->second;
 }
 
-const CameraColor* find_camera_color(const Model& model, const std::string& camera) {
-  const auto it = model.camera_colors.find(camera);
-  return it == model.camera_colors.end() ? nullptr : &it->second;
+Camera seen_camera(const Model& model, const Camera& camera) {
+  const CameraPose* pose = find_camera_pose(model, camera.name);
+  return pose ? corrected(camera, *pose) : camera;
+}
+
+void check_camera_pose(const CameraPose& pose, const std::string& what) {
+  double angle2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(pose.rotation[k]) || !std::isfinite(pose.translation[k]))
+      fail("{} is not finite: rotation [{}], translation [{}]", what,
+           fmt::join(pose.rotation, ", "), fmt::join(pose.translation, ", "));
+    angle2 += pose.rotation[k] * pose.rotation[k];
+  }
+  if (!(std::sqrt(angle2) < std::numbers::pi))
+    fail("{} turns by {} rad, not less than pi: rotation [{}]", what, std::sqrt(angle2),
+         fmt::join(pose.rotation, ", "));
 }
 
 void check_times(const Model& model, const std::vector<double>& times, std::string_view what) {
@@ -169,6 +215,11 @@ void write_model(const fs::path& path, const Model& model, bool replace) {
       if (!std::isfinite(color.m[k]) || !std::isfinite(color.c[k]))
         fail("{}: camera colour of '{}' is not finite", path.string(), camera);
     header["camera_colors"][camera] = {{"m", color.m}, {"c", color.c}};
+  }
+  for (const auto& [camera, pose] : model.camera_poses) {
+    check_camera_pose(pose, fmt::format("{}: camera pose of '{}'", path.string(), camera));
+    header["camera_poses"][camera] = {{"rotation", pose.rotation},
+                                      {"translation", pose.translation}};
   }
   const std::string header_text = header.dump();
 
@@ -246,6 +297,7 @@ Model read_model(const fs::path& path) {
     model.config.sh_degree = int(integer(m.at("sh_degree"), "model.sh_degree", 0, 3));
     model.training_config = header.value("training_config", json::object()).dump();
     model.camera_colors = camera_colors_from(header, file);
+    model.camera_poses = camera_poses_from(header, file);
     if (header.contains("window")) {
       const json& w = header.at("window");
       model.window =

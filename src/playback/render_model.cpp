@@ -35,6 +35,11 @@ LoadedModel load_model(const std::filesystem::path& path) {
   return read_4d_model(path);
 }
 
+Camera seen_camera(const LoadedModel& model, const Camera& camera) {
+  const auto* m = std::get_if<model::Model>(&model);
+  return m ? model::seen_camera(*m, camera) : camera;
+}
+
 double near_plane(const std::optional<double>& near, const io::Scene& scene) {
   if (!near) return io::scene_near_plane(scene);
   if (!(std::isfinite(*near) && *near > 0))

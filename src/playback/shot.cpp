@@ -46,16 +46,19 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
     for (double& t : shot.times) t = io::frame_time(scene, camera, t);
   }
   if (model_4d) model::check_times(*model_4d, shot.times, "render");
+  // Scene cameras as the model saw them (seen_camera): a path moves between the corrected ones.
+  const auto scene_camera = [&](const std::string& name) {
+    return seen_camera(model, scene.cameras[scene.camera_index(name)]);
+  };
   if (!request.path.empty()) {
-    for (const std::string& name : request.path)
-      shot.cameras.push_back(scene.cameras[scene.camera_index(name)]);
+    for (const std::string& name : request.path) shot.cameras.push_back(scene_camera(name));
     if (shot.times.size() == 1) {
       if (request.path_frames < 1) fail("--path-frames: must be >= 1, got {}", request.path_frames);
       check_frame_count(request.path_frames, "--path-frames");
       shot.times.assign(request.path_frames, shot.times[0]);  // bullet time
     }
   } else {
-    shot.cameras = {scene.cameras[scene.camera_index(request.camera)]};
+    shot.cameras = {scene_camera(request.camera)};
   }
   for (Camera& c : shot.cameras) c = at_output_size(c, request.size);
   return shot;

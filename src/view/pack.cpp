@@ -191,7 +191,10 @@ Packed pack(const model::Model& model, const PackScene& pack_scene) {
     m["fps"] = scene->fps;
     m["num_frames"] = scene->num_frames;
     m["up"] = {scene->up[0], scene->up[1], scene->up[2]};
-    for (const Camera& c : scene->cameras) {
+    for (const Camera& scene_camera : scene->cameras) {
+      // As the model saw it (a training camera through its pose correction): snapping to a
+      // camera reproduces its frames, as `render --camera` does.
+      const Camera c = model::seen_camera(model, scene_camera);
       json w2c = json::array();
       for (int r = 0; r < 4; ++r)
         for (int k = 0; k < 4; ++k) w2c.push_back(c.world_to_camera(r, k));

@@ -4,6 +4,7 @@
 
 #include "playback/two_camera_cloud.hpp"
 #include "retimegs/eval/protocol.hpp"
+#include "retimegs/model/camera_pose.hpp"
 
 namespace retimegs::eval {
 namespace {
@@ -46,6 +47,34 @@ TEST(ModelRenderer, RendersEachCameraAtItsOwnClock) {
   EXPECT_EQ(renderer(1, 0.5).data, at(1, 1.0));
   EXPECT_EQ(renderer(0, 1.0).data, at(0, 1.0));
   EXPECT_NE(renderer(1, 1.0).data, at(1, 1.0)) << "the offset changes the render";
+}
+
+}  // namespace
+}  // namespace retimegs::eval
+
+namespace retimegs::eval {
+namespace {
+
+// Issue 65: a training camera's held-out frames are scored as the model saw the camera, through
+// the pose correction training learned for it (the uncorrected model from the corrected camera);
+// a test camera, which has none, as the scene has it.
+TEST(ModelRenderer, DrawsATrainingCameraThroughItsPoseCorrection) {
+  test::TwoCameraCloud f;
+  f.scene.cameras[1].split = Split::kTest;
+  model::Model refined = f.model;
+  const model::CameraPose pose{{0.03, -0.05, 0.02}, {0.1, -0.05, 0.08}};
+  refined.camera_poses["cam00"] = pose;
+  const FrameRenderer renderer = model_renderer(f.scene, refined);
+  const float black[3] = {0, 0, 0};
+  const auto at = [&](const Camera& camera, double t) {
+    return playback::render_model(f.model, camera, t, black, {}, playback::Colors::kCamera);
+  };
+  const Camera seen0 = model::corrected(f.scene.cameras[0], pose);
+  EXPECT_EQ(renderer(0, 1.0).data, at(seen0, 1.0).data);
+  EXPECT_EQ(renderer(0, 0.5).data, at(seen0, 0.5).data);
+  EXPECT_GT(test::max_abs_diff(renderer(0, 1.0), at(f.scene.cameras[0], 1.0)), 0.05)
+      << "the correction moves the image";
+  EXPECT_EQ(renderer(1, 1.0).data, at(f.scene.cameras[1], 1.0).data);
 }
 
 }  // namespace

@@ -467,5 +467,32 @@ TEST(Merge, CameraColoursAreIntervalWeightedMeans) {
   EXPECT_NEAR(m.camera_colors.at("c").m[1], 0.6, 1e-6);
 }
 
+// Issue 65: the windows' pose corrections of a camera, weighted as the colour maps are; a camera
+// only one window refined keeps that window's.
+TEST(Merge, CameraPosesAreIntervalWeightedMeans) {
+  const Fixture f = fixture();
+  Model a = f.left, b = f.right;
+  a.window = TimeWindow{0, 2};  // 2 intervals
+  b.window = TimeWindow{2, 8};  // 6 intervals
+  a.camera_poses["c"] = {{0.04, 0, -0.02}, {0.2, 0, 0}};
+  b.camera_poses["c"] = {{0, 0.08, 0.02}, {0, -0.4, 0}};
+  b.camera_poses["d"] = {{0.01, 0.02, 0.03}, {0.1, 0.2, 0.3}};
+  const Model m = merge_models({b, a}, {"b", "a"});
+  ASSERT_EQ(m.camera_poses.size(), 2u);
+  const CameraPose& c = m.camera_poses.at("c");
+  EXPECT_NEAR(c.rotation[0], 0.01, 1e-12);
+  EXPECT_NEAR(c.rotation[1], 0.06, 1e-12);
+  EXPECT_NEAR(c.rotation[2], 0.01, 1e-12);
+  EXPECT_NEAR(c.translation[0], 0.05, 1e-12);
+  EXPECT_NEAR(c.translation[1], -0.3, 1e-12);
+  EXPECT_EQ(c.translation[2], 0.0);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(m.camera_poses.at("d").rotation[k], b.camera_poses.at("d").rotation[k], 1e-15);
+    EXPECT_NEAR(m.camera_poses.at("d").translation[k], b.camera_poses.at("d").translation[k],
+                1e-15);
+  }
+  EXPECT_TRUE(merge_models({f.left, f.right}, {"l", "r"}).camera_poses.empty());
+}
+
 }  // namespace
 }  // namespace retimegs::model

@@ -4,7 +4,10 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <limits>
+#include <numbers>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -230,6 +233,121 @@ TEST(ModelFile, MalformedCameraColorsAreRefused) {
   test::expect_error([&] { write_model(dir / "inf.rgs", m); },
                      {"inf.rgs", "camera colour of 'cam03' is not finite"});
   EXPECT_FALSE(fs::exists(dir / "inf.rgs"));
+}
+
+// Issue 65: each refined training camera's pose correction, by name, to the last bit.
+TEST(ModelFile, CameraPosesRoundTripByCameraName) {
+  test::TempDir dir;
+  Model m = random_model(5, 8);
+  m.camera_poses["cam00"] = {{0.01, -0.0123456789012345, 3e-9}, {0.25, -1.0 / 3, 1e-12}};
+  m.camera_poses["17"] = {{-1.5, 2.5, 0.1}, {0, 0, -7.0}};  // |ω| = 2.92 rad
+  write_model(dir / "m.rgs", m);
+  const Model r = read_model(dir / "m.rgs");
+  ASSERT_EQ(r.camera_poses.size(), 2u);
+  for (const auto& [camera, pose] : m.camera_poses) {
+    const CameraPose* read = find_camera_pose(r, camera);
+    ASSERT_NE(read, nullptr) << camera;
+    EXPECT_EQ(read->rotation, pose.rotation) << camera;
+    EXPECT_EQ(read->translation, pose.translation) << camera;
+  }
+  EXPECT_EQ(find_camera_pose(r, "cam01"), nullptr);
+  EXPECT_TRUE(r.camera_colors.empty());
+}
+
+// A model without pose corrections is written as earlier builds wrote every model (no
+// "camera_poses" key), and such a file loads with none.
+TEST(ModelFile, FilesWithoutCameraPosesLoadWithNone) {
+  test::TempDir dir;
+  Model m = random_model(6, 9);
+  m.camera_poses["cam00"] = {{0.01, 0.02, 0.03}, {0.1, 0.2, 0.3}};
+  write_model(dir / "with.rgs", m);
+  test::write_text(dir / "old.rgs", with_header(test::read_text(dir / "with.rgs"),
+                                                [](auto& h) { h.erase("camera_poses"); }));
+  const Model old = read_model(dir / "old.rgs");
+  EXPECT_TRUE(old.camera_poses.empty());
+  EXPECT_EQ(old.primitives.mu, m.primitives.mu);
+  m.camera_poses.clear();
+  write_model(dir / "none.rgs", m);
+  EXPECT_EQ(test::read_text(dir / "none.rgs"), test::read_text(dir / "old.rgs"));
+}
+
+TEST(ModelFile, MalformedCameraPosesAreRefused) {
+  test::TempDir dir;
+  Model m = random_model(3, 10);
+  m.camera_poses["cam03"] = {{0.01, 0, 0}, {0, 0, 0.1}};
+  write_model(dir / "m.rgs", m);
+  const std::string bytes = test::read_text(dir / "m.rgs");
+  using nlohmann::json;
+  struct Case {
+    const char* name;
+    std::function<void(json&)> edit;
+    std::string fragment;
+  };
+  const std::vector<Case> cases = {
+      {"table", [](json& h) { h["camera_poses"] = json::array(); },
+       "'camera_poses' is not an object"},
+      {"entry", [](json& h) { h["camera_poses"]["cam03"] = 1.0; },
+       "camera pose of 'cam03' lacks 'rotation' as 3 numbers"},
+      {"short",
+       [](json& h) {
+         h["camera_poses"]["cam03"]["translation"] = {0.0, 1.0};
+       },
+       "camera pose of 'cam03' lacks 'translation' as 3 numbers"},
+      {"missing", [](json& h) { h["camera_poses"]["cam03"].erase("rotation"); },
+       "camera pose of 'cam03' lacks 'rotation'"},
+      {"null", [](json& h) { h["camera_poses"]["cam03"]["rotation"][1] = nullptr; },
+       "camera pose 'rotation' of 'cam03' is not finite"},
+      {"text", [](json& h) { h["camera_poses"]["cam03"]["translation"][0] = "0.1"; },
+       "camera pose 'translation' of 'cam03' is not finite"},
+      // pi itself is refused: the same turn as -pi about the axis, two values for one rotation.
+      {"pi",
+       [](json& h) {
+         h["camera_poses"]["cam03"]["rotation"] = {0.0, 0.0, -std::numbers::pi};
+       },
+       "camera pose of 'cam03' turns by 3.14159"},
+      {"turn",
+       [](json& h) {
+         h["camera_poses"]["cam03"]["rotation"] = {2.0, 2.0, 2.0};
+       },
+       "not less than pi"},
+  };
+  for (const Case& c : cases) {
+    const fs::path path = dir / (std::string(c.name) + ".rgs");
+    test::write_text(path, with_header(bytes, c.edit));
+    SCOPED_TRACE(c.name);
+    expect_refused(path, c.fragment);
+  }
+  // Just below pi is a rotation like any other.
+  test::write_text(dir / "below.rgs", with_header(bytes, [](json& h) {
+                     h["camera_poses"]["cam03"]["rotation"] = {0.0, 0.0, 3.1415};
+                   }));
+  EXPECT_EQ(read_model(dir / "below.rgs").camera_poses.at("cam03").rotation[2], 3.1415);
+  m.camera_poses["cam03"].translation[2] = std::numeric_limits<double>::infinity();
+  test::expect_error([&] { write_model(dir / "inf.rgs", m); },
+                     {"inf.rgs", "camera pose of 'cam03' is not finite"});
+  m.camera_poses["cam03"] = {{4.0, 0, 0}, {}};
+  test::expect_error([&] { write_model(dir / "wide.rgs", m); },
+                     {"wide.rgs", "camera pose of 'cam03' turns by 4"});
+  EXPECT_FALSE(fs::exists(dir / "inf.rgs"));
+  EXPECT_FALSE(fs::exists(dir / "wide.rgs"));
+}
+
+// seen_camera: a refined camera through its correction, any other camera as it is.
+TEST(ModelFile, SeenCameraCorrectsTheRefinedCamerasOnly) {
+  Model m = random_model(1, 11);
+  const CameraPose pose{{0.02, -0.01, 0.005}, {0.1, 0.0, -0.05}};
+  m.camera_poses["cam00"] = pose;
+  Camera cam;
+  cam.name = "cam00";
+  cam.world_to_camera(0, 3) = 1.0;
+  cam.world_to_camera(2, 3) = 4.0;
+  const Camera seen = seen_camera(m, cam);
+  EXPECT_EQ(seen.world_to_camera, corrected(cam, pose).world_to_camera);
+  EXPECT_GT((seen.world_to_camera - cam.world_to_camera).norm(), 0.05);
+  EXPECT_EQ(seen.name, "cam00");
+  Camera other = cam;
+  other.name = "cam01";
+  EXPECT_EQ(seen_camera(m, other).world_to_camera, cam.world_to_camera);
 }
 
 TEST(ModelFile, NonFiniteParametersAreNotWritten) {

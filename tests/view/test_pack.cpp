@@ -160,6 +160,26 @@ TEST(ViewPack, ManifestCarriesEvaluatesSettingsAndTheScene) {
   EXPECT_FALSE(m["cameras"][1].contains("color"));  // no map: the model's own colours
 }
 
+// Issue 65: the viewer's cameras are the scene's as the model saw them, so that snapping to a
+// training camera reproduces its frames as render --camera does.
+TEST(ViewPack, CamerasAreSentThroughTheModelsPoseCorrections) {
+  const PackedFixture f;
+  model::Model m = f.model;
+  const model::CameraPose pose{{0.01, -0.02, 0.03}, {0.05, 0.0, -0.1}};
+  m.camera_poses["cam0"] = pose;
+  view::PackScene scene;
+  scene.scene = &f.scene;
+  const json manifest = json::parse(view::pack(m, scene).manifest);
+  const Eigen::Matrix4d seen = model::corrected(f.scene.cameras[0], pose).world_to_camera;
+  ASSERT_GT((seen - f.scene.cameras[0].world_to_camera).norm(), 0.05);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) {
+      EXPECT_EQ(manifest["cameras"][0]["world_to_camera"][4 * r + c].get<double>(), seen(r, c));
+      EXPECT_EQ(manifest["cameras"][1]["world_to_camera"][4 * r + c].get<double>(),
+                f.scene.cameras[1].world_to_camera(r, c));
+    }
+}
+
 TEST(ViewPack, LowerShDegreePacksOnlyItsCoefficients) {
   model::Model m = test::view_fixture_model(10, 1);
   m.config.sh_degree = 1;  // 4 coefficients, 12 values: 3 texels

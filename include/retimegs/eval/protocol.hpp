@@ -169,9 +169,10 @@ void check_baseline_cameras(const io::Scene& scene, const std::vector<int>& came
 // "crossfade" | "nearest" | "flow"; throws Error naming `flag` and the value otherwise.
 Baseline parse_baseline(const std::string& name, const std::string& flag);
 
-// The held-out renderer of a model: camera `camera` of `scene` at frame position `time` (at scene
-// time io::frame_time of it) on black, with that
-// camera's colours (playback::Colors::kCamera), every render with `options`, on `device`
+// The held-out renderer of a model: camera `camera` of `scene` as the model saw it
+// (playback::seen_camera: a training camera through its pose correction) at frame position `time`
+// (at scene time io::frame_time of it) on black, with that camera's colours
+// (playback::Colors::kCamera), every render with `options`, on `device`
 // (playback::ModelRenderer; the GPU's arrays are reused, so calls must not overlap). `scene` must
 // outlive the returned renderer; the model is owned by it.
 FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model,

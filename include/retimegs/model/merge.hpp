@@ -21,7 +21,8 @@
 // interval before or after it) moves 2ε off the seam, out of the fade's reach, and keeps γ: a fade
 // would show it on a path never trained, a faint ghost beside the seam. Each training camera's
 // colour map is the mean of the windows' maps weighted by their number of training intervals (each
-// window fixed its own gauge, the average camera of its frames). The merged model records its seams
+// window fixed its own gauge, the average camera of its frames), and its pose correction (issue 65)
+// the same weighted mean of the windows' ω and of their τ. The merged model records its seams
 // (ModelConfig::seams), where eval --stability looks for jumps.
 #include <optional>
 #include <string>

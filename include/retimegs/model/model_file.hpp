@@ -8,7 +8,10 @@
 //                 ([{name, width, dtype "<f4", offset, bytes}], offsets from the data start),
 //                 the training config (free-form JSON, for provenance) and, when training
 //                 learned them, "camera_colors": {camera name: {"m": [3], "c": [3]}} (files
-//                 without the key, as earlier builds wrote them, load with none) and, for a
+//                 without the key, as earlier builds wrote them, load with none) and, when
+//                 training refined them, "camera_poses": {camera name: {"rotation": [3],
+//                 "translation": [3]}} (model::CameraPose: ω in radians, |ω| < π, and τ in world
+//                 units, both in camera axes; files without the key load with none) and, for a
 //                 window model (train --window), "window": {"first", "last"}, its first and last
 //                 training times (files without it hold the whole clip), and, for a merged
 //                 model (merge), "seams": [times], the training times where two of its windows met,
@@ -25,6 +28,7 @@
 #include <string_view>
 #include <vector>
 
+#include "retimegs/core/camera.hpp"
 #include "retimegs/model/camera_color.hpp"
 #include "retimegs/model/camera_pose.hpp"
 #include "retimegs/model/primitives.hpp"
@@ -39,8 +43,8 @@ struct Model {
   // Per training camera, by name: the colour correction learned for its images (empty when
   // training learned none). Other cameras render the model's colours.
   std::map<std::string, CameraColor> camera_colors;
-  // Per training camera, by name: the pose correction training learned (empty when it refined
-  // none). A camera drawn through the model is drawn through its correction.
+  // Per training camera, by name: the pose correction training learned for it (empty when training
+  // refined none). Scene cameras are drawn through it (seen_camera); other cameras as they are.
   std::map<std::string, CameraPose> camera_poses;
   // A window model (train --window): the training frames of `grid` it was trained on. `grid` stays
   // the whole clip's, so that windows share one grid; model/window.hpp draws such a model alone.
@@ -50,8 +54,22 @@ struct Model {
 
 // The stored correction of the camera named `camera`, or nullptr when the model has none for it.
 const CameraColor* find_camera_color(const Model& model, const std::string& camera);
-// The stored pose correction of the camera named `camera`, or nullptr.
+
+// The stored pose correction of the camera named `camera`, or nullptr when the model has none.
 const CameraPose* find_camera_pose(const Model& model, const std::string& camera);
+
+// A scene camera as the model saw it in training, the one rule of every command that draws a scene
+// camera through a model (render --camera and --path, eval, the viewer's cameras, export
+// --calibration): through its stored pose correction, corrected(camera, pose), when the model
+// refined the camera of that name; as it is otherwise (test cameras, a model that refined none).
+// Cameras that are no scene camera (a camera path file's, those between a path's cameras) are not
+// passed through it.
+Camera seen_camera(const Model& model, const Camera& camera);
+
+// Throws Error "<what> is not finite: ..." or "<what> turns by ... not less than pi" unless the
+// correction's six numbers are finite and its rotation angle |ω| is below π (beyond it the same
+// rotation has a shorter axis-angle, which merge's mean and a regulariser would not see).
+void check_camera_pose(const CameraPose& pose, const std::string& what);
 
 // Throws Error, naming `what` and the first offending time, unless every time lies in the model's
 // time range, its first to its last training frame: a trajectory is defined between its control
@@ -68,7 +86,7 @@ void write_model(const std::filesystem::path& path, const Model& model, bool rep
 
 // Throws Error naming the file and the problem (bad magic, unsupported version, malformed header,
 // truncated data, checksum mismatch, non-finite values, an unknown field, a malformed camera
-// colour).
+// colour or camera pose).
 Model read_model(const std::filesystem::path& path);
 
 }  // namespace retimegs::model

@@ -42,6 +42,11 @@ model::Model read_4d_model(const std::filesystem::path& path);
 using LoadedModel = std::variant<model::Model, Splats>;
 LoadedModel load_model(const std::filesystem::path& path);
 
+// A scene camera as `model` draws it: a 4D model's model::seen_camera (through the pose correction
+// training learned for it, if any); a static model's as it is. render, eval and the viewer pass
+// every scene camera they draw through a model through it, and no other camera.
+Camera seen_camera(const LoadedModel& model, const Camera& camera);
+
 // The near plane of a command's model renders, in scene units: `near` (--near) when given, else
 // the scene's (io::scene_near_plane). Throws Error naming --near unless it is finite and > 0.
 double near_plane(const std::optional<double>& near, const io::Scene& scene);

@@ -56,13 +56,15 @@ struct SceneShotRequest {
 // The frames of a scene request, at the scene's fps. --slowmo covers the model's time range, its
 // first to last training frame (a static model's: the scene's frames 0 to num_frames - 1). A path
 // at one time is held for path_frames frames (>= 1, at most kMaxOutputFrames). Every time must lie
-// in a 4D model's time range (model::check_times); cameras are at the output size. A static model
+// in a 4D model's time range (model::check_times); cameras are the scene's as the model saw them
+// (seen_camera: a training camera through its pose correction), at the output size. A static model
 // without a time gives one frame (time is ignored). Throws Error naming the flag, the camera or the
 // time otherwise, and when no time is given for a 4D model.
 Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const LoadedModel& model);
 
 // The frames of a nerfstudio camera path file (`render --camera-path`), at the file's fps: its
-// cameras at the output size, each at `time` when given (a static model ignores time) or at its
+// cameras (the user's, drawn as the file gives them: no scene camera's correction) at the output
+// size, each at `time` when given (a static model ignores time) or at its
 // render_time over the model's time range (io::camera_path_times). Throws Error naming the file
 // when a 4D model needs render_times the file lacks, and as scene_shot on a time out of range.
 Shot camera_path_shot(const io::CameraPathFile& file, const std::optional<double>& time,

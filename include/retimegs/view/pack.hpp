@@ -37,7 +37,8 @@ struct Packed {
   std::vector<PackedTexture> textures;
 };
 
-// The scene side of the manifest: its cameras, `up`, fps and the near plane that `retimegs
+// The scene side of the manifest: its cameras (as the model saw them, model::seen_camera: a
+// training camera through its pose correction), `up`, fps and the near plane that `retimegs
 // render` uses (io::scene_near_plane).
 struct PackScene {
   const io::Scene* scene = nullptr;  // nullptr: no cameras; the viewer frames the primitives
