@@ -77,7 +77,7 @@ struct TrainConfig {
   // Camera refinement (model/camera_pose.hpp). Unset: on for a scene whose calibration is the
   // user's (train::refine_cameras, which the run writes into its config).
   std::optional<bool> refine_cameras;
-  double lr_camera_pose = 2e-4;    // ω in radians, τ in scene extents
+  double lr_camera_pose = 5e-4;    // ω in radians, τ in scene extents
   int camera_refine_start = 1000;  // scaled: the scene takes shape before the cameras move
   double camera_pose_reg = 1e-4;
 
