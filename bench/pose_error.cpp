@@ -4,9 +4,11 @@
 // (io::calibration_errors), and their means. The truth is a rig file, calibration_true.json
 // beside a scene perturbed by perturb_calibration or `retimegs synth --perturb-calibration`.
 //
-// Usage: pose_error --scene DIR [--truth FILE] [--json OUT]
+// Usage: pose_error --scene DIR [--truth FILE] [--model RUN/model.rgs] [--json OUT]
 //   FILE: default DIR/calibration_true.json. Compares DIR/scene.json's cameras (the calibration
-//   training starts from) with the truth; OUT gets the same figures as JSON.
+//   training starts from) with the truth, and with --model the cameras as the model saw them
+//   (model::seen_camera: through the pose corrections training learned); OUT gets the same
+//   figures as JSON.
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -20,6 +22,7 @@
 #include "retimegs/ingest/rig_file.hpp"
 #include "retimegs/io/perturb_calibration.hpp"
 #include "retimegs/io/training_views.hpp"
+#include "retimegs/model/model_file.hpp"
 
 namespace fs = std::filesystem;
 using namespace retimegs;
@@ -57,10 +60,11 @@ json report(const std::string& title, const io::Scene& truth,
 
 int main(int argc, char** argv) {
   CLI::App app("A scene's calibration against the true one, after a similarity.");
-  std::string scene_dir, truth_file, json_out;
+  std::string scene_dir, truth_file, model_file, json_out;
   app.add_option("--scene", scene_dir, "scene folder")->required();
   app.add_option("--truth", truth_file,
                  "the true calibration (default SCENE/calibration_true.json)");
+  app.add_option("--model", model_file, "a model trained on the scene: its refined cameras too");
   app.add_option("--json", json_out, "also write the figures to this JSON file");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -73,6 +77,12 @@ int main(int argc, char** argv) {
                 truth_path.c_str(), io::training_cameras(truth).size(), io::scene_extent(truth));
     json out = json::array();
     out.push_back(report("before refinement: scene.json", truth, scene.cameras));
+    if (!model_file.empty()) {
+      const model::Model model = model::read_model(model_file);
+      std::vector<Camera> seen;
+      for (const Camera& camera : scene.cameras) seen.push_back(model::seen_camera(model, camera));
+      out.push_back(report("after refinement: " + model_file, truth, seen));
+    }
     if (!json_out.empty()) write_text_file(json_out, out.dump(2) + "\n");
   } catch (const Error& e) {
     std::fprintf(stderr, "pose_error: %s\n", e.what());
