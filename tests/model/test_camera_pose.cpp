@@ -12,14 +12,6 @@
 namespace retimegs::test {
 namespace {
 
-render::RenderOptions smooth_options() {
-  render::RenderOptions o;
-  o.min_alpha = 0;  // no cut-off: the loss is smooth in the camera
-  o.min_transmittance = 0;
-  o.render_depth = true;
-  return o;
-}
-
 double dot(const std::vector<double>& a, const std::vector<double>& b) {
   double s = 0;
   for (std::size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];

@@ -10,6 +10,7 @@
 #include "retimegs/core/camera.hpp"
 #include "retimegs/core/gaussians.hpp"
 #include "retimegs/io/npy.hpp"
+#include "retimegs/render/options.hpp"
 #include "test_util.hpp"
 
 namespace retimegs::test {
@@ -58,6 +59,16 @@ inline GsplatCase load_gsplat_case(const std::string& name) {
     for (int c = 0; c < 4; ++c) k.camera.world_to_camera(r, c) = viewmat[4 * r + c];
   k.background = npy_floats(k.dir / "background.npy");
   return k;
+}
+
+// Render options under which the loss is smooth in every input, for finite differences: no alpha
+// cut-off, no early termination; the depth pass on.
+inline render::RenderOptions smooth_options() {
+  render::RenderOptions o;
+  o.min_alpha = 0;
+  o.min_transmittance = 0;
+  o.render_depth = true;
+  return o;
 }
 
 // A camera at the origin looking down +z (OpenCV), focal 0.9 * width.

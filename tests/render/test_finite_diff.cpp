@@ -15,14 +15,6 @@ namespace {
 
 constexpr double kStep = 1e-6;  // central differences: truncation ~h^2, round-off ~1e-16 / h
 
-render::RenderOptions smooth_options() {
-  render::RenderOptions o;
-  o.min_alpha = 0;
-  o.min_transmittance = 0;
-  o.render_depth = true;
-  return o;
-}
-
 // d loss / d x[i] for every i, by central differences.
 std::vector<double> central_differences(std::span<double> x, const std::function<double()>& loss) {
   std::vector<double> g(x.size());
