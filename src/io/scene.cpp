@@ -163,6 +163,10 @@ const char* calibration_source_name(CalibrationSource source) {
   return source == CalibrationSource::kUser ? "user" : "lab";
 }
 
+const char* clock_source_name(ClockSource source) {
+  return source == ClockSource::kEstimated ? "estimated" : "given";
+}
+
 bool has_own_clocks(const Scene& scene) {
   return std::any_of(scene.clocks.begin(), scene.clocks.end(),
                      [](const CameraClock& c) { return !c.is_default(); });
@@ -250,6 +254,15 @@ Scene read_scene_json(const fs::path& root) {
     else
       fail("{}: 'calibration' must be \"lab\" or \"user\", got \"{}\"", file.string(), source);
   }
+  if (j.contains("clocks")) {
+    const std::string source = f.string(j["clocks"], "clocks");
+    if (source == clock_source_name(ClockSource::kGiven))
+      scene.clock_source = ClockSource::kGiven;
+    else if (source == clock_source_name(ClockSource::kEstimated))
+      scene.clock_source = ClockSource::kEstimated;
+    else
+      fail("{}: 'clocks' must be \"given\" or \"estimated\", got \"{}\"", file.string(), source);
+  }
   const json& cams = f.require(j, "cameras", "");
   if (!cams.is_array() || cams.empty())
     fail("{}: 'cameras' must be a non-empty array", file.string());
@@ -305,13 +318,16 @@ void write_scene_json(const Scene& scene) {
                                            {"offset", source.offset}};
     if (source.fps > 0) entry["fps"] = source.fps;
   }
-  const json j = {{"format", kFormat},
-                  {"version", kVersion},
-                  {"num_frames", scene.num_frames},
-                  {"fps", scene.fps},
-                  {"cameras", cams},
-                  {"up", {scene.up.x(), scene.up.y(), scene.up.z()}},
-                  {"calibration", calibration_source_name(scene.calibration)}};
+  json j = {{"format", kFormat},
+            {"version", kVersion},
+            {"num_frames", scene.num_frames},
+            {"fps", scene.fps},
+            {"cameras", cams},
+            {"up", {scene.up.x(), scene.up.y(), scene.up.z()}},
+            {"calibration", calibration_source_name(scene.calibration)}};
+  // Only estimated clocks are marked, so that the file of a scene with given clocks is unchanged.
+  if (scene.clock_source == ClockSource::kEstimated)
+    j["clocks"] = clock_source_name(scene.clock_source);
   write_text_file(scene.json_path(), j.dump(2) + "\n");
 }
 

@@ -453,3 +453,33 @@ TEST(SceneCalibration, UnknownValueNamesFileFieldAndValue) {
 
 }  // namespace
 }  // namespace retimegs::io
+
+namespace retimegs::io {
+namespace {
+
+TEST(SceneClockSource, EstimatedWrittenGivenWhenAbsent) {
+  test::TempDir dir;
+  Scene scene = write_small_scene(dir / "s");
+  EXPECT_FALSE(read_json(scene.json_path()).contains("clocks"));  // given: the file unchanged
+  EXPECT_EQ(read_scene_json(dir / "s").clock_source, ClockSource::kGiven);
+  scene.clock_source = ClockSource::kEstimated;
+  write_scene_json(scene);
+  EXPECT_EQ(read_json(scene.json_path())["clocks"], "estimated");
+  EXPECT_EQ(read_scene_json(dir / "s").clock_source, ClockSource::kEstimated);
+  json j = read_json(scene.json_path());
+  j["clocks"] = "given";
+  write_json(scene.json_path(), j);
+  EXPECT_EQ(read_scene_json(dir / "s").clock_source, ClockSource::kGiven);
+  j["clocks"] = "genlocked";
+  write_json(scene.json_path(), j);
+  try {
+    read_scene_json(dir / "s");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    for (const std::string f : {"scene.json", "'clocks'", "\"genlocked\"", "\"estimated\""})
+      EXPECT_NE(std::string(e.what()).find(f), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace retimegs::io

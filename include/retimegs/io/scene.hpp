@@ -46,6 +46,14 @@ enum class CalibrationSource { kLab, kUser };
 // "lab" or "user", as scene.json writes it.
 const char* calibration_source_name(CalibrationSource source);
 
+// Where the cameras' clocks came from (scene.json "clocks"): given (genlocked footage, offsets or
+// timestamps the user gave), taken as exact, or estimated from the footage (`import videos --sync
+// auto`), which training refines by default (train config refine_clocks).
+enum class ClockSource { kGiven, kEstimated };
+
+// "given" or "estimated", as scene.json writes it.
+const char* clock_source_name(ClockSource source);
+
 struct Scene {
   std::filesystem::path root;
   int num_frames = 0;
@@ -57,6 +65,7 @@ struct Scene {
   // frame_time() only.
   std::vector<CameraClock> clocks;
   CalibrationSource calibration = CalibrationSource::kLab;  // scene.json without the key: lab
+  ClockSource clock_source = ClockSource::kGiven;           // scene.json without the key: given
 
   // Index of the camera called `name`; throws Error naming it when absent.
   int camera_index(const std::string& name) const;
