@@ -77,7 +77,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_flag("--own-clock", args->shot.own_clock,
                 "with --camera: the times are the camera's own frame positions (its frame k at "
                 "k), each drawn at its scene time on the camera's clock (scene.json time_offset, "
-                "frame_times), to reproduce its frames")
+                "frame_times, with the model's clock correction), to reproduce its frames")
       ->needs(camera);
   auto* slowmo = cmd->add_option("--slowmo", args->shot.slowmo,
                                  "F frames per scene-frame interval over the model's time "

@@ -10,6 +10,7 @@
 #include <cub/device/device_scan.cuh>
 
 #include "launch.hpp"
+#include "reduce.hpp"
 #include "retimegs/core/error.hpp"
 #include "retimegs/cuda/check.hpp"
 #include "retimegs/model/slice_formulas.hpp"
@@ -51,6 +52,19 @@ void check_grads(DevicePrimitiveGrads& grads, std::size_t n, const char* what) {
     if (buffer->size() != n * std::size_t(width))
       fail("{}: the gradients are sized for {} values per field row of {}, the model has {} rows",
            what, buffer->size(), width, n);
+}
+
+// Throws Error unless the Gaussians' gradient is the batch's shape: m rows of `channels`.
+void check_batch_gradient(const DeviceGaussianGrads& v_gaussians, std::size_t m, int channels,
+                          const char* what) {
+  if (v_gaussians.channels != channels || v_gaussians.size() != m ||
+      v_gaussians.v_means.size() != 3 * m || v_gaussians.v_log_scales.size() != 3 * m ||
+      v_gaussians.v_quats.size() != 4 * m ||
+      v_gaussians.v_features.size() != std::size_t(channels) * m)
+    fail(
+        "{}: the Gaussians' gradient ({} rows, {} channels) does not match the batch ({} rows, {} "
+        "channels)",
+        what, v_gaussians.size(), v_gaussians.channels, m, channels);
 }
 
 // Candidate k (row list entry k, or primitive k): whether the batch keeps it (kept[k]) and the σ_τ
@@ -110,6 +124,27 @@ __global__ void __launch_bounds__(kThreads)
   model::slice_row_backward(s, p, i, temporal[row], vg, std::size_t(row), grads,
                             shaded_v_rgb ? &shaded_v_rgb[3 * i] : nullptr);
 }
+
+// model::slice_time_vjp's rows, one thread per batch row, summed per block (reduce.hpp).
+__global__ void __launch_bounds__(kThreads)
+    slice_time_kernel(Params s, PrimitiveArrays<float> p, int m,
+                      const std::int32_t* __restrict__ primitive_from_gaussian,
+                      GaussianGradArrays<float> vg, double* __restrict__ partials) {
+  const int row = int(blockIdx.x) * kThreads + int(threadIdx.x);
+  double value[1] = {0};
+  if (row < m && model::has_gradient(vg, std::size_t(row), s.channels)) {
+    float v_sh[model::Primitives::kShWidth];
+    value[0] = double(model::slice_row_time_vjp(s, p, std::size_t(primitive_from_gaussian[row]), vg,
+                                                std::size_t(row), v_sh));
+  }
+  block_sums<kThreads, 1>(value, partials, int(gridDim.x), int(blockIdx.x));
+}
+
+// Adds the one total to *out.
+struct AddTimeSum {
+  double* out;
+  __device__ void operator()(const double (&totals)[1]) const { *out += totals[0]; }
+};
 
 __global__ void __launch_bounds__(kThreads)
     shade_kernel(Params s, PrimitiveArrays<float> p, const std::int32_t* __restrict__ rows,
@@ -207,14 +242,7 @@ void slice_backward(const DevicePrimitives& primitives, const model::ModelConfig
   check_rows(primitives, "slice_backward");
   const std::size_t n = primitives.size(), m = sliced.size();
   check_grads(grads, n, "slice_backward");
-  if (v_gaussians.channels != s.channels || v_gaussians.size() != m ||
-      v_gaussians.v_means.size() != 3 * m || v_gaussians.v_log_scales.size() != 3 * m ||
-      v_gaussians.v_quats.size() != 4 * m ||
-      v_gaussians.v_features.size() != std::size_t(s.channels) * m)
-    fail(
-        "slice_backward: the Gaussians' gradient ({} rows, {} channels) does not match the batch "
-        "({} rows, {} channels)",
-        v_gaussians.size(), v_gaussians.channels, m, s.channels);
+  check_batch_gradient(v_gaussians, m, s.channels, "slice_backward");
   if (shaded && shaded->v_rgb.size() != 3 * n)
     fail("slice_backward: the shaded colours hold {} gradient values for {} primitives",
          shaded->v_rgb.size(), n);
@@ -227,6 +255,32 @@ void slice_backward(const DevicePrimitives& primitives, const model::ModelConfig
       sliced.temporal.data(), vg, model::gradient_arrays<float>(grads),
       shaded ? shaded->v_rgb.data() : nullptr);
   check(cudaGetLastError(), "slice_backward launch");
+}
+
+void slice_time_sum(const DevicePrimitives& primitives, const model::ModelConfig& config,
+                    const model::TimeGrid& grid, double t, const Camera& camera,
+                    const DeviceSliceOptions& options, const DeviceTimeSlice& sliced,
+                    const DeviceGaussianGrads& v_gaussians, double* sum,
+                    DeviceBuffer<double>& partials) {
+  Params s = model::slice_params<float>(config, grid, t, camera, model::Group::kAll,
+                                        options.compensate, options.flow_features,
+                                        options.min_opacity, options.side, options.side_seam);
+  s.channels = sliced.gaussians.channels;
+  check_rows(primitives, "slice_time_sum");
+  const std::size_t m = sliced.size();
+  check_batch_gradient(v_gaussians, m, s.channels, "slice_time_sum");
+  if (m == 0) return;
+  const GaussianGradArrays<float> vg = {v_gaussians.v_means.data(), v_gaussians.v_log_scales.data(),
+                                        v_gaussians.v_quats.data(), v_gaussians.v_opacities.data(),
+                                        v_gaussians.v_features.data()};
+  const int blocks = int(blocks_for(m));
+  partials.resize(std::size_t(blocks));
+  slice_time_kernel<<<blocks, kThreads>>>(s, model::primitive_arrays<float>(primitives), int(m),
+                                          sliced.primitive_from_gaussian.data(), vg,
+                                          partials.data());
+  check(cudaGetLastError(), "slice_time_kernel launch");
+  finish_sums<1><<<1, kFinishThreads>>>(partials.data(), blocks, AddTimeSum{sum});
+  check(cudaGetLastError(), "slice_time_sum finish_sums launch");
 }
 
 void shade(const DevicePrimitives& primitives, const model::ModelConfig& config,

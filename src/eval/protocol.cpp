@@ -247,12 +247,14 @@ FrameRenderer model_renderer(const io::Scene& scene, playback::LoadedModel model
   // camera's held-out frames through its pose correction, test cameras as they are.
   std::vector<Camera> seen;
   for (const Camera& c : scene.cameras) seen.push_back(playback::seen_camera(model, c));
+  // The camera's own clock, as the model learned it: its frame position p shows the scene at
+  // playback::seen_time.
   auto renderer = std::make_shared<const playback::ModelRenderer>(std::move(model), device);
   return [&scene, seen = std::move(seen), renderer, options](int camera, double time) {
     const float black[3] = {0, 0, 0};
-    // The camera's own clock: its frame position `time` shows the scene at frame_time.
-    return renderer->render(seen[camera], io::frame_time(scene, camera, time), black, options,
-                            playback::Colors::kCamera);
+    return renderer->render(seen[camera],
+                            playback::seen_time(renderer->model(), scene, camera, time), black,
+                            options, playback::Colors::kCamera);
   };
 }
 

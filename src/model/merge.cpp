@@ -200,6 +200,17 @@ Model merge_models(const std::vector<Model>& windows, const std::vector<std::str
       pose.translation[k] = entry.first[3 + k] / entry.second;
     }
   }
+  // Clock corrections likewise: per camera, the interval-weighted mean of the windows' δ.
+  std::map<std::string, std::pair<double, double>> clock_sums;  // Σ weight δ, Σ weight
+  for (const Model& m : windows) {
+    const TimeWindow w = window_of(m);
+    for (const auto& [camera, delta] : m.camera_clocks) {
+      clock_sums[camera].first += (w.last - w.first) * delta;
+      clock_sums[camera].second += w.last - w.first;
+    }
+  }
+  for (const auto& [camera, entry] : clock_sums)
+    merged.camera_clocks[camera] = entry.first / entry.second;
   // Seams: the hand-overs and each window's own (a merged model merged again) between them, where
   // its rows are kept.
   for (std::size_t k = 0; k < order.size(); ++k) {

@@ -104,6 +104,21 @@ std::map<std::string, CameraPose> camera_poses_from(const json& header, const st
   return poses;
 }
 
+// The camera_clocks entry of a header; throws Error naming `file` and the camera of an entry that
+// is not one finite number.
+std::map<std::string, double> camera_clocks_from(const json& header, const std::string& file) {
+  std::map<std::string, double> clocks;
+  if (!header.contains("camera_clocks")) return clocks;
+  const json& table = header.at("camera_clocks");
+  if (!table.is_object()) fail("{}: 'camera_clocks' is not an object", file);
+  for (const auto& [camera, entry] : table.items()) {
+    if (!entry.is_number() || !std::isfinite(entry.get<double>()))
+      fail("{}: clock correction of '{}' is not a finite number: {}", file, camera, entry.dump());
+    clocks[camera] = entry.get<double>();
+  }
+  return clocks;
+}
+
 // The index of training time t in `grid`; throws Error naming `file` and `what` t is when t is not
 // one.
 int grid_index(const TimeGrid& grid, double t, const std::string& file, std::string_view what) {
@@ -124,6 +139,11 @@ const CameraColor* find_camera_color(const Model& model, const std::string& came
 const CameraPose* find_camera_pose(const Model& model, const std::string& camera) {
   const auto it = model.camera_poses.find(camera);
   return it == model.camera_poses.end() ? nullptr : &it->second;
+}
+
+double clock_correction(const Model& model, const std::string& camera) {
+  const auto it = model.camera_clocks.find(camera);
+  return it == model.camera_clocks.end() ? 0.0 : it->second;
 }
 
 Camera seen_camera(const Model& model, const Camera& camera) {
@@ -221,6 +241,11 @@ void write_model(const fs::path& path, const Model& model, bool replace) {
     header["camera_poses"][camera] = {{"rotation", pose.rotation},
                                       {"translation", pose.translation}};
   }
+  for (const auto& [camera, delta] : model.camera_clocks) {
+    if (!std::isfinite(delta))
+      fail("{}: clock correction of '{}' is not finite", path.string(), camera);
+    header["camera_clocks"][camera] = delta;
+  }
   const std::string header_text = header.dump();
 
   std::string bytes(kMagic, sizeof kMagic);
@@ -298,6 +323,7 @@ Model read_model(const fs::path& path) {
     model.training_config = header.value("training_config", json::object()).dump();
     model.camera_colors = camera_colors_from(header, file);
     model.camera_poses = camera_poses_from(header, file);
+    model.camera_clocks = camera_clocks_from(header, file);
     if (header.contains("window")) {
       const json& w = header.at("window");
       model.window =

@@ -187,6 +187,39 @@ void slice_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
 }
 
 template <typename T>
+double slice_time_vjp(const PrimitivesT<T>& primitives, const ModelConfig& config,
+                      const TimeGrid& grid, double t_in, const Camera& camera,
+                      const SliceOptions& options, const TimeSliceT<T>& sliced,
+                      const GaussianGradsT<T>& v_gaussians) {
+  SliceParams<T> s =
+      slice_params<T>(config, grid, t_in, camera, Group::kAll, options.compensate,
+                      options.flow_features, options.min_opacity, options.side, options.side_seam);
+  s.channels = sliced.gaussians.channels;
+  const PrimitiveArrays<T> p = primitive_arrays<T>(primitives);
+  const GaussianGradArrays<T> vg = {v_gaussians.v_means.data(), v_gaussians.v_log_scales.data(),
+                                    v_gaussians.v_quats.data(), v_gaussians.v_opacities.data(),
+                                    v_gaussians.v_features.data()};
+  const std::ptrdiff_t m = std::ptrdiff_t(sliced.primitive_from_gaussian.size());
+  // Fixed chunks summed in their order, so that the total does not depend on the threads' timing.
+  constexpr std::ptrdiff_t kChunk = 4096;
+  std::vector<double> partial(std::size_t((m + kChunk - 1) / kChunk), 0.0);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t chunk = 0; chunk < std::ptrdiff_t(partial.size()); ++chunk) {
+    T v_sh[PrimitivesT<T>::kShWidth];
+    double sum = 0;
+    for (std::ptrdiff_t row = chunk * kChunk; row < std::min(m, (chunk + 1) * kChunk); ++row) {
+      if (!has_gradient(vg, std::size_t(row), s.channels)) continue;
+      sum += double(slice_row_time_vjp(s, p, std::size_t(sliced.primitive_from_gaussian[row]), vg,
+                                       std::size_t(row), v_sh));
+    }
+    partial[std::size_t(chunk)] = sum;
+  }
+  double total = 0;
+  for (const double value : partial) total += value;
+  return total;
+}
+
+template <typename T>
 void shade(const PrimitivesT<T>& primitives, const ModelConfig& config, const TimeGrid& grid,
            double t_in, const Camera& camera, const std::vector<std::int32_t>& rows,
            ShadedT<T>& out) {
@@ -234,6 +267,9 @@ void shade_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                                   double, const Camera&, const SliceOptions&,                    \
                                   const TimeSliceT<T>&, const GaussianGradsT<T>&,                \
                                   PrimitiveGradsT<T>&, ShadedT<T>*);                             \
+  template double slice_time_vjp<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,  \
+                                    double, const Camera&, const SliceOptions&,                  \
+                                    const TimeSliceT<T>&, const GaussianGradsT<T>&);             \
   template void shade<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&, double,     \
                          const Camera&, const std::vector<std::int32_t>&, ShadedT<T>&);          \
   template void shade_backward<T>(const PrimitivesT<T>&, const ModelConfig&, const TimeGrid&,    \

@@ -40,6 +40,12 @@ Camera seen_camera(const LoadedModel& model, const Camera& camera) {
   return m ? model::seen_camera(*m, camera) : camera;
 }
 
+double seen_time(const LoadedModel& model, const io::Scene& scene, int camera, double position) {
+  const auto* m = std::get_if<model::Model>(&model);
+  const double t = io::frame_time(scene, camera, position);
+  return m ? t + model::clock_correction(*m, scene.cameras.at(std::size_t(camera)).name) : t;
+}
+
 double near_plane(const std::optional<double>& near, const io::Scene& scene) {
   if (!near) return io::scene_near_plane(scene);
   if (!(std::isfinite(*near) && *near > 0))

@@ -43,7 +43,7 @@ Shot scene_shot(const SceneShotRequest& request, const io::Scene& scene, const L
     if (request.slowmo)
       fail("--own-clock: give the camera's frames with --time, --times or --retime, not --slowmo");
     const int camera = scene.camera_index(request.camera);
-    for (double& t : shot.times) t = io::frame_time(scene, camera, t);
+    for (double& t : shot.times) t = seen_time(model, scene, camera, t);
   }
   if (model_4d) model::check_times(*model_4d, shot.times, "render");
   // Scene cameras as the model saw them (seen_camera): a path moves between the corrected ones.

@@ -146,6 +146,15 @@ constexpr ConfigKey kKeys[] = {
     {"camera_pose_reg", &TrainConfig::camera_pose_reg, kWeight, kCameras,
      "weight of |ω|² + |τ / E|² summed over the training cameras: a pull toward the given "
      "calibration where the images do not decide"},
+    {"refine_clocks", &TrainConfig::refine_clocks, std::nullopt, kCameras,
+     "learn a correction of each training camera's clock (a time shift of all its frames) for "
+     "the cameras off the scene's clock (scene.json `time_offset` or `frame_times`); `null`: on "
+     "for a scene whose clocks were estimated (scene.json `clocks`), off for given ones (the run "
+     "records the value it used)"},
+    {"lr_time_offset", &TrainConfig::lr_time_offset, kRate, kCameras,
+     "the clock corrections, in frames"},
+    {"clock_refine_start", &TrainConfig::clock_refine_start, kMilestone, kCameras,
+     "scaled; the clock corrections move at iterations after this"},
 
     {"cap", &TrainConfig::cap, kCount, kDensity,
      "most primitives (`--cap`, `--preset`); initial seeds above it are subsampled"},

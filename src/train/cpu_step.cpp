@@ -39,7 +39,7 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
                           const std::vector<std::int32_t>& active, double w_flow, StepStats& stats,
                           model::PrimitiveGrads& grads) {
   const Camera& camera = camera_;
-  const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
+  const double t = state_.view_time(c, i);  // the view's own time (t_i on the grid)
   const Image& target = target_;
   model::SliceOptions eo;
   eo.group = pass.group;
@@ -95,6 +95,9 @@ void CpuStep::render_pass(const RenderPass& pass, int c, int i,
                              v_image.data.data(), vg);
   if (state_.refines_at(stats.iteration))
     state_.add_pose_gradient(c, model::camera_pose_vjp(e.gaussians, vg, camera, state_.pose_of(c)));
+  if (state_.clock_refines_at(stats.iteration, c))
+    state_.add_time_gradient(c, model::slice_time_vjp(state_.model.primitives, state_.model.config,
+                                                      state_.model.grid, t, camera, eo, e, vg));
   stats.seconds.render_backward += clock.lap();
   model::slice_backward(state_.model.primitives, state_.model.config, state_.model.grid, t, camera,
                         eo, e, vg, grads, &shaded_);
@@ -116,7 +119,7 @@ StepStats CpuStep::step_view(int c, int i) {
   const model::Representation representation = state_.model.config.representation;
   const double w_flow = flow_weight(config_, representation, it);
   const std::vector<RenderPass> passes = render_passes(
-      config_, representation, i, int(set_.frames.size()), w_flow > 0, set_.on_grid(c, i));
+      config_, representation, i, int(set_.frames.size()), w_flow > 0, state_.on_grid(c, i));
   unpack(set_.images[c][i], target_);
   if (const std::optional<Rgb> colour = state_.background())
     if (const std::optional<Image>& mask = set_.masks[c][i])
@@ -131,7 +134,7 @@ StepStats CpuStep::step_view(int c, int i) {
   camera_ = state_.camera(c);
   const Camera& camera = camera_;
   Stopwatch shade_clock;
-  const double t = set_.time(c, i);
+  const double t = state_.view_time(c, i);
   model::shade(p, state_.model.config, state_.model.grid, t, camera, active, shaded_);
   stats.seconds.slice += shade_clock.lap();
   for (const RenderPass& pass : passes) render_pass(pass, c, i, active, w_flow, stats, grads);
@@ -155,6 +158,7 @@ StepStats CpuStep::step_view(int c, int i) {
       model::tie_end_velocities(*tie, p.mu_tau[r], &p.velocity[9 * std::size_t(r)]);
   if (state_.camera_color()) state_.step_camera_color(c, decay);
   if (state_.refines_at(it)) stats.loss += state_.step_camera_pose(c, decay);
+  if (state_.clock_refines_at(it, c)) state_.step_clock(c, decay);
   stats.lr_means = state_.adam.means_rate(means, decay);
   stats.seconds.optimizer = clock.lap();
   const DensityChanges changes =

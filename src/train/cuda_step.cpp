@@ -30,6 +30,7 @@ namespace {
 // The numbers a step reads back, one slot each per render pass (device doubles).
 enum LossSlot { kImageLoss, kForwardFlowLoss, kBackwardFlowLoss, kSquaredError, kSlotsPerPass };
 constexpr std::size_t kPoseSums = 6;
+constexpr std::size_t kTimeSums = 1;
 
 // A stage's wall time: the default stream's queue drained first, so that each stage is charged
 // its own kernels (a few microseconds per stage, against milliseconds of work). Only that stream:
@@ -146,9 +147,10 @@ class CudaStep final : public TrainingStep {
   cuda::DeviceSsimTarget target_;
   cuda::LossScratch loss_scratch_;
   // [passes, kSlotsPerPass], the regulariser, then the pose correction's sums [kPoseSums]
-  // (cuda::camera_pose_sums).
+  // (cuda::camera_pose_sums) and d loss / d t [kTimeSums] (cuda::slice_time_sum).
   cuda::DeviceBuffer<double> losses_;
-  double* pose_sums() { return losses_.data() + losses_.size() - kPoseSums; }
+  double* pose_sums() { return losses_.data() + losses_.size() - kPoseSums - kTimeSums; }
+  double* time_sum() { return losses_.data() + losses_.size() - kTimeSums; }
   Camera camera_;  // the step's camera, through its pose correction
   cuda::DeviceBuffer<float> color_, v_color_, corrected_, v_image_;
   cuda::DeviceShaded shaded_;
@@ -272,7 +274,7 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
                            double w_flow, StepStats& stats) {
   const Camera& camera = camera_;
   const model::Model& m = state_.model;
-  const double t = set_.time(c, i);  // the view's own time (t_i on the grid)
+  const double t = state_.view_time(c, i);  // the view's own time (t_i on the grid)
   const int list = state_.row_list(c, i);
   cuda::DeviceSliceOptions options;
   options.group = pass.group;
@@ -329,6 +331,9 @@ void CudaStep::render_pass(const RenderPass& pass, std::size_t pass_index, int c
                            v_image_.data(), nullptr, nullptr, v_gaussians_);
   if (state_.refines_at(stats.iteration))
     cuda::camera_pose_sums(slice.gaussians, v_gaussians_, pose_sums(), loss_scratch_);
+  if (state_.clock_refines_at(stats.iteration, c))
+    cuda::slice_time_sum(primitives_, m.config, m.grid, t, camera, options, slice, v_gaussians_,
+                         time_sum(), loss_scratch_.partials);
   stats.seconds.render_backward += lap(clock);
   cuda::slice_backward(primitives_, m.config, m.grid, t, camera, options, slice, v_gaussians_,
                        grads_, &shaded_);
@@ -344,7 +349,7 @@ StepStats CudaStep::step_view(int c, int i) {
   const model::Representation representation = m.config.representation;
   const double w_flow = flow_weight(config_, representation, it);
   const std::vector<RenderPass> passes = render_passes(
-      config_, representation, i, int(set_.frames.size()), w_flow > 0, set_.on_grid(c, i));
+      config_, representation, i, int(set_.frames.size()), w_flow > 0, state_.on_grid(c, i));
   Stopwatch clock;
   // The flows first: their copies run beside the kernels until the flow loss.
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.flow; })) {
@@ -358,7 +363,7 @@ StepStats CudaStep::step_view(int c, int i) {
   else
     target_.assign(images_[c][i]);
   const std::size_t slots = passes.size() * kSlotsPerPass + 1;
-  losses_.resize(slots + kPoseSums);
+  losses_.resize(slots + kPoseSums + kTimeSums);
   losses_.fill_bytes(0);
   if (state_.camera_color()) {
     const model::CameraColor color = state_.color_of(c);
@@ -376,7 +381,7 @@ StepStats CudaStep::step_view(int c, int i) {
   stats.active = count;
   camera_ = state_.camera(c);
   const Camera& camera = camera_;
-  const double t = set_.time(c, i);
+  const double t = state_.view_time(c, i);
   cuda::shade(primitives_, m.config, m.grid, t, camera, rows, count, shaded_);
   stats.seconds.slice += lap(clock);
   for (std::size_t k = 0; k < passes.size(); ++k) render_pass(passes[k], k, c, i, w_flow, stats);
@@ -412,6 +417,10 @@ StepStats CudaStep::step_view(int c, int i) {
     state_.add_pose_gradient(
         c, model::pose_gradient(camera, state_.pose_of(c), {p[0], p[1], p[2]}, {p[3], p[4], p[5]}));
     pose_reg = state_.step_camera_pose(c, decay);
+  }
+  if (state_.clock_refines_at(it, c)) {
+    state_.add_time_gradient(c, sums[slots + kPoseSums]);
+    state_.step_clock(c, decay);
   }
   for (std::size_t p = 0; p < passes.size(); ++p) {
     const double* s = &sums[p * kSlotsPerPass];

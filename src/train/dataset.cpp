@@ -20,9 +20,7 @@ std::size_t TrainingSet::image_bytes() const {
   return n;
 }
 
-std::pair<int, int> TrainingSet::slots_around(int c, int i) const {
-  const double t = time(c, i);
-  if (t == grid.at(i)) return {i, i};
+std::pair<int, int> TrainingSet::slots_at(double t) const {
   const double k = (t - grid.first) / grid.step;
   const int a = int(std::clamp(std::floor(k), 0.0, double(grid.count - 1)));
   const int b = int(std::clamp(std::ceil(k), 0.0, double(grid.count - 1)));

@@ -19,29 +19,52 @@ bool refine_cameras(const TrainConfig& config, const TrainingSet& set) {
   return config.refine_cameras.value_or(set.scene.calibration == io::CalibrationSource::kUser);
 }
 
+bool refine_clocks(const TrainConfig& config, const TrainingSet& set) {
+  return config.refine_clocks.value_or(set.scene.clock_source == io::ClockSource::kEstimated);
+}
+
 StepState::StepState(const TrainingSet& set, const TrainConfig& config)
     : rng(config.seed), set_(set), config_(config) {
   config_.random_background = train::random_background(config, set);
   config_.refine_cameras = train::refine_cameras(config, set);
+  config_.refine_clocks = train::refine_clocks(config, set);
   model.grid = set.grid;
   model.config = config.model_config();
   // A window trains as a clip of its own, its ends open (model/window.hpp).
   if (set.clip_grid) model.config = model::window_config(model.config, *set.clip_grid, set.grid);
   model.training_config = to_json(config_);
-  for (std::size_t c = 0; c < set.cameras.size(); ++c)
+  const std::size_t cameras = set.cameras.size();
+  if (refine_clocks()) {
+    // The anchors: training cameras on the scene's clock.
+    const auto anchor = [&](std::size_t c) {
+      return set.scene.clocks.empty() || set.scene.clocks[set.cameras[c]].is_default();
+    };
+    bool anchored = false;
+    for (std::size_t c = 0; c < cameras; ++c) anchored |= anchor(c);
+    clock_refined_.assign(cameras, 0);
+    for (std::size_t c = 0; c < cameras; ++c) clock_refined_[c] = !anchored || !anchor(c);
+    clocks_.assign(cameras, 0.0f);
+    clock_grads_.assign(cameras, 0.0f);
+    clock_adam_ = Adam(cameras, 1);
+    for (std::size_t c = 0; c < cameras; ++c)
+      if (clock_refined_[c]) model.camera_clocks[set.scene.cameras[set.cameras[c]].name] = 0;
+  }
+  // A moving clock may take a view between any two adjacent training times.
+  const bool moving = std::any_of(clock_refined_.begin(), clock_refined_.end(),
+                                  [](char refined) { return refined != 0; });
+  for (int a = 0; moving && a + 1 < set.grid.count; ++a) between_.push_back(a);
+  for (std::size_t c = 0; c < cameras; ++c)
     for (std::size_t i = 0; i < set.frames.size(); ++i)
       if (const auto [a, b] = set.slots_around(int(c), int(i)); a != b) between_.push_back(a);
   std::sort(between_.begin(), between_.end());
   between_.erase(std::unique(between_.begin(), between_.end()), between_.end());
   if (camera_color()) {
-    const std::size_t cameras = set.cameras.size();
     colors_.assign(cameras * kColorWidth, 0.0f);  // the identity: gain 1, offset 0
     color_grads_.assign(cameras * kColorWidth, 0.0f);
     color_adam_ = Adam(cameras, kColorWidth);
     for (const int camera : set.cameras) model.camera_colors[set.scene.cameras[camera].name] = {};
   }
   if (refine_cameras()) {
-    const std::size_t cameras = set.cameras.size();
     poses_.assign(cameras * kPoseWidth, 0.0f);  // the identity
     pose_grads_.assign(cameras * kPoseWidth, 0.0f);
     pose_adam_ = Adam(cameras, kPoseWidth);
@@ -118,6 +141,28 @@ void StepState::remove_rig_motion() {
   const Eigen::VectorXd rig = a.colPivHouseholderQr().solve(b);
   const Eigen::VectorXd rest = b - a * rig;
   for (std::size_t k = 0; k < poses_.size(); ++k) poses_[k] = float(rest[k]);
+}
+
+bool StepState::clock_refines_at(int step, int c) const {
+  return clock_refined(c) && step > config_.scaled(config_.clock_refine_start);
+}
+
+void StepState::step_clock(int c, double decay) {
+  const std::vector<std::int32_t> row = {c};
+  clock_adam_.step(clocks_.data(), clock_grads_.data(), config_.lr_time_offset * decay, &row);
+  clock_grads_[c] = 0;
+  const std::size_t cameras = set_.cameras.size();
+  if (std::all_of(clock_refined_.begin(), clock_refined_.end(), [](char r) { return r != 0; })) {
+    // Gauge without an anchor: a common shift of every clock is one of the scene's time, which
+    // the model would follow; the corrections' mean is held at zero.
+    double mean = 0;
+    for (const float delta : clocks_) mean += delta;
+    mean /= double(cameras);
+    for (float& delta : clocks_) delta = float(delta - mean);
+  }
+  for (std::size_t j = 0; j < cameras; ++j)
+    if (clock_refined_[j])
+      model.camera_clocks[set_.scene.cameras[set_.cameras[j]].name] = clocks_[j];
 }
 
 model::CameraColor StepState::color_of(int c) const {
@@ -203,7 +248,8 @@ void StepState::set_index(model::TemporalIndex new_index) {
 }
 
 int StepState::row_list(int c, int i) const {
-  const auto [a, b] = set_.slots_around(c, i);
+  const double t = view_time(c, i);
+  const auto [a, b] = t == set_.grid.at(i) ? std::pair{i, i} : set_.slots_at(t);
   if (a == b) return a;
   const auto it = std::lower_bound(between_.begin(), between_.end(), a);
   return index.frames() + int(it - between_.begin());
@@ -268,6 +314,7 @@ void StepState::save_checkpoint(const fs::path& dir) const {
   for (const auto& [name, group] : adam) optimizers.emplace_back(name, &group);
   if (camera_color()) optimizers.emplace_back(kCameraColorAdam, &color_adam_);
   if (refine_cameras()) optimizers.emplace_back(kCameraPoseAdam, &pose_adam_);
+  if (!clock_refined_.empty()) optimizers.emplace_back(kCameraClockAdam, &clock_adam_);
   write_checkpoint(dir, model, iteration, rng, optimizers);
 }
 
@@ -305,6 +352,19 @@ void StepState::load_checkpoint(const fs::path& dir) {
       }
     }
     checkpoint.read_adam(kCameraPoseAdam, pose_adam_);
+  }
+  if (!clock_refined_.empty()) {
+    for (std::size_t j = 0; j < set_.cameras.size(); ++j) {
+      if (!clock_refined_[j]) continue;
+      const std::string& name = set_.scene.cameras[set_.cameras[j]].name;
+      if (!model.camera_clocks.count(name))
+        fail(
+            "{}: the checkpoint's model has no clock correction of training camera '{}' (the run "
+            "refines its clocks: its config's refine_clocks)",
+            dir.string(), name);
+      clocks_[j] = float(model.camera_clocks.at(name));
+    }
+    checkpoint.read_adam(kCameraClockAdam, clock_adam_);
   }
   rebuild_index();
 }

@@ -104,11 +104,12 @@ class RunFolder {
     remove_stale_temporaries(checkpoints());
     config = run.config;
     if (run.resume && fs::exists(out_ / "config.json")) {
-      // A config.json without random_background or refine_cameras predates the key: its run
-      // trained over black, with the cameras as given.
+      // A config.json without random_background, refine_cameras or refine_clocks predates the
+      // key: its run trained over black, with the cameras and their clocks as given.
       TrainConfig before_keys;
       before_keys.random_background = false;
       before_keys.refine_cameras = false;
+      before_keys.refine_clocks = false;
       config = config_from_json(read_text_file(out_ / "config.json", "run config"), before_keys,
                                 (out_ / "config.json").string());
       if (const auto found = checkpoint_folders(checkpoints()); !found.empty())
@@ -282,6 +283,21 @@ void log_camera_poses(const model::Model& model, const TrainingSet& set) {
   }
 }
 
+// Each refined camera's clock: its offset as the scene gave it (the mean of its frames' offsets
+// from their positions) and as training learned it, in frames.
+void log_camera_clocks(const model::Model& model, const TrainingSet& set) {
+  for (const int c : set.cameras) {
+    const std::string& name = set.scene.cameras[c].name;
+    const auto it = model.camera_clocks.find(name);
+    if (it == model.camera_clocks.end()) continue;
+    double given = 0;
+    for (const int frame : set.frames) given += io::frame_time(set.scene, c, frame) - frame;
+    given /= double(set.frames.size());
+    spdlog::info("camera {}: clock offset {:+.3f} frames, given {:+.3f} (moved {:+.3f})", name,
+                 given + it->second, given, it->second);
+  }
+}
+
 // The progress line's smoothed loss and PSNR (exponential moving average).
 struct Smoothed {
   double loss = 0, psnr = 0;
@@ -312,6 +328,8 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
       describe_background(*folder.config.random_background, background_given);
   const bool refine_given = folder.config.refine_cameras.has_value();
   folder.config.refine_cameras = refine_cameras(folder.config, set);
+  const bool clocks_given = folder.config.refine_clocks.has_value();
+  folder.config.refine_clocks = refine_clocks(folder.config, set);
   const TrainConfig& config = folder.config;
 
   const std::unique_ptr<TrainingStep> owned_step = make_step(set, config, run.device);
@@ -350,6 +368,15 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
         "frame_times): one render of all primitives at each one's own time, image loss only",
         off, set.cameras.size() * set.frames.size());
   }
+  if (*config.refine_clocks || set.scene.clock_source == io::ClockSource::kEstimated)
+    spdlog::info("clocks: {}",
+                 !*config.refine_clocks
+                     ? std::string("taken as given (the config's refine_clocks)")
+                     : fmt::format("corrections of the cameras off the scene's clock learned from "
+                                   "iteration {} ({})",
+                                   config.scaled(config.clock_refine_start),
+                                   clocks_given ? "the config's refine_clocks"
+                                                : "the clocks were estimated: scene.json clocks"));
 
   TrainingLog log(folder.file("log.jsonl"));
   // The loop handles Ctrl-C itself (below): its bar must not throw.
@@ -388,6 +415,7 @@ model::Model train(const io::Scene& scene, const TrainRun& run) {
   log.flush();
   spdlog::info("{}", step.finish());
   if (*config.refine_cameras) log_camera_poses(step.host_model(), set);
+  if (*config.refine_clocks) log_camera_clocks(step.host_model(), set);
   // A window's model is stored on the clip's grid with its window, for merge.
   const model::Model model =
       set.clip_grid ? model::with_window(step.host_model(), *set.clip_grid, config.model_config())

@@ -340,6 +340,30 @@ void check_case(const ModelCase& setup, const model::Primitives& primitives,
     shade_backward(device_primitives, config, kGrid, c.t, camera, rows_ptr, rows.size(), gpu_shaded,
                    gpu_grads);
   }
+  // d loss / d t: the device's per-block sums against the CPU's chunks, both in double over the
+  // same float rows (the SH's rounding on the scale of the largest row).
+  const double cpu_time =
+      model::slice_time_vjp(primitives, config, kGrid, c.t, camera, options, cpu, v_gaussians);
+  DeviceBuffer<double> time_sum(1), partials;
+  time_sum.fill_bytes(0);
+  slice_time_sum(device_primitives, config, kGrid, c.t, camera, device_options, gpu,
+                 device_v_gaussians, time_sum.data(), partials);
+  const double gpu_time = time_sum.download()[0];
+  // The rows' magnitudes bound what their float rounding can move the sum by.
+  model::SliceParams<float> params = model::slice_params<float>(
+      config, kGrid, c.t, camera, Group::kAll, c.compensate, c.flow_features, c.min_opacity);
+  params.channels = channels;
+  const model::GaussianGradArrays<float> vg = {
+      v_gaussians.v_means.data(), v_gaussians.v_log_scales.data(), v_gaussians.v_quats.data(),
+      v_gaussians.v_opacities.data(), v_gaussians.v_features.data()};
+  double magnitude = 0;
+  float v_sh[model::Primitives::kShWidth];
+  for (std::size_t row = 0; row < m; ++row)
+    magnitude += std::abs(
+        model::slice_row_time_vjp(params, model::primitive_arrays<float>(primitives),
+                                  std::size_t(cpu.primitive_from_gaussian[row]), vg, row, v_sh));
+  EXPECT_NEAR(gpu_time, cpu_time, kShRoundings * FLT_EPSILON * magnitude + 1e-9) << "d loss / d t";
+
   model::PrimitiveGrads out;
   gpu_grads.download(out);
   expect_grad_close("v_mu", out.v_mu, cpu_grads.v_mu);

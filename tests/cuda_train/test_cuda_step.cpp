@@ -164,6 +164,30 @@ TEST(CudaStep, CameraRefinementMatchesTheCpu) {
   }
 }
 
+// Clock refinement from the first step (camera 1 half a frame late, its clock refined; cameras
+// 0 and 2 anchor the scene's): both devices take the same d loss / d t (the device's per-block
+// sums of model::slice_row_time_vjp against the CPU's) and step the correction alike, the views
+// then drawn at the moved time.
+TEST(CudaStep, ClockRefinementMatchesTheCpu) {
+  RETIMEGS_REQUIRE_GPU();
+  const TrainingSet set = flow_scene({0, 0.5, 0});
+  TrainConfig config = tiny_config(200);
+  config.refine_clocks = true;
+  config.clock_refine_start = 0;
+  Pair pair(set, config);
+  const int views[][2] = {{1, 2}, {0, 1}, {1, 0}, {1, 3}};
+  for (const auto& [c, i] : views) {
+    const StepStats g = pair.gpu->step_view(c, i), h = pair.cpu.step_view(c, i);
+    EXPECT_LT(relative(g.loss, h.loss), 1e-4) << g.loss << " vs " << h.loss;
+  }
+  const model::Model gpu = pair.gpu->host_model();
+  ASSERT_EQ(gpu.camera_clocks.size(), 1u);
+  for (const auto& [name, delta] : pair.cpu.model().camera_clocks) {
+    EXPECT_NE(delta, 0.0) << name;
+    EXPECT_NEAR(gpu.camera_clocks.at(name), delta, 0.05 * config.lr_time_offset) << name;
+  }
+}
+
 // Over random backgrounds, with the tiny scene's masks (the target's background pixels take the
 // step's colour as the camera sees it) and without (the target stays the image): both devices
 // composite the renders over the same colour, so their first steps' losses agree, and differ

@@ -329,6 +329,83 @@ TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
   }
 }
 
+// d loss / d t (slice_time_vjp, what a camera's clock is refined by) against central differences
+// in t of the reference render of the slice, for both representations and both trajectories, at
+// times inside and beyond primitives' own intervals and across window edges.
+TEST(Slice, TimeGradientMatchesFiniteDifferences) {
+  const Camera cam = small_camera(20, 16);
+  render::RenderOptions ro;
+  ro.min_alpha = 0;
+  ro.min_transmittance = 0;
+  ro.alpha_clamp = 1;
+  struct TimeCase {
+    Representation rep;
+    TrajectoryKind trajectory;
+    double t;
+    bool flow_features;
+  };
+  int cases = 0;
+  for (const TimeCase& c :
+       {TimeCase{Representation::kRetime, TrajectoryKind::kCatmullRom, 4.6, true},
+        TimeCase{Representation::kRetime, TrajectoryKind::kCatmullRom, 2.3, false},
+        TimeCase{Representation::kRetime, TrajectoryKind::kLinear, 5.7, false},
+        TimeCase{Representation::kStgs, TrajectoryKind::kCatmullRom, 4.6, false}}) {
+    ModelConfig config;
+    config.representation = c.rep;
+    config.trajectory = c.trajectory;
+    config.sh_degree = 2;
+    const P p = random_primitives(c.rep, 31, 8);
+    SliceOptions options;
+    options.min_opacity = 0;
+    options.flow_features = c.flow_features;
+    const int channels = options.flow_features ? 7 : 3;
+    std::mt19937 rng(13);
+    std::normal_distribution<double> normal;
+    std::vector<double> w(std::size_t(cam.width) * cam.height * channels),
+        background(channels, 0.2);
+    for (double& x : w) x = normal(rng);
+    auto loss = [&](double t) {
+      const auto e = slice(p, config, kGrid, t, cam, options);
+      const auto img = render::reference_forward(e.gaussians, cam, background.data(), ro);
+      double sum = 0;
+      for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
+      return sum;
+    };
+    const auto e = slice(p, config, kGrid, c.t, cam, options);
+    const auto v_gaussians = render::reference_backward(e.gaussians, cam, background.data(), ro,
+                                                        w.data(), nullptr, nullptr);
+    const double analytic = slice_time_vjp(p, config, kGrid, c.t, cam, options, e, v_gaussians);
+    constexpr double kStep = 1e-6;
+    const double numeric = (loss(c.t + kStep) - loss(c.t - kStep)) / (2 * kStep);
+    EXPECT_GT(std::abs(numeric), 1e-2) << "t = " << c.t << ": the loss should depend on the time";
+    EXPECT_NEAR(analytic, numeric, 1e-5 * (1 + std::abs(numeric))) << "t = " << c.t;
+    // The float rows sum to the double ones.
+    const PrimitivesT<float> pf = float_primitives(p);
+    const auto ef = slice(pf, config, kGrid, c.t, cam, options);
+    // The float batch may leave out rows whose σ_τ underflows: each row takes the gradient of its
+    // primitive's row in the double batch.
+    GaussianGradsT<float> vf(ef.gaussians.size(), v_gaussians.channels);
+    for (std::size_t row = 0; row < ef.gaussians.size(); ++row) {
+      const auto& from = e.primitive_from_gaussian;
+      const std::size_t k = std::size_t(
+          std::find(from.begin(), from.end(), ef.primitive_from_gaussian[row]) - from.begin());
+      ASSERT_LT(k, from.size());
+      const auto copy = [&](const auto& source, auto& target, int width) {
+        for (int a = 0; a < width; ++a) target[width * row + a] = float(source[width * k + a]);
+      };
+      copy(v_gaussians.v_means, vf.v_means, 3);
+      copy(v_gaussians.v_log_scales, vf.v_log_scales, 3);
+      copy(v_gaussians.v_quats, vf.v_quats, 4);
+      copy(v_gaussians.v_opacities, vf.v_opacities, 1);
+      copy(v_gaussians.v_features, vf.v_features, channels);
+    }
+    EXPECT_NEAR(slice_time_vjp(pf, config, kGrid, c.t, cam, options, ef, vf), analytic,
+                1e-4 * (1 + std::abs(analytic)));
+    ++cases;
+  }
+  EXPECT_EQ(cases, 4);
+}
+
 // The selection runs in chunks on all threads and the in-place overload reuses a batch: either
 // way the batch is the value overload's on one thread, byte for byte, for every group, whether the
 // reused batch held a bigger or a smaller one before.

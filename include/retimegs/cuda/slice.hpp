@@ -84,6 +84,16 @@ void slice_backward(const DevicePrimitives& primitives, const model::ModelConfig
                     const DeviceGaussianGrads& v_gaussians, DevicePrimitiveGrads& grads,
                     DeviceShaded* shaded = nullptr);
 
+// model::slice_time_vjp on the device: d loss / d t of the batch `sliced` (slice's arguments)
+// from the renderer's gradient `v_gaussians`, added (+=) into *sum (device), so that a step's
+// passes accumulate before one copy to the host. Per-block partials (scratch `partials`) added in
+// a fixed order: the same on every run. No host synchronisation.
+void slice_time_sum(const DevicePrimitives& primitives, const model::ModelConfig& config,
+                    const model::TimeGrid& grid, double t, const Camera& camera,
+                    const DeviceSliceOptions& options, const DeviceTimeSlice& sliced,
+                    const DeviceGaussianGrads& v_gaussians, double* sum,
+                    DeviceBuffer<double>& partials);
+
 // model::shade on the device: the SH colour at (t, camera) of each of the `count` ascending
 // `rows` (device; nullptr: rows 0 .. count - 1) into out.rgb, zero into their out.v_rgb. `out`
 // is sized to the primitives; its other rows keep their values unless that size changed.

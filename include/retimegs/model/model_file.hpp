@@ -11,9 +11,11 @@
 //                 without the key, as earlier builds wrote them, load with none) and, when
 //                 training refined them, "camera_poses": {camera name: {"rotation": [3],
 //                 "translation": [3]}} (model::CameraPose: ω in radians, |ω| < π, and τ in world
-//                 units, both in camera axes; files without the key load with none) and, for a
-//                 window model (train --window), "window": {"first", "last"}, its first and last
-//                 training times (files without it hold the whole clip), and, for a merged
+//                 units, both in camera axes; files without the key load with none) and, when
+//                 training refined them, "camera_clocks": {camera name: δ}, the correction in
+//                 frames added to the camera's clock (files without the key load with none) and,
+//                 for a window model (train --window), "window": {"first", "last"}, its first and
+//                 last training times (files without it hold the whole clip), and, for a merged
 //                 model (merge), "seams": [times], the training times where two of its windows met,
 //                 and "seam_fade": the edge scale there in training intervals (files without it
 //                 use γ there, as at every other edge)
@@ -46,6 +48,10 @@ struct Model {
   // Per training camera, by name: the pose correction training learned for it (empty when training
   // refined none). Scene cameras are drawn through it (seen_camera); other cameras as they are.
   std::map<std::string, CameraPose> camera_poses;
+  // Per training camera whose clock training refined, by name: the correction δ in frames it
+  // learned, added to the time of each of the camera's frames (the scene's clock gives the rest:
+  // seen_time in playback/render_model.hpp).
+  std::map<std::string, double> camera_clocks;
   // A window model (train --window): the training frames of `grid` it was trained on. `grid` stays
   // the whole clip's, so that windows share one grid; model/window.hpp draws such a model alone.
   std::optional<TimeWindow> window;
@@ -65,6 +71,9 @@ const CameraPose* find_camera_pose(const Model& model, const std::string& camera
 // Cameras that are no scene camera (a camera path file's, those between a path's cameras) are not
 // passed through it.
 Camera seen_camera(const Model& model, const Camera& camera);
+
+// The stored clock correction of the camera named `camera` in frames: 0 when the model has none.
+double clock_correction(const Model& model, const std::string& camera);
 
 // Throws Error "<what> is not finite: ..." or "<what> turns by ... not less than pi" unless the
 // correction's six numbers are finite and its rotation angle |ω| is below π (beyond it the same

@@ -77,6 +77,15 @@ void slice_backward(const PrimitivesT<T>& primitives, const ModelConfig& config,
                     const GaussianGradsT<T>& v_gaussians, PrimitiveGradsT<T>& grads,
                     ShadedT<T>* shaded = nullptr);
 
+// d loss / d t of a batch drawn at time t (slice's arguments, and the renderer's gradient
+// `v_gaussians` of the batch `sliced`): what a camera's clock offset is refined by (docs/method.md,
+// "Camera clock refinement"). Rows sum in a fixed order, in double: the same on every run.
+template <typename T>
+double slice_time_vjp(const PrimitivesT<T>& primitives, const ModelConfig& config,
+                      const TimeGrid& grid, double t, const Camera& camera,
+                      const SliceOptions& options, const TimeSliceT<T>& sliced,
+                      const GaussianGradsT<T>& v_gaussians);
+
 // The SH colour at (t, camera) of each of the ascending `rows` into out.rgb, and zero into their
 // out.v_rgb; `out` is sized to the primitives, keeping its other rows.
 template <typename T>

@@ -310,6 +310,51 @@ RETIMEGS_HD inline void slice_row_backward(const SliceParams<T>& s, const Primit
   if (stgs) grads.v_mu_tau[i] += v_mu_tau;
 }
 
+// d loss / d t of row `row` (primitive i) of a batch drawn at time s.t: the chain rule of
+// slice_row's dependence on t, the renderer's gradient dotted with the row's rate of change.
+// The opacity through σ_τ(t) (not when compensated), the mean along its trajectory (directly and
+// through the view direction of its SH colour), the rotation q0 + q1 (t − μ_τ). The flow features
+// are differences of control points, constant in t between the rule's switches, and add nothing.
+// `v_sh` is scratch of PrimitivesT<T>::kShWidth values (the SH's gradient, discarded).
+template <typename T>
+RETIMEGS_HD inline T slice_row_time_vjp(const SliceParams<T>& s, const PrimitiveArrays<T>& p,
+                                        std::size_t i, const GaussianGradArrays<T>& vg,
+                                        std::size_t row, T* v_sh) {
+  const T sig = sigmoid(p.opacity_logit[i]);
+  T dw = 0;  // d σ_τ / d t
+  if (!s.compensate) {
+    if (s.representation == Representation::kStgs) {
+      const T scale = std::exp(p.temporal_log_scale[i]);
+      const T d = (s.t - p.mu_tau[i]) / scale;
+      dw = -2 * d * std::exp(-d * d) / scale;
+    } else {
+      dw = window_of(s, p, i).d_dt(s.t);
+    }
+  }
+  T v_t = vg.v_opacities[row] * sig * dw;
+  for (int a = 0; a < 4; ++a) v_t += vg.v_quats[4 * row + a] * p.q1[4 * i + a];
+  const TrajectoryCoefficients<T> coefficients =
+      trajectory_at(s.representation, s.trajectory, p.mu_tau[i], s.t, s.step);
+  T v_x[3] = {vg.v_means[3 * row], vg.v_means[3 * row + 1], vg.v_means[3 * row + 2]};
+  T x[3];
+  apply_trajectory(coefficients, &p.mu[3 * i], &p.velocity[9 * i], x);
+  const T dir[3] = {x[0] - s.eye[0], x[1] - s.eye[1], x[2] - s.eye[2]};
+  constexpr int kSh = PrimitivesT<T>::kShWidth;
+  for (int k = 0; k < kSh; ++k) v_sh[k] = 0;
+  const T* v_rgb = &vg.v_features[s.channels * row];
+#if defined(__CUDA_ARCH__)
+  sh_formula::color_vjp(s.sh_degree, &p.sh[kSh * i], dir, v_rgb, v_sh, v_x);
+#else
+  sh_color_vjp(s.sh_degree, &p.sh[kSh * i], dir, v_rgb, v_sh, v_x);            // the same formula
+#endif
+  const TrajectoryCoefficients<T> rate =
+      trajectory_dt(s.representation, s.trajectory, p.mu_tau[i], s.t, s.step);
+  const T* v = &p.velocity[9 * i];
+  for (int a = 0; a < 3; ++a)
+    v_t += v_x[a] * (rate.coef[0] * v[a] + rate.coef[1] * v[3 + a] + rate.coef[2] * v[6 + a]);
+  return v_t;
+}
+
 // shade's row: primitive i's SH colour at its position at t into rgb [3], zero into v_rgb [3].
 template <typename T>
 RETIMEGS_HD inline void shade_row(const SliceParams<T>& s, const PrimitiveArrays<T>& p,

@@ -70,6 +70,46 @@ RETIMEGS_HD TrajectoryCoefficients<T> trajectory_at(Representation representatio
   return c;
 }
 
+// d/du of catmull_rom_weights: the cubic's derivative inside [0, 1], the end tangents' outside.
+template <typename T>
+RETIMEGS_HD void catmull_rom_weights_du(T u, T w[4]) {
+  if (u < T(0)) {
+    w[0] = T(-0.5), w[1] = 0, w[2] = T(0.5), w[3] = 0;
+  } else if (u > T(1)) {
+    w[0] = 0, w[1] = T(-0.5), w[2] = 0, w[3] = T(0.5);
+  } else {
+    const T u2 = u * u;
+    w[0] = (-1 + 4 * u - 3 * u2) / 2;
+    w[1] = (-10 * u + 9 * u2) / 2;
+    w[2] = (1 + 8 * u - 9 * u2) / 2;
+    w[3] = (-2 * u + 3 * u2) / 2;
+  }
+}
+
+// The velocity coefficients at time t: dx/dt = Σ_j d coef[j] / dt · v_j (trajectory_at's
+// derivative in t, μ and μ_τ held; stgs_delta unused).
+template <typename T>
+RETIMEGS_HD TrajectoryCoefficients<T> trajectory_dt(Representation representation,
+                                                    TrajectoryKind kind, T mu_tau, T t, T step) {
+  TrajectoryCoefficients<T> c;
+  if (representation == Representation::kStgs) {
+    const T d = t - mu_tau;
+    c.coef[0] = 1, c.coef[1] = 2 * d, c.coef[2] = 3 * d * d;
+    return c;
+  }
+  if (kind == TrajectoryKind::kLinear) {
+    c.coef[1] = 1;
+    return c;
+  }
+  const T u = (t - (mu_tau - step / 2)) / step;
+  T w[4];
+  catmull_rom_weights_du(u, w);  // d/dt = d/du / step
+  c.coef[0] = -w[0];
+  c.coef[1] = (-w[0] - w[1] + w[2] + w[3]) / 2;
+  c.coef[2] = w[3];
+  return c;
+}
+
 // The clip's ends for tie_end_velocities: Δt/2, the first and last training times, ε (frames).
 template <typename T>
 struct EndTie {

@@ -46,6 +46,11 @@ LoadedModel load_model(const std::filesystem::path& path);
 // training learned for it, if any); a static model's as it is. render, eval and the viewer pass
 // every scene camera they draw through a model through it, and no other camera.
 Camera seen_camera(const LoadedModel& model, const Camera& camera);
+// The scene time at which `model` draws scene camera `camera`'s frame position `position`: its
+// clock's time (io::frame_time) plus the clock correction training learned for it
+// (model::clock_correction; none for a static model). The one rule of every command that
+// reproduces a camera's frames (eval, render --own-clock).
+double seen_time(const LoadedModel& model, const io::Scene& scene, int camera, double position);
 
 // The near plane of a command's model renders, in scene units: `near` (--near) when given, else
 // the scene's (io::scene_near_plane). Throws Error naming --near unless it is finite and > 0.

@@ -22,6 +22,7 @@ using NamedAdams = std::vector<std::pair<std::string, const Adam*>>;
 
 constexpr const char* kCameraColorAdam = "camera_color";
 constexpr const char* kCameraPoseAdam = "camera_pose";
+constexpr const char* kCameraClockAdam = "camera_clock";
 
 // Writes the folder `dir` atomically (core/atomic_file.hpp), replacing an older one. The active SH
 // degree is model.config.sh_degree.

@@ -81,6 +81,12 @@ struct TrainConfig {
   int camera_refine_start = 1000;  // scaled: the scene takes shape before the cameras move
   double camera_pose_reg = 1e-4;
 
+  // Clock refinement (docs/method.md, "Camera clock refinement"). Unset: on for a scene whose
+  // clocks were estimated (train::refine_clocks, which the run writes into its config).
+  std::optional<bool> refine_clocks;
+  double lr_time_offset = 5e-3;   // frames
+  int clock_refine_start = 1000;  // scaled: the scene takes shape before the clocks move
+
   // Flow-aware initialisation: the paper's readings (true) or the project's (docs/method.md).
   bool init_average_lifts = false;  // 3-D displacement: mean of the per-view lifts at the depth
   bool init_mean_velocity = false;  // v1 = v2 = v3 = the mean of both displacements

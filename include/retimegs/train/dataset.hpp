@@ -42,7 +42,9 @@ struct TrainingSet {
   bool on_grid(int c, int i) const { return time(c, i) == grid.at(i); }
   // The grid slots (a, b) around view (c, i)'s time, a == b at a grid time or beyond the grid's
   // ends: a plain render at that time touches only rows of slots a and b (TrainingRows).
-  std::pair<int, int> slots_around(int c, int i) const;
+  std::pair<int, int> slots_around(int c, int i) const { return slots_at(time(c, i)); }
+  // The grid slots (a, b) around time t: a == b at a grid time or beyond the grid's ends.
+  std::pair<int, int> slots_at(double t) const;
 
   double scene_extent = 1.0;  // io::TrainingViews::extent
   float near_plane = 0.01f;   // io::scene_near_plane

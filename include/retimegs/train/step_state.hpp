@@ -33,6 +33,10 @@ constexpr int kPoseWidth = 6;   // a camera pose correction's parameters: ω[3],
 // scene's calibration is the user's (io::CalibrationSource).
 bool refine_cameras(const TrainConfig& config, const TrainingSet& set);
 
+// Whether the run refines its cameras' clocks: config.refine_clocks, or where unset, whether the
+// scene's clocks were estimated (io::ClockSource).
+bool refine_clocks(const TrainConfig& config, const TrainingSet& set);
+
 class StepState {
  public:
   StepState(const TrainingSet& set, const TrainConfig& config);
@@ -46,12 +50,13 @@ class StepState {
   void rebuild_index();
   // Sets the index (of the current rows) and the step's row lists that follow from it.
   void set_index(model::TemporalIndex new_index);
-  // The rows a step on view (camera slot c, frame slot i) may touch, as one of row_lists() lists:
-  // index.rows_at(i) for a view on the grid (list i); for a view between grid slots a and a + 1
-  // (a camera on its own clock), the union of theirs (list frames + its pair's). A retime window's
-  // edges lie at training times, so a row visible between two adjacent ones is visible at one of
-  // them (the slice leaves out the rest); STGS lists every row at every frame. The unions exist
-  // only for the pairs some view falls between: none when every view is on the grid.
+  // The rows a step on view (camera slot c, frame slot i) may touch at its view_time, as one of
+  // row_lists() lists: index.rows_at(i) for a view on the grid (list i); for a view between grid
+  // slots a and a + 1 (a camera on its own clock), the union of theirs (list frames + its pair's).
+  // A retime window's edges lie at training times, so a row visible between two adjacent ones is
+  // visible at one of them (the slice leaves out the rest); STGS lists every row at every frame.
+  // The unions exist only for the pairs some view falls between (every pair where clocks move):
+  // none when every view is on the grid.
   int row_list(int c, int i) const;
   const std::vector<std::int32_t>& rows_of(int list) const;
   int row_lists() const { return index.frames() + int(between_.size()); }
@@ -92,6 +97,26 @@ class StepState {
   // regulariser's value.
   double step_camera_pose(int c, double decay);
 
+  // Per-camera clock correction δ (frames, when refine_clocks), by training camera slot. The
+  // cameras on the scene's clock (the default one: frame k at time k) anchor it and keep it;
+  // every other training camera's clock is refined (all of them, their mean correction held at
+  // zero, where no training camera is on the scene's clock: a shift of every clock is a shift of
+  // the scene's time).
+  bool refine_clocks() const { return *config_.refine_clocks; }
+  bool clock_refined(int c) const { return !clock_refined_.empty() && clock_refined_[c]; }
+  double clock_of(int c) const { return clock_refined(c) ? clocks_[c] : 0.0; }
+  // The time the steps draw view (camera slot c, frame slot i) at, its clock's time plus the
+  // correction, and whether that is its training time (TrainingSet::on_grid's rule).
+  double view_time(int c, int i) const { return set_.time(c, i) + clock_of(c); }
+  bool on_grid(int c, int i) const { return view_time(c, i) == set_.grid.at(i); }
+  // Whether step number `step` on slot c moves its correction (after clock_refine_start), so
+  // that its render adds d loss / d t (model::slice_time_vjp) with add_time_gradient.
+  bool clock_refines_at(int step, int c) const;
+  void add_time_gradient(int c, double gradient) { clock_grads_[c] += float(gradient); }
+  // An Adam step of slot c's correction (gradient then zeroed), then the gauge rule; writes every
+  // refined camera's correction into the model.
+  void step_clock(int c, double decay);
+
   // Whether the steps draw random backgrounds: config.random_background, or its default for the
   // training set (train::random_background).
   bool random_background() const { return *config_.random_background; }
@@ -129,6 +154,10 @@ class StepState {
   // Per-camera pose correction likewise: [cameras, kPoseWidth] (ω, then τ in scene extents).
   std::vector<float> poses_, pose_grads_;
   Adam pose_adam_;
+  // Per-camera clock correction likewise: [cameras] δ in frames; which slots move.
+  std::vector<float> clocks_, clock_grads_;
+  Adam clock_adam_;
+  std::vector<char> clock_refined_;
 };
 
 }  // namespace retimegs::train
