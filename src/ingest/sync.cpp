@@ -151,8 +151,8 @@ LagEstimate estimate_lag(const std::vector<double>& reference, const std::vector
   };
   const auto search = [&](double from, double to, double step, double start) {
     double arg = start, value = at(start);
-    for (double d = from; d <= to + 1e-12; d += step)
-      if (const double c = at(d); c > value) value = c, arg = d;
+    for (int i = 0; from + i * step <= to + 1e-12; ++i)
+      if (const double c = at(from + i * step); c > value) value = c, arg = from + i * step;
     return std::pair(arg, value);
   };
   double lag = best, peak = *whole[best + max_lag];
