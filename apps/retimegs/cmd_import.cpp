@@ -1,7 +1,8 @@
 // retimegs import FORMAT --in SRC --out SCENE [--frames A:B] [--downscale F]
 // retimegs import videos --in DIR
 //                        [--calib PATH | --calib-frames K --calib-frame N --camera-model M]
-//                        [--test-cameras ...] [--offsets ...]
+//                        [--test-cameras ...] [--offsets ... | --sync auto [--sync-max-lag N]]
+//                        [--timestamps FILE]
 #include <map>
 #include <memory>
 #include <optional>
@@ -64,7 +65,8 @@ ingest::ImportOptions import_options(const Args& args) {
 
 void add_videos_command(CLI::App* cmd) {
   struct VideoArgs : Args {
-    std::string calib, test_cameras, offsets;
+    std::string calib, test_cameras, offsets, sync, timestamps;
+    std::optional<int> sync_max_lag;
     std::optional<double> fps;
     std::optional<int> calib_frame;
     std::optional<int> calib_frames;
@@ -102,6 +104,18 @@ void add_videos_command(CLI::App* cmd) {
                   "sync offsets CAM:X,... in frames: scene frame k of CAM is its source frame "
                   "k + X; a fraction is kept as CAM's time_offset (frames k + round(X), at time "
                   "k + round(X) - X)");
+  sub->add_option("--sync", args->sync,
+                  "auto: estimate every camera's --offsets from when things move in its footage "
+                  "against the first camera's (scene.json clocks \"estimated\"; not with "
+                  "--offsets or --timestamps)")
+      ->check(CLI::IsMember({"auto"}));
+  sub->add_option("--sync-max-lag", args->sync_max_lag,
+                  "with --sync auto: the largest offset searched, in frames (default: a quarter "
+                  "of the frames every camera has)");
+  sub->add_option("--timestamps", args->timestamps,
+                  "CSV of camera,frame,seconds per source frame, on one clock for all cameras: "
+                  "the cameras' frame_times (docs/formats.md); --offsets whole frames only")
+      ->check(input_file("a timestamps file"));
   sub->add_option("--fps", args->fps,
                   "frame rate (default: the videos', which must agree within 0.1 %; 30 for image "
                   "folders); overrides the videos'");
@@ -113,6 +127,9 @@ void add_videos_command(CLI::App* cmd) {
     if (!args->test_cameras.empty())
       videos.test_cameras = split_list(args->test_cameras, "--test-cameras");
     if (!args->offsets.empty()) videos.offsets = parse_camera_values(args->offsets, "--offsets");
+    videos.sync_auto = args->sync == "auto";
+    videos.sync_max_lag = args->sync_max_lag;
+    videos.timestamps = args->timestamps;
     videos.fps = args->fps;
     videos.calibration_frame = args->calib_frame;
     videos.calibration_instants = args->calib_frames;
@@ -130,6 +147,21 @@ void add_videos_command(CLI::App* cmd) {
         "calibration: {}; {} camera{} undistorted to pinhole; no masks (prepare works without "
         "them)",
         r.calibration, r.undistorted, r.undistorted == 1 ? "" : "s");
+    if (!r.sync.empty()) {
+      std::string offsets;
+      for (std::size_t c = 1; c < r.sync.size(); ++c)
+        offsets += fmt::format("{}{}:{:.2f} (peak correlation {:.2f})", c > 1 ? ", " : "",
+                               r.sync[c].name, r.sync[c].offset, r.sync[c].peak);
+      spdlog::info("--sync auto: offsets in frames, searched within ±{}, against {}: {}",
+                   r.sync_max_lag, escape_control_chars(r.sync.front().name),
+                   escape_control_chars(offsets));
+      for (const auto& cam : r.sync)
+        if (!cam.weak.empty())
+          spdlog::warn(
+              "--sync auto: camera {}: {}; its offset {:.2f} may be wrong (measure it and "
+              "give every camera's with --offsets)",
+              escape_control_chars(cam.name), cam.weak, cam.offset);
+    }
     if (r.recovered) {
       const std::size_t total = std::size_t(r.registered) + r.unregistered.size();
       spdlog::info(

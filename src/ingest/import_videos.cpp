@@ -17,6 +17,8 @@
 #include "retimegs/core/limits.hpp"
 #include "retimegs/core/parallel.hpp"
 #include "retimegs/ingest/import.hpp"
+#include "retimegs/ingest/sync.hpp"
+#include "retimegs/ingest/timestamps.hpp"
 #include "retimegs/io/scene.hpp"
 #include "retimegs/media/image_io.hpp"
 #include "retimegs/media/resize.hpp"
@@ -298,6 +300,46 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
   return std::move(recovered.cameras);
 }
 
+// --sync auto: every camera's --offsets value, minus its lag against the first camera's (sync.hpp),
+// from the motion energy of all its source frames, decoded one at a time.
+std::map<std::string, double> estimate_offsets(const std::vector<Footage>& footage,
+                                               const std::optional<int>& max_lag,
+                                               const ImportOptions& options, VideosReport& report) {
+  std::vector<MotionEnergy> energy(footage.size());
+  std::size_t total = 0;
+  int common = INT_MAX;
+  for (const Footage& f : footage)
+    total += std::size_t(f.frames), common = std::min(common, f.frames);
+  report.sync_max_lag = max_lag.value_or(default_max_lag(common));
+  if (report.sync_max_lag < 1)
+    fail("--sync-max-lag: {} is not a positive number of frames", report.sync_max_lag);
+  detail::parallel_jobs(footage.size(), total, "sync", options.progress,
+                        [&](std::size_t c, Progress& progress) {
+                          const Footage& f = footage[c];
+                          const auto use = [&](const Image& image, int) {
+                            energy[c].add(image);
+                            progress.tick();
+                          };
+                          if (f.video())
+                            return detail::decode_video(video_info(f), 0, f.frames - 1, use);
+                          for (int k = 0; k < f.frames; ++k) use(folder_frame(f, k), k);
+                        });
+  std::map<std::string, double> offsets;
+  for (std::size_t c = 0; c < footage.size(); ++c) {
+    VideosReport::SyncedCamera synced{footage[c].name, 0.0, 1.0, {}};
+    if (c > 0) {
+      const LagEstimate e =
+          estimate_lag(energy[0].signal(), energy[c].signal(), report.sync_max_lag);
+      synced.offset = 0.0 - e.lag;  // 0.0 - : no "-0" in the log
+      synced.peak = e.peak;
+      synced.weak = e.weak;
+    }
+    offsets[synced.name] = synced.offset;
+    report.sync.push_back(std::move(synced));
+  }
+  return offsets;
+}
+
 }  // namespace
 
 WholeOffset split_offset(double x) {
@@ -337,20 +379,50 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   for (const std::string& name : videos.test_cameras)
     if (!std::binary_search(names.begin(), names.end(), name))
       fail("--test-cameras: unknown camera '{}' (cameras: {})", name, join(names));
-  std::vector<int> offsets(footage.size(), 0);
   for (const auto& [name, offset] : videos.offsets) {
-    const auto it = std::lower_bound(names.begin(), names.end(), name);
-    if (it == names.end() || *it != name)
+    if (!std::binary_search(names.begin(), names.end(), name))
       fail("--offsets: unknown camera '{}' (cameras: {})", name, join(names));
-    offsets[it - names.begin()] = split_offset(offset).frames;
+    if (!videos.timestamps.empty() && offset != std::floor(offset))
+      fail(
+          "--offsets: {}:{} is not a whole number of frames, which is all --offsets may be with "
+          "--timestamps (the timestamps say when each frame shows the scene)",
+          name, offset);
   }
+  if (videos.sync_auto && !videos.offsets.empty())
+    fail("--sync auto: not with --offsets (it estimates every camera's; give all of them instead)");
+  if (videos.sync_auto && !videos.timestamps.empty())
+    fail("--sync auto: not with --timestamps (they give every frame's time already)");
+  if (!videos.sync_auto && videos.sync_max_lag)
+    fail("--sync-max-lag: only with --sync auto (it bounds the offsets it estimates)");
+  std::optional<Timestamps> timestamps;
+  if (!videos.timestamps.empty()) timestamps = read_timestamps(videos.timestamps, names);
 
   for (Footage& f : footage) probe(f);
   const auto [fps, fps_source] = choose_fps(source, footage, videos.fps);
+  const std::map<std::string, double> given =
+      videos.sync_auto ? estimate_offsets(footage, videos.sync_max_lag, options, report)
+                       : videos.offsets;
+  std::vector<int> offsets;
+  for (const Footage& f : footage) {
+    const auto it = given.find(f.name);
+    offsets.push_back(it == given.end() ? 0 : split_offset(it->second).frames);
+  }
   const auto [lo, hi] = common_frames(footage, offsets);
-  const auto [first, last] = detail::frame_range(
-      options, hi - lo + 1, videos.offsets.empty() ? "the footage" : "the footage after --offsets");
+  const auto [first, last] =
+      detail::frame_range(options, hi - lo + 1,
+                          videos.sync_auto ? "the footage after the offsets --sync auto estimated"
+                          : videos.offsets.empty() ? "the footage"
+                                                   : "the footage after --offsets");
   const int scene_start = lo + first;  // k of scene frame 0
+  // Every camera's frame_times, checked before COLMAP or the images take their time.
+  std::map<std::string, std::vector<double>> frame_times;
+  if (timestamps) {
+    std::vector<int> source_first;
+    for (int offset : offsets) source_first.push_back(scene_start + offset);
+    const auto times =
+        frame_times_from_timestamps(*timestamps, names, source_first, last - first + 1, fps);
+    for (std::size_t c = 0; c < names.size(); ++c) frame_times[names[c]] = times[c];
+  }
 
   io::Scene scene;
   scene.num_frames = last - first + 1;
@@ -412,13 +484,14 @@ VideosReport import_videos(const fs::path& source, const fs::path& out,
   }
   scene.up = detail::mean_camera_up(scene.cameras);
 
-  // The fractions of --offsets, as the cameras' clocks (split_offset).
+  // The fractions of the offsets (split_offset) or the timestamps, as the cameras' clocks.
   for (const Footage& f : footage) {
-    const auto it = videos.offsets.find(f.name);
-    scene.clocks.push_back(
-        {it == videos.offsets.end() ? 0.0 : split_offset(it->second).time_offset, {}});
+    const auto it = given.find(f.name);
+    scene.clocks.push_back({it == given.end() ? 0.0 : split_offset(it->second).time_offset,
+                            timestamps ? frame_times.at(f.name) : std::vector<double>()});
   }
   if (!io::has_own_clocks(scene)) scene.clocks.clear();
+  if (videos.sync_auto) scene.clock_source = io::ClockSource::kEstimated;
   for (std::size_t c = 0; c < footage.size(); ++c) {
     const int source_first = scene_start + offsets[c];
     scene.sources.push_back({footage[c].path.filename().string(), source_first,

@@ -194,6 +194,29 @@ World make_textured(std::uint64_t seed, int frames) {
   return world;
 }
 
+// Motion whose strength over time looks alike from every camera of the ring: on the vertical
+// through the point the cameras look at, a sphere that swells and shrinks with the same phase on
+// every axis, and above it one that rises and stops. Synchronising cameras from their motion
+// energy (`import videos --sync auto`) needs that; an object going round (the default preset's)
+// moves fastest across the view of a different camera at each moment, and objects off the axis
+// weigh differently in each view, so those cameras' motion energies do not match.
+World make_pulsing(std::uint64_t seed, int frames) {
+  World world;
+  world.frames = frames;
+  Rng rng(stream_seed(seed, kWorldStream));
+  add_backdrop(world, rng);
+  Object pulsing;
+  pulsing.shape = Shape::kSphere;
+  pulsing.motion.anchor = {0, -0.6, 0};
+  pulsing.motion.radii = Vector3d::Constant(0.45);
+  pulsing.motion.pulse_amplitude = Vector3d::Constant(0.3);
+  pulsing.motion.pulse_rate = rng.uniform(0.27, 0.33);  // a period of about 21 frames
+  pulsing.motion.pulse_phase = Vector3d::Constant(rng.uniform(0, 2 * kPi));
+  pulsing.texture = make_texture(Pattern::kSpots, {0.86, 0.24, 0.14}, {0.96, 0.84, 0.30}, 4.5, rng);
+  world.objects.push_back(pulsing);
+  return world;
+}
+
 World make_minimal(std::uint64_t seed, int frames) {
   World world;
   world.frames = frames;
@@ -245,6 +268,9 @@ const std::vector<SynthPreset>& synth_presets() {
        "emerging from the box, over a tiled ground under a sky"},
       {"fast", "the default objects with twice the motion (a hard case for interpolation)"},
       {"minimal", "one textured sphere on a circular path and one spinning box (tiny tests)"},
+      {"pulsing",
+       "a sphere that swells and shrinks and one that rises and stops above it, alike from every "
+       "camera (synchronising cameras from their footage)"},
       {"textured",
        "static boxes and spheres covered in multi-scale noise over a noise-textured ground (camera "
        "calibration from the images)"},
@@ -261,6 +287,7 @@ World build_world(const std::string& preset, std::uint64_t seed, int frames) {
   if (preset == "fast") return make_default(seed, frames, 2.0);
   if (preset == "minimal") return make_minimal(seed, frames);
   if (preset == "textured") return make_textured(seed, frames);
+  if (preset == "pulsing") return make_pulsing(seed, frames);
   std::string known;
   for (const auto& p : synth_presets()) known += (known.empty() ? "" : ", ") + p.name;
   fail("--preset: unknown preset '{}' (presets: {})", preset, known);

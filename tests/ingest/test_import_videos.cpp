@@ -704,3 +704,85 @@ TEST(VideosImport, FractionalOffsetsBecomeTimeOffsets) {
 
 }  // namespace
 }  // namespace retimegs::ingest
+
+namespace retimegs::ingest {
+namespace {
+
+// --timestamps with whole-frame --offsets: the offsets choose the source frames, the timestamps
+// give their times, relative to cam00's scene frame 0 (its source frame 1 here), at the scene's
+// rate (30 fps: image folders). The clocks stay "given".
+TEST(VideosImport, TimestampsBecomeFrameTimes) {
+  test::TempDir dir;
+  const auto cams = rig();
+  for (int c = 0; c < 3; ++c) write_folder(dir / "src" / cams[c].name, c);
+  io::write_colmap_model_txt(colmap_model(cams), dir / "model");
+  // cam00 on time at 30 fps from 5 s, cam01 10 ms late, cam02 a frame (33.3 ms) early but
+  // running 1 % slow.
+  std::string csv = "camera,frame,seconds\n";
+  for (int j = 0; j < kFrames; ++j)
+    csv += fmt::format("cam00,{},{:.17g}\ncam01,{},{:.17g}\ncam02,{},{:.17g}\n", j, 5 + j / 30.0, j,
+                       5.01 + j / 30.0, j, 5 - 1 / 30.0 + 1.01 * j / 30.0);
+  test::write_text(dir / "t.csv", csv);
+  VideosOptions v = calib(dir / "model");
+  v.offsets = {{"cam01", 2}, {"cam02", -1}};  // scene frames k = 1..3, as above
+  v.timestamps = dir / "t.csv";
+  import_videos(dir / "src", dir / "a", quiet(), v);
+  const io::Scene scene = media::read_scene(dir / "a");
+  ASSERT_EQ(scene.num_frames, 3);
+  EXPECT_EQ(scene.clock_source, io::ClockSource::kGiven);
+  ASSERT_EQ(scene.clocks.size(), 3u);
+  for (int j = 0; j < 3; ++j) {
+    expect_frame(scene, 1, j, 3 + j);
+    EXPECT_NEAR(scene.clocks[0].frame_times[j], j, 1e-9);
+    EXPECT_NEAR(scene.clocks[1].frame_times[j], 2 + j + 0.3, 1e-9);  // source frame 3 + j
+    EXPECT_NEAR(scene.clocks[2].frame_times[j], -1 - 1 + 1.01 * j, 1e-9);
+  }
+}
+
+// What --timestamps refuses: fractional --offsets (the timestamps say when frames show the
+// scene), --sync auto, and a scene frame without a timestamp; nothing is written.
+TEST(VideosImport, TimestampsRefuseFractionsSyncAndMissingFrames) {
+  test::TempDir dir;
+  const auto cams = rig();
+  for (int c = 0; c < 3; ++c) write_folder(dir / "src" / cams[c].name, c);
+  io::write_colmap_model_txt(colmap_model(cams), dir / "model");
+  std::string csv;
+  for (int c = 0; c < 3; ++c)
+    for (int j = 0; j < kFrames - (c == 2); ++j) csv += fmt::format("cam0{},{},{}\n", c, j, j);
+  test::write_text(dir / "t.csv", csv);
+  VideosOptions v = calib(dir / "model");
+  v.timestamps = dir / "t.csv";
+  v.offsets = {{"cam01", 0.5}};
+  test::expect_error([&] { import_videos(dir / "src", dir / "a", quiet(), v); },
+                     {"--offsets: cam01:0.5 is not a whole number of frames", "--timestamps"});
+  v.offsets.clear();
+  v.sync_auto = true;
+  test::expect_error([&] { import_videos(dir / "src", dir / "a", quiet(), v); },
+                     {"--sync auto: not with --timestamps"});
+  v.sync_auto = false;
+  test::expect_error([&] { import_videos(dir / "src", dir / "a", quiet(), v); },
+                     {"t.csv: no timestamp for camera 'cam02' frame 5 (its scene frame 5)"});
+  EXPECT_FALSE(fs::exists(dir / "a"));
+}
+
+// --sync auto estimates every camera's offset: not with --offsets; --sync-max-lag only with it.
+TEST(VideosImport, SyncAutoRefusesOffsetsAndAMaxLagAlone) {
+  test::TempDir dir;
+  const auto cams = rig();
+  for (int c = 0; c < 3; ++c) write_folder(dir / "src" / cams[c].name, c);
+  io::write_colmap_model_txt(colmap_model(cams), dir / "model");
+  VideosOptions v = calib(dir / "model");
+  v.sync_auto = true;
+  v.offsets = {{"cam01", 1}};
+  test::expect_error([&] { import_videos(dir / "src", dir / "a", quiet(), v); },
+                     {"--sync auto: not with --offsets"});
+  v.sync_auto = false;
+  v.offsets.clear();
+  v.sync_max_lag = 2;
+  test::expect_error([&] { import_videos(dir / "src", dir / "a", quiet(), v); },
+                     {"--sync-max-lag: only with --sync auto"});
+  EXPECT_FALSE(fs::exists(dir / "a"));
+}
+
+}  // namespace
+}  // namespace retimegs::ingest

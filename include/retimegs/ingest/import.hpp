@@ -89,6 +89,16 @@ struct VideosOptions {
   // Where a negative offset leaves no source frame at k = 0, the scene starts at the first k that
   // every camera has.
   std::map<std::string, double> offsets;
+  // Synchronisation estimated from the footage (--sync auto; sync.hpp): every camera's --offsets
+  // value is minus its lag against the first camera's motion energy, searched within
+  // ±sync_max_lag frames (absent: default_max_lag of the frames every camera has); the scene's
+  // clocks are then "estimated". Not with `offsets` (which it would replace) or `timestamps`.
+  bool sync_auto = false;
+  std::optional<int> sync_max_lag;
+  // Per-frame timestamps (--timestamps FILE; timestamps.hpp): the cameras' frame_times, relative
+  // to the first camera's scene frame 0. With whole-frame `offsets` only: they choose the source
+  // frames, the timestamps say when those show the scene.
+  std::filesystem::path timestamps;
   std::optional<double> fps;  // overrides the videos' rate; image folders alone: 30 when absent
 };
 
@@ -124,6 +134,16 @@ struct VideosReport {
   std::string spread_camera;
   int undistorted = 0;  // cameras resampled from a distorted model into pinhole ones
   std::vector<std::string> without_footage;  // calibrated cameras without footage (left out)
+  // --sync auto: every camera (footage order, the reference first) with its estimated --offsets
+  // value, its peak correlation with the reference, and why it is not to be trusted (empty: it
+  // is); the bound the lags were searched within.
+  struct SyncedCamera {
+    std::string name;
+    double offset = 0, peak = 1;
+    std::string weak;
+  };
+  std::vector<SyncedCamera> sync;
+  int sync_max_lag = 0;
 };
 
 VideosReport import_videos(const std::filesystem::path& source, const std::filesystem::path& out,
