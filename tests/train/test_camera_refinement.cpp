@@ -101,11 +101,15 @@ TEST(CameraRefinement, DefaultFollowsTheCalibrationSource) {
   EXPECT_TRUE(off.model().camera_poses.empty());
 }
 
-// The corrections are in the model and their Adam state in the checkpoint: a run resumed from a
-// checkpoint ends with the uninterrupted run's model, corrections included.
+// The corrections (poses, and the clock of a camera off the scene's clock) are in the model and
+// their Adam state in the checkpoint: a run resumed from a checkpoint ends with the uninterrupted
+// run's model, corrections included.
 TEST(CameraRefinement, ResumeEqualsUninterrupted) {
   test::TempDir dir;
-  const io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  io::Scene scene = minimal_scene(dir / "scene", 3, 48, 36);
+  scene.clocks.resize(scene.cameras.size());
+  scene.clocks[1].time_offset = 0.3;
+  scene.clock_source = io::ClockSource::kEstimated;
   TrainRun run;
   run.config.iters = 30;
   run.config.cap = 1500;
@@ -113,13 +117,16 @@ TEST(CameraRefinement, ResumeEqualsUninterrupted) {
   run.config.checkpoint_keep = 0;
   run.config.refine_cameras = true;
   run.config.camera_refine_start = 0;
+  run.config.clock_refine_start = 0;
   run.progress = false;
   run.out = dir / "full";
   const model::Model full = train(scene, run);
   ASSERT_EQ(full.camera_poses.size(), 3u);
   EXPECT_FALSE(full.camera_poses.begin()->second.is_identity());
-  EXPECT_TRUE(
-      fs::exists(dir / "full" / "checkpoints" / "iter_000015" / "adam" / "camera_pose_v.npy"));
+  ASSERT_EQ(full.camera_clocks.size(), 1u);  // cameras 0 and 2 anchor the scene's clock
+  EXPECT_NE(full.camera_clocks.begin()->second, 0.0);
+  for (const char* adam : {"camera_pose_v.npy", "camera_clock_v.npy"})
+    EXPECT_TRUE(fs::exists(dir / "full" / "checkpoints" / "iter_000015" / "adam" / adam)) << adam;
   fs::copy(dir / "full", dir / "resumed", fs::copy_options::recursive);
   fs::remove(dir / "resumed" / "model.rgs");
   fs::remove_all(dir / "resumed" / "checkpoints" / "iter_000030");
