@@ -54,7 +54,7 @@ synth=("$bin" synth --preset pulsing --cameras "$cameras" --frames "$frames" --s
   "${synth[@]}" --perturb-calibration 0,0,0 --out "$work/rig"
 if [ ! -f "$work/imported/scene.json" ]; then
   rm -rf "$work/imported"
-  "$bin" import videos "$work/ignored/images" --calib "$work/rig/calibration_true.json" \
+  "$bin" import videos --in "$work/ignored/images" --calib "$work/rig/calibration_true.json" \
     --sync auto --out "$work/imported" 2>&1 | tee "$work/import.log"
 fi
 # Each camera's estimated clock offset: its scene.json time_offset (0 where absent), one per line

@@ -301,7 +301,7 @@ std::vector<detail::CalibratedCamera> recover(std::vector<Footage>& footage,
 }
 
 // --sync auto: every camera's --offsets value, minus its lag against the first camera's (sync.hpp),
-// from the motion energy of all its source frames, decoded one at a time.
+// from the motion energy of all its source frames, decoded one at a time, to kSyncResolution.
 std::map<std::string, double> estimate_offsets(const std::vector<Footage>& footage,
                                                const std::optional<int>& max_lag,
                                                const ImportOptions& options, VideosReport& report) {
@@ -330,7 +330,7 @@ std::map<std::string, double> estimate_offsets(const std::vector<Footage>& foota
     if (c > 0) {
       const LagEstimate e =
           estimate_lag(energy[0].signal(), energy[c].signal(), report.sync_max_lag);
-      synced.offset = 0.0 - e.lag;  // 0.0 - : no "-0" in the log
+      synced.offset = round_to_sync_resolution(-e.lag);
       synced.peak = e.peak;
       synced.weak = e.weak;
     }

@@ -88,6 +88,10 @@ double sample_linear(const std::vector<double>& signal, double x) {
   return (1 - f) * signal[i] + f * signal[i + 1];
 }
 
+double round_to_sync_resolution(double x) {
+  return 0.0 + std::round(x / kSyncResolution) * kSyncResolution;  // 0.0 + : no "-0"
+}
+
 int default_max_lag(int common_frames) {
   return std::max(1, common_frames / 4);
 }

@@ -154,7 +154,8 @@ constexpr ConfigKey kKeys[] = {
     {"lr_time_offset", &TrainConfig::lr_time_offset, kRate, kCameras,
      "the clock corrections, in frames"},
     {"clock_refine_start", &TrainConfig::clock_refine_start, kMilestone, kCameras,
-     "scaled; the clock corrections move at iterations after this"},
+     "scaled; the clock corrections move at iterations after this (late: the in-between states "
+     "are fitted first)"},
 
     {"cap", &TrainConfig::cap, kCount, kDensity,
      "most primitives (`--cap`, `--preset`); initial seeds above it are subsampled"},

@@ -180,3 +180,21 @@ TEST(Sync, MotionEnergyIsTheMeanAbsoluteDifference) {
 
 }  // namespace
 }  // namespace retimegs::ingest
+
+namespace retimegs::ingest {
+namespace {
+
+// Offsets are written to kSyncResolution: a camera found a hundredth of a frame from the
+// reference keeps its clock exactly (on the training grid), halves round away from zero.
+TEST(Sync, OffsetsRoundToTheResolution) {
+  EXPECT_EQ(round_to_sync_resolution(0.03), 0.0);
+  EXPECT_EQ(round_to_sync_resolution(-0.049), 0.0);
+  EXPECT_FALSE(std::signbit(round_to_sync_resolution(-0.01)));
+  EXPECT_NEAR(round_to_sync_resolution(0.435), 0.4, 1e-12);
+  EXPECT_NEAR(round_to_sync_resolution(-0.46), -0.5, 1e-12);
+  EXPECT_NEAR(round_to_sync_resolution(2.976), 3.0, 1e-12);
+  EXPECT_EQ(round_to_sync_resolution(3.0), 3.0);
+}
+
+}  // namespace
+}  // namespace retimegs::ingest

@@ -151,7 +151,7 @@ constexpr const char* kDefaultJson = R"json({
   "cap": 200000,
   "checkpoint_every": 1000,
   "checkpoint_keep": 2,
-  "clock_refine_start": 1000,
+  "clock_refine_start": 10000,
   "final_prune_opacity": 0.03,
   "flow_decay_until": 12000,
   "flow_hold": false,

@@ -44,6 +44,17 @@ int default_max_lag(int common_frames);
 constexpr double kMinSyncPeak = 0.5;
 constexpr double kMinSyncMargin = 0.1;
 
+// --sync auto writes offsets in steps of this many frames: no finer than the motion energy resolves
+// a shift (its worst error over seeded synthetic rigs of 25 frames is about 0.09 frame), so that a
+// camera found within half a step of the reference, or of a whole frame from it, keeps a
+// whole-frame offset exactly. Its views then stay
+// on the training grid, with the triple rendering and flow loss of genlocked cameras, which a
+// clock a hundredth of a frame off would lose for nothing (docs/method.md, "Cameras on their own
+// clocks").
+constexpr double kSyncResolution = 0.1;
+// x rounded to the nearest multiple of kSyncResolution (halves away from zero).
+double round_to_sync_resolution(double x);
+
 struct LagEstimate {
   // other[j] matches reference[j + lag]: the other camera's frame j shows what the reference
   // camera's shows at frame j + lag (so its --offsets value is -lag).

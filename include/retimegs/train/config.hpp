@@ -85,7 +85,9 @@ struct TrainConfig {
   // clocks were estimated (train::refine_clocks, which the run writes into its config).
   std::optional<bool> refine_clocks;
   double lr_time_offset = 5e-3;   // frames
-  int clock_refine_start = 1000;  // scaled: the scene takes shape before the clocks move
+  // Scaled. Late: between training times only the cameras off the grid see the scene, so a clock
+  // moved before their in-between states are fitted follows the model's first interpolation.
+  int clock_refine_start = 10000;
 
   // Flow-aware initialisation: the paper's readings (true) or the project's (docs/method.md).
   bool init_average_lifts = false;  // 3-D displacement: mean of the per-view lifts at the depth
