@@ -289,12 +289,35 @@ TEST(Slice, GroupsCompensationAndFlowFeatures) {
 }
 
 // The whole chain: slice -> reference rasteriser (double) -> Σ W ⊙ image, with RGB + flow.
+// Σ w ⊙ the reference render of a batch: a loss whose gradient is w, with fixed random weights
+// over every channel, rendered smoothly (no alpha cut-off or early stop: finite differences only).
+struct WeightedRender {
+  Camera camera;
+  std::vector<double> w, background;
+  render::RenderOptions options;
+  WeightedRender(const Camera& cam, int channels, unsigned seed)
+      : camera(cam), w(std::size_t(cam.width) * cam.height * channels), background(channels, 0.2) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> normal;
+    for (double& x : w) x = normal(rng);
+    options.min_alpha = 0;
+    options.min_transmittance = 0;
+    options.alpha_clamp = 1;
+  }
+  double loss(const TimeSliceT<double>& e) const {
+    const auto img = render::reference_forward(e.gaussians, camera, background.data(), options);
+    double sum = 0;
+    for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
+    return sum;
+  }
+  GaussianGradsT<double> backward(const TimeSliceT<double>& e) const {
+    return render::reference_backward(e.gaussians, camera, background.data(), options, w.data(),
+                                      nullptr, nullptr);
+  }
+};
+
 TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
   const Camera cam = small_camera(20, 16);
-  render::RenderOptions ro;
-  ro.min_alpha = 0;          // smooth alpha cut-off (finite-difference test only)
-  ro.min_transmittance = 0;  // no early stop
-  ro.alpha_clamp = 1;
   for (const auto& [rep, group, t] : {std::tuple{Representation::kRetime, Group::kRight, 4.0},
                                       std::tuple{Representation::kRetime, Group::kAll, 4.6},
                                       std::tuple{Representation::kStgs, Group::kAll, 4.6}}) {
@@ -307,22 +330,10 @@ TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
     options.group = group;
     options.compensate = group != Group::kAll;
     options.flow_features = rep == Representation::kRetime;
-    const int channels = options.flow_features ? 7 : 3;
-    std::mt19937 rng(9);
-    std::normal_distribution<double> normal;
-    std::vector<double> w(std::size_t(cam.width) * cam.height * channels),
-        background(channels, 0.2);
-    for (double& x : w) x = normal(rng);
-    auto loss = [&] {
-      const auto e = slice(p, config, kGrid, t, cam, options);
-      const auto img = render::reference_forward(e.gaussians, cam, background.data(), ro);
-      double sum = 0;
-      for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
-      return sum;
-    };
+    const WeightedRender render(cam, options.flow_features ? 7 : 3, 9);
+    auto loss = [&] { return render.loss(slice(p, config, kGrid, t, cam, options)); };
     const auto e = slice(p, config, kGrid, t, cam, options);
-    const auto v_gaussians = render::reference_backward(e.gaussians, cam, background.data(), ro,
-                                                        w.data(), nullptr, nullptr);
+    const auto v_gaussians = render.backward(e);
     G grads(p.size());
     slice_backward(p, config, kGrid, t, cam, options, e, v_gaussians, grads);
     expect_gradients_match(p, rep, config.sh_degree, grads, loss, 1e-6, 2e-5);
@@ -334,10 +345,6 @@ TEST(Slice, ChainThroughRasteriserMatchesFiniteDifferences) {
 // times inside and beyond primitives' own intervals and across window edges.
 TEST(Slice, TimeGradientMatchesFiniteDifferences) {
   const Camera cam = small_camera(20, 16);
-  render::RenderOptions ro;
-  ro.min_alpha = 0;
-  ro.min_transmittance = 0;
-  ro.alpha_clamp = 1;
   struct TimeCase {
     Representation rep;
     TrajectoryKind trajectory;
@@ -359,21 +366,10 @@ TEST(Slice, TimeGradientMatchesFiniteDifferences) {
     options.min_opacity = 0;
     options.flow_features = c.flow_features;
     const int channels = options.flow_features ? 7 : 3;
-    std::mt19937 rng(13);
-    std::normal_distribution<double> normal;
-    std::vector<double> w(std::size_t(cam.width) * cam.height * channels),
-        background(channels, 0.2);
-    for (double& x : w) x = normal(rng);
-    auto loss = [&](double t) {
-      const auto e = slice(p, config, kGrid, t, cam, options);
-      const auto img = render::reference_forward(e.gaussians, cam, background.data(), ro);
-      double sum = 0;
-      for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * img.image[k];
-      return sum;
-    };
+    const WeightedRender render(cam, channels, 13);
+    auto loss = [&](double t) { return render.loss(slice(p, config, kGrid, t, cam, options)); };
     const auto e = slice(p, config, kGrid, c.t, cam, options);
-    const auto v_gaussians = render::reference_backward(e.gaussians, cam, background.data(), ro,
-                                                        w.data(), nullptr, nullptr);
+    const auto v_gaussians = render.backward(e);
     const double analytic = slice_time_vjp(p, config, kGrid, c.t, cam, options, e, v_gaussians);
     constexpr double kStep = 1e-6;
     const double numeric = (loss(c.t + kStep) - loss(c.t - kStep)) / (2 * kStep);
